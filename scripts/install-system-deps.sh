@@ -1,0 +1,29 @@
+#!/usr/bin/env bash
+# Install the Debian packages simbridge needs (ROS 1 from Debian, OSMesa for
+# headless rendering). Does nothing when they are all present already.
+set -euo pipefail
+
+PACKAGES=(
+  ros-core rosbash python3-rospy python3-rostopic python3-rosservice
+  python3-std-msgs python3-std-srvs python3-sensor-msgs python3-geometry-msgs
+  python3-tf2-msgs python3-rosgraph-msgs libosmesa6
+)
+
+missing=()
+for p in "${PACKAGES[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -eq 0 ]; then
+  exit 0
+fi
+echo "simbridge: installing system packages: ${missing[*]}"
+if [ "$(id -u)" -ne 0 ]; then
+  if command -v sudo >/dev/null 2>&1; then SUDO=sudo; else
+    echo "simbridge: not root and no sudo; install these by hand: ${missing[*]}" >&2
+    exit 1
+  fi
+else
+  SUDO=
+fi
+$SUDO apt-get update -q
+DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -q --no-install-recommends "${missing[@]}"

@@ -1,0 +1,107 @@
+"""The interface between the endpoint and a ROS graph (embedded bus, ROS 1, later ROS 2).
+
+Payloads cross this boundary as serialized bytes (ROS 1 binary for ROS 1 graphs,
+CDR for ROS 2): the endpoint never decodes a message just to route it.
+All methods are called on the endpoint's event loop thread, and backends must
+invoke the callbacks they are given on that same thread.
+"""
+
+from __future__ import annotations
+
+import abc
+from collections.abc import Awaitable, Callable
+from dataclasses import dataclass
+
+__all__ = [
+    "Backend",
+    "BackendPublisher",
+    "BackendServiceServer",
+    "BackendSubscription",
+    "MessageCallback",
+    "ServiceHandler",
+    "TopicInfo",
+]
+
+MessageCallback = Callable[[bytes], None]
+"""Receives one serialized message; called on the event loop thread."""
+
+ServiceHandler = Callable[[bytes], Awaitable[bytes]]
+"""Turns a serialized request into a serialized response (raise to fail the call)."""
+
+
+@dataclass(frozen=True, slots=True)
+class TopicInfo:
+    """A topic in the graph and its message type (`package/Type`)."""
+
+    name: str
+    msg_type: str
+
+
+class BackendPublisher(abc.ABC):
+    """An advertised topic; publishes serialized messages as they are."""
+
+    @abc.abstractmethod
+    def publish(self, payload: bytes) -> None:
+        """Send one serialized message to every subscriber of the topic."""
+
+    @abc.abstractmethod
+    def close(self) -> None:
+        """Unadvertise; further publishes are an error."""
+
+
+class BackendSubscription(abc.ABC):
+    """A live subscription; close it to stop the callbacks."""
+
+    @abc.abstractmethod
+    def close(self) -> None:
+        """Stop delivering messages."""
+
+
+class BackendServiceServer(abc.ABC):
+    """A service advertised in the graph whose implementation is a handler."""
+
+    @abc.abstractmethod
+    def close(self) -> None:
+        """Unadvertise the service."""
+
+
+class Backend(abc.ABC):
+    """A ROS graph the endpoint bridges its TCP clients into."""
+
+    name: str = "abstract"
+    protocol: str = "ROS1"
+    """Serialization its payloads use: "ROS1" (binary) or "ROS2" (CDR)."""
+
+    async def start(self) -> None:  # noqa: B027 - optional hook
+        """Connect to the graph; called once on the event loop before any other call."""
+
+    async def close(self) -> None:  # noqa: B027 - optional hook
+        """Release every registration and leave the graph."""
+
+    @abc.abstractmethod
+    def advertise(
+        self, topic: str, msg_type: str, *, queue_size: int, latch: bool
+    ) -> BackendPublisher:
+        """Advertise `topic` with type `msg_type` (`package/Type`)."""
+
+    @abc.abstractmethod
+    def subscribe(
+        self, topic: str, msg_type: str, callback: MessageCallback
+    ) -> BackendSubscription:
+        """Call `callback(payload)` for every message published on `topic`."""
+
+    @abc.abstractmethod
+    async def call_service(
+        self, service: str, srv_type: str, request: bytes, *, timeout: float
+    ) -> bytes:
+        """Call a service in the graph; raises ServiceError on failure or timeout."""
+
+    @abc.abstractmethod
+    def advertise_service(
+        self, service: str, srv_type: str, handler: ServiceHandler
+    ) -> BackendServiceServer:
+        """Offer a service to the graph, implemented by `handler`."""
+
+    @abc.abstractmethod
+    def topics(self) -> list[TopicInfo]:
+        """Every topic the graph knows, with its type."""
