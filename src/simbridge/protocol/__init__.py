@@ -1,1 +1,97 @@
-"""TODO"""
+"""Sans-I/O ROS-TCP v0.7.0 protocol: framing, system commands and connection state.
+
+No sockets here: feed bytes to `ProtocolConnection.receive_data` and get events;
+build outgoing frames with its static methods or a command's `encode()`.
+"""
+
+from __future__ import annotations
+
+from simbridge.protocol.commands import (
+    PROTOCOL_VERSION,
+    ClientCommand,
+    Command,
+    EndpointCommand,
+    ErrorMessage,
+    Handshake,
+    LogMessage,
+    Publish,
+    RemovePublisher,
+    RemoveRosService,
+    RemoveSubscriber,
+    RemoveUnityService,
+    RosService,
+    ServiceRequestHeader,
+    ServiceResponseHeader,
+    StatsReply,
+    StatsRequest,
+    Subscribe,
+    TopicListReply,
+    TopicListRequest,
+    UnityService,
+    WarnMessage,
+    decode_command,
+)
+from simbridge.protocol.connection import (
+    CommandReceived,
+    Event,
+    KeepaliveReceived,
+    MessageReceived,
+    ProtocolConnection,
+    ProtocolViolation,
+    Role,
+    ServiceRequestReceived,
+    ServiceResponseReceived,
+)
+from simbridge.protocol.framing import (
+    DEFAULT_MAX_FRAME_SIZE,
+    KEEPALIVE,
+    MAX_DESTINATION_SIZE,
+    Frame,
+    FrameDecoder,
+    FrameTooLargeError,
+    encode_frame,
+    frame_header,
+)
+
+__all__ = [
+    "DEFAULT_MAX_FRAME_SIZE",
+    "KEEPALIVE",
+    "MAX_DESTINATION_SIZE",
+    "PROTOCOL_VERSION",
+    "ClientCommand",
+    "Command",
+    "CommandReceived",
+    "EndpointCommand",
+    "ErrorMessage",
+    "Event",
+    "Frame",
+    "FrameDecoder",
+    "FrameTooLargeError",
+    "Handshake",
+    "KeepaliveReceived",
+    "LogMessage",
+    "MessageReceived",
+    "ProtocolConnection",
+    "ProtocolViolation",
+    "Publish",
+    "RemovePublisher",
+    "RemoveRosService",
+    "RemoveSubscriber",
+    "RemoveUnityService",
+    "Role",
+    "RosService",
+    "ServiceRequestHeader",
+    "ServiceRequestReceived",
+    "ServiceResponseHeader",
+    "ServiceResponseReceived",
+    "StatsReply",
+    "StatsRequest",
+    "Subscribe",
+    "TopicListReply",
+    "TopicListRequest",
+    "UnityService",
+    "WarnMessage",
+    "decode_command",
+    "encode_frame",
+    "frame_header",
+]

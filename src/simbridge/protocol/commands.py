@@ -1,0 +1,467 @@
+"""System commands (`__name` + JSON payload) of ROS-TCP v0.7.0, as typed values.
+
+Each command is a frozen dataclass with `encode()` giving its frame. `decode_command`
+turns a received frame into one, checking every field and naming the bad value.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from typing import Any, ClassVar, Literal
+
+from simbridge.errors import ProtocolError
+from simbridge.protocol.framing import encode_frame
+
+__all__ = [
+    "PROTOCOL_VERSION",
+    "ClientCommand",
+    "Command",
+    "EndpointCommand",
+    "ErrorMessage",
+    "Handshake",
+    "LogMessage",
+    "Publish",
+    "RemovePublisher",
+    "RemoveRosService",
+    "RemoveSubscriber",
+    "RemoveUnityService",
+    "RosService",
+    "ServiceHeader",
+    "ServiceRequestHeader",
+    "ServiceResponseHeader",
+    "StatsReply",
+    "StatsRequest",
+    "Subscribe",
+    "TopicListReply",
+    "TopicListRequest",
+    "UnityService",
+    "WarnMessage",
+    "decode_command",
+]
+
+PROTOCOL_VERSION = "v0.7.0"
+DEFAULT_SUBSCRIBE_QUEUE = 100
+"""Per-client send queue bound for a subscription that names none (simbridge extension)."""
+
+Sender = Literal["client", "endpoint"]
+
+
+def _json_payload(name: str, payload: bytes) -> dict[str, Any]:
+    text_bytes = payload.rstrip(b"\x00")
+    if not text_bytes.strip():
+        return {}
+    try:
+        obj = json.loads(text_bytes)
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        preview = text_bytes[:80].decode("utf-8", "replace")
+        raise ProtocolError(f"{name}: payload is not valid JSON ({exc}): {preview!r}") from None
+    if not isinstance(obj, dict):
+        raise ProtocolError(f"{name}: payload must be a JSON object, got {type(obj).__name__}")
+    return obj
+
+
+def _get_str(name: str, obj: dict[str, Any], key: str, *, topic: bool = False) -> str:
+    value = obj.get(key)
+    if not isinstance(value, str):
+        raise ProtocolError(f"{name}: field {key!r} must be a string, got {value!r}")
+    value = value.rstrip("\x00")
+    if topic:
+        if not value.strip():
+            raise ProtocolError(f"{name}: {key!r} is blank; expected a name such as '/cmd_vel'")
+        if any(c.isspace() for c in value):
+            raise ProtocolError(f"{name}: {key!r} {value!r} contains whitespace")
+    return value
+
+
+def _get_int(name: str, obj: dict[str, Any], key: str, default: int | None = None) -> int:
+    value = obj.get(key, default)
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise ProtocolError(f"{name}: field {key!r} must be an integer, got {value!r}")
+    return value
+
+
+def _get_bool(name: str, obj: dict[str, Any], key: str, default: bool) -> bool:
+    value = obj.get(key, default)
+    if not isinstance(value, bool):
+        raise ProtocolError(f"{name}: field {key!r} must be true or false, got {value!r}")
+    return value
+
+
+class Command:
+    """Base of every system command."""
+
+    NAME: ClassVar[str] = ""
+
+    def to_json(self) -> dict[str, Any]:
+        """The JSON object sent as payload."""
+        raise NotImplementedError
+
+    def encode(self) -> bytes:
+        """The complete frame."""
+        return encode_frame(self.NAME, json.dumps(self.to_json()).encode())
+
+    @classmethod
+    def from_json(cls, obj: dict[str, Any]) -> Command:
+        """Build from a decoded payload; raises ProtocolError naming the bad field."""
+        raise NotImplementedError
+
+
+@dataclass(frozen=True, slots=True)
+class _TopicTyped(Command):
+    topic: str
+    message_name: str
+
+    def to_json(self) -> dict[str, Any]:
+        return {"topic": self.topic, "message_name": self.message_name}
+
+    @classmethod
+    def from_json(cls, obj: dict[str, Any]) -> Command:
+        return cls(
+            _get_str(cls.NAME, obj, "topic", topic=True),
+            _get_str(cls.NAME, obj, "message_name", topic=True),
+        )
+
+
+@dataclass(frozen=True, slots=True)
+class Subscribe(Command):
+    """Client wants every message on `topic`; `queue_size` bounds its send queue."""
+
+    NAME: ClassVar[str] = "__subscribe"
+    topic: str
+    message_name: str
+    queue_size: int = DEFAULT_SUBSCRIBE_QUEUE
+
+    def to_json(self) -> dict[str, Any]:
+        return {"topic": self.topic, "message_name": self.message_name}
+
+    @classmethod
+    def from_json(cls, obj: dict[str, Any]) -> Command:
+        queue = _get_int(cls.NAME, obj, "queue_size", DEFAULT_SUBSCRIBE_QUEUE)
+        return cls(
+            _get_str(cls.NAME, obj, "topic", topic=True),
+            _get_str(cls.NAME, obj, "message_name", topic=True),
+            queue if queue > 0 else DEFAULT_SUBSCRIBE_QUEUE,
+        )
+
+
+@dataclass(frozen=True, slots=True)
+class Publish(Command):
+    """Client will publish on `topic`."""
+
+    NAME: ClassVar[str] = "__publish"
+    topic: str
+    message_name: str
+    queue_size: int = 10
+    latch: bool = False
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "topic": self.topic,
+            "message_name": self.message_name,
+            "queue_size": self.queue_size,
+            "latch": self.latch,
+        }
+
+    @classmethod
+    def from_json(cls, obj: dict[str, Any]) -> Command:
+        queue = _get_int(cls.NAME, obj, "queue_size", 10)
+        if queue < 0:
+            raise ProtocolError(f"{cls.NAME}: field 'queue_size' must be >= 0, got {queue}")
+        return cls(
+            _get_str(cls.NAME, obj, "topic", topic=True),
+            _get_str(cls.NAME, obj, "message_name", topic=True),
+            queue,
+            _get_bool(cls.NAME, obj, "latch", False),
+        )
+
+
+@dataclass(frozen=True, slots=True)
+class RosService(_TopicTyped):
+    """Client will call the ROS service `topic`."""
+
+    NAME: ClassVar[str] = "__ros_service"
+
+
+@dataclass(frozen=True, slots=True)
+class UnityService(_TopicTyped):
+    """Client implements the service `topic`; the endpoint advertises it."""
+
+    NAME: ClassVar[str] = "__unity_service"
+
+
+@dataclass(frozen=True, slots=True)
+class _TopicOnly(Command):
+    topic: str
+
+    def to_json(self) -> dict[str, Any]:
+        return {"topic": self.topic}
+
+    @classmethod
+    def from_json(cls, obj: dict[str, Any]) -> Command:
+        return cls(_get_str(cls.NAME, obj, "topic", topic=True))
+
+
+@dataclass(frozen=True, slots=True)
+class RemoveSubscriber(_TopicOnly):
+    """Undo `__subscribe`."""
+
+    NAME: ClassVar[str] = "__remove_subscriber"
+
+
+@dataclass(frozen=True, slots=True)
+class RemovePublisher(_TopicOnly):
+    """Undo `__publish`."""
+
+    NAME: ClassVar[str] = "__remove_publisher"
+
+
+@dataclass(frozen=True, slots=True)
+class RemoveRosService(_TopicOnly):
+    """Undo `__ros_service`."""
+
+    NAME: ClassVar[str] = "__remove_ros_service"
+
+
+@dataclass(frozen=True, slots=True)
+class RemoveUnityService(_TopicOnly):
+    """Undo `__unity_service`."""
+
+    NAME: ClassVar[str] = "__remove_unity_service"
+
+
+@dataclass(frozen=True, slots=True)
+class ServiceHeader(Command):
+    """`__request`/`__response`: the next frame on the connection is a service frame."""
+
+    srv_id: int
+
+    def to_json(self) -> dict[str, Any]:
+        return {"srv_id": self.srv_id}
+
+    @classmethod
+    def from_json(cls, obj: dict[str, Any]) -> Command:
+        return cls(_get_int(cls.NAME, obj, "srv_id"))
+
+
+@dataclass(frozen=True, slots=True)
+class ServiceRequestHeader(ServiceHeader):
+    """The next frame is a service request with this id."""
+
+    NAME: ClassVar[str] = "__request"
+
+
+@dataclass(frozen=True, slots=True)
+class ServiceResponseHeader(ServiceHeader):
+    """The next frame is the response to the request with this id."""
+
+    NAME: ClassVar[str] = "__response"
+
+
+@dataclass(frozen=True, slots=True)
+class TopicListRequest(Command):
+    """Client asks for the graph's topics."""
+
+    NAME: ClassVar[str] = "__topic_list"
+
+    def to_json(self) -> dict[str, Any]:
+        return {}
+
+    @classmethod
+    def from_json(cls, obj: dict[str, Any]) -> Command:
+        return cls()
+
+
+@dataclass(frozen=True, slots=True)
+class TopicListReply(Command):
+    """Endpoint's answer: parallel lists of topic names and types."""
+
+    NAME: ClassVar[str] = "__topic_list"
+    topics: tuple[str, ...]
+    types: tuple[str, ...]
+
+    def to_json(self) -> dict[str, Any]:
+        return {"topics": list(self.topics), "types": list(self.types)}
+
+    @classmethod
+    def from_json(cls, obj: dict[str, Any]) -> Command:
+        topics, types = obj.get("topics", []), obj.get("types", [])
+        if not isinstance(topics, list) or not all(isinstance(t, str) for t in topics):
+            raise ProtocolError(f"{cls.NAME}: 'topics' must be a list of strings, got {topics!r}")
+        if not isinstance(types, list) or not all(isinstance(t, str) for t in types):
+            raise ProtocolError(f"{cls.NAME}: 'types' must be a list of strings, got {types!r}")
+        if len(topics) != len(types):
+            raise ProtocolError(
+                f"{cls.NAME}: {len(topics)} topics but {len(types)} types; they must pair up"
+            )
+        return cls(tuple(topics), tuple(types))
+
+
+@dataclass(frozen=True, slots=True)
+class Handshake(Command):
+    """First frame from the endpoint: protocol version and metadata (a JSON string)."""
+
+    NAME: ClassVar[str] = "__handshake"
+    version: str = PROTOCOL_VERSION
+    metadata: dict[str, Any] = field(default_factory=lambda: {"protocol": "ROS1"})
+
+    def to_json(self) -> dict[str, Any]:
+        return {"version": self.version, "metadata": json.dumps(self.metadata)}
+
+    @classmethod
+    def from_json(cls, obj: dict[str, Any]) -> Command:
+        version = _get_str(cls.NAME, obj, "version")
+        raw = obj.get("metadata", "{}")
+        meta: Any = raw
+        if isinstance(raw, str):
+            try:
+                meta = json.loads(raw) if raw.strip() else {}
+            except json.JSONDecodeError:
+                raise ProtocolError(f"{cls.NAME}: metadata {raw!r} is not a JSON string") from None
+        if not isinstance(meta, dict):
+            raise ProtocolError(f"{cls.NAME}: metadata must be a JSON object, got {raw!r}")
+        return cls(version, meta)
+
+    @property
+    def protocol(self) -> str:
+        """ "ROS1" or "ROS2"."""
+        return str(self.metadata.get("protocol", "ROS1"))
+
+
+@dataclass(frozen=True, slots=True)
+class _Text(Command):
+    text: str
+    srv_id: int | None = None
+    """simbridge extension on `__error`: the failed service call it answers."""
+
+    def to_json(self) -> dict[str, Any]:
+        obj: dict[str, Any] = {"text": self.text}
+        if self.srv_id is not None:
+            obj["srv_id"] = self.srv_id
+        return obj
+
+    @classmethod
+    def from_json(cls, obj: dict[str, Any]) -> Command:
+        srv_id = obj.get("srv_id")
+        if srv_id is not None:
+            srv_id = _get_int(cls.NAME, obj, "srv_id")
+        return cls(_get_str(cls.NAME, obj, "text"), srv_id)
+
+
+@dataclass(frozen=True, slots=True)
+class LogMessage(_Text):
+    """Information for the client's console."""
+
+    NAME: ClassVar[str] = "__log"
+
+
+@dataclass(frozen=True, slots=True)
+class WarnMessage(_Text):
+    """A warning for the client's console (e.g. dropped messages)."""
+
+    NAME: ClassVar[str] = "__warn"
+
+
+@dataclass(frozen=True, slots=True)
+class ErrorMessage(_Text):
+    """A bad request; with `srv_id` it fails that service call (simbridge extension)."""
+
+    NAME: ClassVar[str] = "__error"
+
+
+@dataclass(frozen=True, slots=True)
+class StatsRequest(Command):
+    """simbridge extension: ask the endpoint for this connection's counters."""
+
+    NAME: ClassVar[str] = "__stats"
+
+    def to_json(self) -> dict[str, Any]:
+        return {}
+
+    @classmethod
+    def from_json(cls, obj: dict[str, Any]) -> Command:
+        return cls()
+
+
+@dataclass(frozen=True, slots=True)
+class StatsReply(Command):
+    """simbridge extension: counters (frames, bytes, drops per topic)."""
+
+    NAME: ClassVar[str] = "__stats"
+    stats: dict[str, Any]
+
+    def to_json(self) -> dict[str, Any]:
+        return self.stats
+
+    @classmethod
+    def from_json(cls, obj: dict[str, Any]) -> Command:
+        return cls(obj)
+
+
+ClientCommand = (
+    Subscribe
+    | Publish
+    | RosService
+    | UnityService
+    | RemoveSubscriber
+    | RemovePublisher
+    | RemoveRosService
+    | RemoveUnityService
+    | ServiceRequestHeader
+    | ServiceResponseHeader
+    | TopicListRequest
+    | StatsRequest
+)
+EndpointCommand = (
+    Handshake
+    | LogMessage
+    | WarnMessage
+    | ErrorMessage
+    | ServiceRequestHeader
+    | ServiceResponseHeader
+    | TopicListReply
+    | StatsReply
+)
+
+_FROM_CLIENT: dict[str, type[Command]] = {
+    c.NAME: c
+    for c in (
+        Subscribe,
+        Publish,
+        RosService,
+        UnityService,
+        RemoveSubscriber,
+        RemovePublisher,
+        RemoveRosService,
+        RemoveUnityService,
+        ServiceRequestHeader,
+        ServiceResponseHeader,
+        TopicListRequest,
+        StatsRequest,
+    )
+}
+_FROM_ENDPOINT: dict[str, type[Command]] = {
+    c.NAME: c
+    for c in (
+        Handshake,
+        LogMessage,
+        WarnMessage,
+        ErrorMessage,
+        ServiceRequestHeader,
+        ServiceResponseHeader,
+        TopicListReply,
+        StatsReply,
+    )
+}
+
+
+def decode_command(name: str, payload: bytes, *, sender: Sender) -> Command:
+    """Parse the system command `name` sent by `sender`; ProtocolError names what is wrong."""
+    table = _FROM_CLIENT if sender == "client" else _FROM_ENDPOINT
+    cls = table.get(name)
+    if cls is None:
+        known = ", ".join(sorted(table))
+        raise ProtocolError(
+            f"unknown system command {name!r} from the {sender}; expected one of {known}"
+        )
+    return cls.from_json(_json_payload(name, payload))

@@ -1,0 +1,191 @@
+"""A sans-I/O ROS-TCP connection: bytes in, typed events out; commands in, bytes out.
+
+It tracks the one piece of per-connection state the protocol has: after a
+`__request`/`__response` header the next frame is the service frame it announces.
+Used by both sides: the endpoint (role "endpoint") and the connector (role "client").
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+from simbridge.errors import ProtocolError
+from simbridge.protocol.commands import (
+    Command,
+    ServiceRequestHeader,
+    ServiceResponseHeader,
+    decode_command,
+)
+from simbridge.protocol.framing import (
+    DEFAULT_MAX_FRAME_SIZE,
+    KEEPALIVE,
+    FrameDecoder,
+    FrameTooLargeError,
+    encode_frame,
+)
+
+__all__ = [
+    "CommandReceived",
+    "Event",
+    "KeepaliveReceived",
+    "MessageReceived",
+    "ProtocolConnection",
+    "ProtocolViolation",
+    "Role",
+    "ServiceRequestReceived",
+    "ServiceResponseReceived",
+]
+
+Role = Literal["endpoint", "client"]
+
+
+@dataclass(frozen=True, slots=True)
+class KeepaliveReceived:
+    """The peer sent an empty keepalive frame."""
+
+
+@dataclass(frozen=True, slots=True)
+class MessageReceived:
+    """A serialized message for (or from) `topic`."""
+
+    topic: str
+    payload: bytes
+
+
+@dataclass(frozen=True, slots=True)
+class CommandReceived:
+    """A system command other than the service headers."""
+
+    command: Command
+
+
+@dataclass(frozen=True, slots=True)
+class ServiceRequestReceived:
+    """A `__request` header and the request frame that followed it."""
+
+    srv_id: int
+    service: str
+    payload: bytes
+
+
+@dataclass(frozen=True, slots=True)
+class ServiceResponseReceived:
+    """A `__response` header and the response frame that followed it."""
+
+    srv_id: int
+    service: str
+    payload: bytes
+
+
+@dataclass(frozen=True, slots=True)
+class ProtocolViolation:
+    """Bad input. When `fatal`, the byte stream is unusable and the connection must close."""
+
+    text: str
+    fatal: bool = False
+
+
+Event = (
+    KeepaliveReceived
+    | MessageReceived
+    | CommandReceived
+    | ServiceRequestReceived
+    | ServiceResponseReceived
+    | ProtocolViolation
+)
+
+_KEEPALIVE_EVENT = KeepaliveReceived()
+
+
+class ProtocolConnection:
+    """Protocol state of one TCP connection, as seen by `role`."""
+
+    __slots__ = ("_decoder", "_peer", "_pending", "closed", "role")
+
+    def __init__(self, role: Role, max_payload: int = DEFAULT_MAX_FRAME_SIZE) -> None:
+        self.role: Role = role
+        self._peer: Literal["client", "endpoint"] = "client" if role == "endpoint" else "endpoint"
+        self._decoder = FrameDecoder(max_payload)
+        self._pending: ServiceRequestHeader | ServiceResponseHeader | None = None
+        self.closed = False
+
+    def receive_data(self, data: bytes) -> list[Event]:
+        """Feed received bytes; returns the events they complete, in order.
+
+        A fatal ProtocolViolation is the last event; afterwards the connection is closed.
+        """
+        if self.closed:
+            return []
+        try:
+            frames = self._decoder.feed(data)
+        except FrameTooLargeError as exc:
+            self.closed = True
+            return [ProtocolViolation(str(exc), fatal=True)]
+        except ProtocolError as exc:
+            self.closed = True
+            return [ProtocolViolation(str(exc), fatal=True)]
+        events: list[Event] = []
+        append = events.append
+        for frame in frames:
+            dest = frame.destination
+            if not dest.startswith("__"):
+                if not dest:
+                    if frame.payload:
+                        append(ProtocolViolation("frame with an empty destination and a payload"))
+                    else:
+                        append(_KEEPALIVE_EVENT)
+                    continue
+                pending = self._pending
+                if pending is None:
+                    append(MessageReceived(dest, frame.payload))
+                else:
+                    self._pending = None
+                    if isinstance(pending, ServiceRequestHeader):
+                        append(ServiceRequestReceived(pending.srv_id, dest, frame.payload))
+                    else:
+                        append(ServiceResponseReceived(pending.srv_id, dest, frame.payload))
+                continue
+            try:
+                command = decode_command(dest, frame.payload, sender=self._peer)
+            except ProtocolError as exc:
+                append(ProtocolViolation(str(exc)))
+                continue
+            if self._pending is not None:
+                append(
+                    ProtocolViolation(
+                        f"{self._pending.NAME} srv_id={self._pending.srv_id} must be "
+                        f"followed by its service frame, got {dest!r}; request dropped"
+                    )
+                )
+                self._pending = None
+            if isinstance(command, ServiceRequestHeader | ServiceResponseHeader):
+                self._pending = command
+            else:
+                append(CommandReceived(command))
+        return events
+
+    @staticmethod
+    def message(topic: str, payload: bytes) -> bytes:
+        """Frame for a message on `topic`."""
+        return encode_frame(topic, payload)
+
+    @staticmethod
+    def command(command: Command) -> bytes:
+        """Frame for a system command."""
+        return command.encode()
+
+    @staticmethod
+    def service_request(srv_id: int, service: str, payload: bytes) -> bytes:
+        """`__request` header and request frame, back to back as the protocol requires."""
+        return ServiceRequestHeader(srv_id).encode() + encode_frame(service, payload)
+
+    @staticmethod
+    def service_response(srv_id: int, service: str, payload: bytes) -> bytes:
+        """`__response` header and response frame, back to back."""
+        return ServiceResponseHeader(srv_id).encode() + encode_frame(service, payload)
+
+    @staticmethod
+    def keepalive() -> bytes:
+        """The 8-byte keepalive frame."""
+        return KEEPALIVE
