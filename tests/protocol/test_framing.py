@@ -1,0 +1,109 @@
+"""Golden bytes and property tests of ROS-TCP framing."""
+
+from __future__ import annotations
+
+import struct
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from simbridge.errors import ProtocolError
+from simbridge.protocol import KEEPALIVE, Frame, FrameDecoder, FrameTooLargeError, encode_frame
+
+
+def test_golden_topic_frame() -> None:
+    payload = struct.pack("<d", 0.5)
+    expected = (
+        b"\x08\x00\x00\x00"  # uint32 LE: destination length 8
+        b"/cmd_vel"  # destination, UTF-8
+        b"\x08\x00\x00\x00"  # uint32 LE: payload length 8
+        b"\x00\x00\x00\x00\x00\x00\xe0\x3f"  # payload: float64 0.5
+    )
+    assert encode_frame("/cmd_vel", payload) == expected
+    assert FrameDecoder().feed(expected) == [Frame("/cmd_vel", payload)]
+
+
+def test_golden_keepalive() -> None:
+    assert KEEPALIVE == (
+        b"\x00\x00\x00\x00"  # destination length 0
+        b"\x00\x00\x00\x00"  # payload length 0
+    )
+    (frame,) = FrameDecoder().feed(KEEPALIVE)
+    assert frame.is_keepalive
+    assert not frame.is_command
+
+
+def test_ros2_trailing_nuls_are_stripped_from_destination() -> None:
+    data = (
+        b"\x06\x00\x00\x00"  # destination length 6, the trailing NUL counted (ROS 2 client)
+        b"/odom\x00"  # destination with its NUL
+        b"\x00\x00\x00\x00"  # payload length 0
+    )
+    assert FrameDecoder().feed(data) == [Frame("/odom", b"")]
+
+
+def test_split_delivery_byte_by_byte() -> None:
+    data = encode_frame("a", b"xyz") + encode_frame("__topic_list", b"{}") + KEEPALIVE
+    decoder = FrameDecoder()
+    frames: list[Frame] = []
+    for i in range(len(data)):
+        frames += decoder.feed(data[i : i + 1])
+    assert frames == [Frame("a", b"xyz"), Frame("__topic_list", b"{}"), Frame("", b"")]
+    assert decoder.buffered == 0
+
+
+def test_oversized_payload_is_refused_before_reading_it() -> None:
+    decoder = FrameDecoder(max_payload=1024)
+    header = b"\x01\x00\x00\x00t" + struct.pack("<I", 0xFFFFFFF0)
+    with pytest.raises(FrameTooLargeError, match="4294967280"):
+        decoder.feed(header)
+    with pytest.raises(FrameTooLargeError):
+        decoder.feed(b"more")
+
+
+def test_oversized_destination_is_refused() -> None:
+    with pytest.raises(FrameTooLargeError, match="destination length"):
+        FrameDecoder(max_destination=16).feed(struct.pack("<I", 17))
+
+
+def test_non_utf8_destination() -> None:
+    with pytest.raises(ProtocolError, match="UTF-8"):
+        FrameDecoder().feed(b"\x02\x00\x00\x00\xff\xfe\x00\x00\x00\x00")
+
+
+frames_strategy = st.lists(
+    st.tuples(
+        st.text(
+            alphabet=st.characters(blacklist_categories=["Cs"], blacklist_characters="\x00"),
+            max_size=20,
+        ),
+        st.binary(max_size=300),
+    ),
+    max_size=20,
+)
+
+
+@given(frames_strategy, st.lists(st.integers(min_value=1, max_value=64), min_size=1))
+def test_round_trip_any_chunking(frames: list[tuple[str, bytes]], cuts: list[int]) -> None:
+    data = b"".join(encode_frame(d, p) for d, p in frames)
+    decoder = FrameDecoder()
+    out: list[Frame] = []
+    pos = 0
+    i = 0
+    while pos < len(data):
+        step = cuts[i % len(cuts)]
+        out += decoder.feed(data[pos : pos + step])
+        pos += step
+        i += 1
+    assert [(f.destination, f.payload) for f in out] == frames
+
+
+@given(st.binary(max_size=2000))
+def test_fuzz_decoder_never_raises_unexpected(data: bytes) -> None:
+    decoder = FrameDecoder(max_payload=4096)
+    try:
+        frames = decoder.feed(data)
+    except ProtocolError:
+        return
+    assert sum(8 + len(f.destination.encode()) + len(f.payload) for f in frames) <= len(data)
