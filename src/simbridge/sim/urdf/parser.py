@@ -1,0 +1,327 @@
+"""Parse URDF XML into a validated `Robot`; malformed input raises `UrdfError` naming it."""
+
+from __future__ import annotations
+
+import math
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+from simbridge.errors import UrdfError
+from simbridge.sim.urdf.model import (
+    Box,
+    Collision,
+    Cylinder,
+    Geometry,
+    Inertial,
+    Joint,
+    JointDynamics,
+    JointLimit,
+    JointType,
+    Link,
+    Material,
+    Mesh,
+    Mimic,
+    Origin,
+    Robot,
+    Sphere,
+    Visual,
+)
+from simbridge.sim.urdf.resources import ResourceResolver
+from simbridge.sim.urdf.transforms import Vec3
+
+__all__ = ["parse_urdf"]
+
+_JOINT_TYPES = {t.value: t for t in JointType}
+
+
+def _floats(text: str | None, count: int, where: str, attr: str) -> tuple[float, ...]:
+    if text is None:
+        raise UrdfError(f"{where}: missing attribute '{attr}'")
+    parts = text.split()
+    if len(parts) != count:
+        raise UrdfError(
+            f"{where}: attribute {attr}='{text}' needs {count} number(s), got {len(parts)}"
+        )
+    try:
+        values = tuple(float(p) for p in parts)
+    except ValueError:
+        raise UrdfError(f"{where}: attribute {attr}='{text}' is not a number") from None
+    if any(math.isinf(v) for v in values):
+        raise UrdfError(f"{where}: attribute {attr}='{text}' is infinite")
+    return values
+
+
+def _float(elem: ET.Element, attr: str, where: str, default: float | None = None) -> float:
+    text = elem.get(attr)
+    if text is None:
+        if default is None:
+            raise UrdfError(f"{where}: <{elem.tag}> is missing attribute '{attr}'")
+        return default
+    return _floats(text, 1, where, attr)[0]
+
+
+def _vec3(elem: ET.Element | None, attr: str, where: str, default: Vec3) -> Vec3:
+    if elem is None or elem.get(attr) is None:
+        return default
+    x, y, z = _floats(elem.get(attr), 3, f"{where} <{elem.tag}>", attr)
+    return (x, y, z)
+
+
+def _origin(parent: ET.Element, where: str) -> Origin:
+    elem = parent.find("origin")
+    return Origin(
+        _vec3(elem, "xyz", where, (0.0, 0.0, 0.0)), _vec3(elem, "rpy", where, (0.0, 0.0, 0.0))
+    )
+
+
+class _Parser:
+    """One parse of one document; collects warnings as it goes."""
+
+    def __init__(self, resolver: ResourceResolver | None) -> None:
+        self.resolver = resolver
+        self.warnings: list[str] = []
+
+    def material(self, elem: ET.Element, where: str) -> Material:
+        name = elem.get("name", "")
+        color = elem.find("color")
+        rgba: tuple[float, float, float, float] | None = None
+        if color is not None:
+            r, g, b, a = _floats(color.get("rgba"), 4, f"{where} material '{name}' <color>", "rgba")
+            rgba = (r, g, b, a)
+        texture_elem = elem.find("texture")
+        texture = texture_elem.get("filename") if texture_elem is not None else None
+        return Material(name, rgba, texture)
+
+    def geometry(self, parent: ET.Element, where: str) -> Geometry:
+        geom = parent.find("geometry")
+        if geom is None or len(geom) == 0:
+            raise UrdfError(f"{where}: <geometry> is missing or empty")
+        shape = geom[0]
+        what = f"{where} <{shape.tag}>"
+        if shape.tag == "box":
+            x, y, z = _floats(shape.get("size"), 3, what, "size")
+            if min(x, y, z) < 0:
+                raise UrdfError(f"{what}: size='{shape.get('size')}' has a negative edge")
+            return Box((x, y, z))
+        if shape.tag == "cylinder":
+            radius, length = _float(shape, "radius", what), _float(shape, "length", what)
+            if radius <= 0 or length <= 0:
+                raise UrdfError(f"{what}: radius and length must be positive")
+            return Cylinder(radius, length)
+        if shape.tag == "sphere":
+            radius = _float(shape, "radius", what)
+            if radius <= 0:
+                raise UrdfError(f"{what}: radius must be positive, got {radius}")
+            return Sphere(radius)
+        if shape.tag == "mesh":
+            filename = shape.get("filename")
+            if not filename:
+                raise UrdfError(f"{what}: missing attribute 'filename'")
+            scale = _vec3(shape, "scale", what, (1.0, 1.0, 1.0))
+            path: Path | None = None
+            if self.resolver is not None:
+                try:
+                    path = self.resolver.resolve(filename, what)
+                except UrdfError as exc:
+                    self.warnings.append(str(exc))
+            return Mesh(filename, scale, path)
+        raise UrdfError(
+            f"{where}: unknown geometry <{shape.tag}> (valid: box, cylinder, sphere, mesh)"
+        )
+
+    def inertial(self, elem: ET.Element, where: str) -> Inertial:
+        what = f"{where} <inertial>"
+        mass_elem = elem.find("mass")
+        mass = _float(mass_elem, "value", what) if mass_elem is not None else 0.0
+        inertia = elem.find("inertia")
+        values = dict.fromkeys(("ixx", "ixy", "ixz", "iyy", "iyz", "izz"), 0.0)
+        if inertia is not None:
+            for key in values:
+                values[key] = _float(inertia, key, what, 0.0)
+        return Inertial(mass, _origin(elem, what), **values)
+
+    def link(self, elem: ET.Element, materials: dict[str, Material]) -> Link:
+        name = elem.get("name")
+        if not name:
+            raise UrdfError("<link> without a 'name' attribute")
+        where = f"link '{name}'"
+        inertial_elem = elem.find("inertial")
+        inertial = self.inertial(inertial_elem, where) if inertial_elem is not None else None
+        visuals = []
+        for i, vis in enumerate(elem.findall("visual")):
+            vwhere = f"{where} <visual> #{i}"
+            mat_elem = vis.find("material")
+            material: Material | None = None
+            if mat_elem is not None:
+                local = self.material(mat_elem, vwhere)
+                if local.rgba is None and local.texture is None:
+                    if local.name not in materials:
+                        raise UrdfError(
+                            f"{vwhere}: material '{local.name}' is not defined "
+                            f"(defined: {', '.join(sorted(materials)) or 'none'})"
+                        )
+                    material = materials[local.name]
+                else:
+                    material = local
+            visuals.append(
+                Visual(self.geometry(vis, vwhere), _origin(vis, vwhere), material, vis.get("name"))
+            )
+        collisions = [
+            Collision(
+                self.geometry(col, f"{where} <collision> #{i}"),
+                _origin(col, f"{where} <collision> #{i}"),
+                col.get("name"),
+            )
+            for i, col in enumerate(elem.findall("collision"))
+        ]
+        return Link(name, inertial, tuple(visuals), tuple(collisions))
+
+    def joint(self, elem: ET.Element) -> Joint:
+        name = elem.get("name")
+        if not name:
+            raise UrdfError("<joint> without a 'name' attribute")
+        where = f"joint '{name}'"
+        type_name = elem.get("type")
+        if type_name not in _JOINT_TYPES:
+            raise UrdfError(
+                f"{where}: unknown joint type '{type_name}' (valid: {', '.join(_JOINT_TYPES)})"
+            )
+        jtype = _JOINT_TYPES[type_name]
+        ends: dict[str, str] = {}
+        for tag in ("parent", "child"):
+            end = elem.find(tag)
+            link = end.get("link") if end is not None else None
+            if not link:
+                raise UrdfError(f"{where}: missing <{tag} link='...'>")
+            ends[tag] = link
+        axis = _vec3(elem.find("axis"), "xyz", where, (1.0, 0.0, 0.0))
+        norm = math.sqrt(sum(a * a for a in axis))
+        if jtype not in (JointType.FIXED, JointType.FLOATING):
+            if norm < 1e-12:
+                raise UrdfError(f"{where}: <axis xyz='{elem.find('axis').get('xyz')}'> is zero")  # type: ignore[union-attr]
+            axis = (axis[0] / norm, axis[1] / norm, axis[2] / norm)
+        limit: JointLimit | None = None
+        limit_elem = elem.find("limit")
+        if limit_elem is not None:
+            lw = f"{where} <limit>"
+            limit = JointLimit(
+                _float(limit_elem, "lower", lw, 0.0),
+                _float(limit_elem, "upper", lw, 0.0),
+                _float(limit_elem, "effort", lw, 0.0),
+                _float(limit_elem, "velocity", lw, 0.0),
+            )
+            if limit.lower > limit.upper:
+                raise UrdfError(f"{lw}: lower={limit.lower} is above upper={limit.upper}")
+            if limit.effort < 0 or limit.velocity < 0:
+                raise UrdfError(f"{lw}: effort and velocity must not be negative")
+        elif jtype in (JointType.REVOLUTE, JointType.PRISMATIC):
+            raise UrdfError(f"{where}: a {jtype.value} joint needs a <limit> element")
+        dyn_elem = elem.find("dynamics")
+        dynamics = JointDynamics()
+        if dyn_elem is not None:
+            dw = f"{where} <dynamics>"
+            dynamics = JointDynamics(
+                _float(dyn_elem, "damping", dw, 0.0), _float(dyn_elem, "friction", dw, 0.0)
+            )
+            if dynamics.damping < 0 or dynamics.friction < 0:
+                raise UrdfError(f"{dw}: damping and friction must not be negative")
+        mimic: Mimic | None = None
+        mimic_elem = elem.find("mimic")
+        if mimic_elem is not None:
+            leader = mimic_elem.get("joint")
+            if not leader:
+                raise UrdfError(f"{where} <mimic>: missing attribute 'joint'")
+            if not jtype.is_single_dof:
+                raise UrdfError(f"{where}: a {jtype.value} joint cannot mimic another joint")
+            mw = f"{where} <mimic>"
+            mimic = Mimic(
+                leader,
+                _float(mimic_elem, "multiplier", mw, 1.0),
+                _float(mimic_elem, "offset", mw, 0.0),
+            )
+        return Joint(
+            name,
+            jtype,
+            ends["parent"],
+            ends["child"],
+            _origin(elem, where),
+            axis,
+            limit,
+            dynamics,
+            mimic,
+        )
+
+
+def parse_urdf(
+    text: str, *, source: Path | None = None, resolver: ResourceResolver | None = None
+) -> Robot:
+    """Parse and validate URDF `text`; `resolver` (if given) resolves mesh files.
+
+    Missing mesh files are recorded as warnings (the mesh keeps `path=None`).
+    """
+    try:
+        root = ET.fromstring(text)
+    except ET.ParseError as exc:
+        raise UrdfError(f"not well-formed XML{f' in {source}' if source else ''}: {exc}") from None
+    if root.tag != "robot":
+        raise UrdfError(f"root element is <{root.tag}>, expected <robot>")
+    robot_name = root.get("name")
+    if not robot_name:
+        raise UrdfError("<robot> is missing attribute 'name'")
+    parser = _Parser(resolver)
+    materials: dict[str, Material] = {}
+    for elem in root.findall("material"):
+        mat = parser.material(elem, "robot")
+        if not mat.name:
+            raise UrdfError("robot <material> without a 'name' attribute")
+        materials[mat.name] = mat
+    links: dict[str, Link] = {}
+    for elem in root.findall("link"):
+        link = parser.link(elem, materials)
+        if link.name in links:
+            raise UrdfError(f"link '{link.name}' is defined twice")
+        links[link.name] = link
+    if not links:
+        raise UrdfError(f"robot '{robot_name}' has no <link>")
+    joints: dict[str, Joint] = {}
+    parent_of: dict[str, str] = {}
+    for elem in root.findall("joint"):
+        joint = parser.joint(elem)
+        if joint.name in joints:
+            raise UrdfError(f"joint '{joint.name}' is defined twice")
+        for role, link_name in (("parent", joint.parent), ("child", joint.child)):
+            if link_name not in links:
+                raise UrdfError(
+                    f"joint '{joint.name}': {role} link '{link_name}' is not defined "
+                    f"(links: {', '.join(sorted(links))})"
+                )
+        if joint.child in parent_of:
+            raise UrdfError(
+                f"joint '{joint.name}': link '{joint.child}' already has parent joint "
+                f"'{parent_of[joint.child]}' (a link has one parent)"
+            )
+        parent_of[joint.child] = joint.name
+        joints[joint.name] = joint
+    for joint in joints.values():
+        if joint.mimic is not None:
+            leader = joints.get(joint.mimic.joint)
+            if leader is None:
+                raise UrdfError(
+                    f"joint '{joint.name}' <mimic>: joint '{joint.mimic.joint}' is not defined"
+                )
+            if not leader.type.is_single_dof or leader.mimic is not None or leader is joint:
+                raise UrdfError(
+                    f"joint '{joint.name}' <mimic>: joint '{leader.name}' must be a revolute, "
+                    "continuous or prismatic joint that mimics nothing itself"
+                )
+    roots = [name for name in links if name not in parent_of]
+    if not roots:
+        raise UrdfError("the joints form a cycle: every link has a parent, so there is no root")
+    if len(roots) > 1:
+        raise UrdfError(f"more than one root link: {', '.join(roots)} (connect them with joints)")
+    robot = Robot(robot_name, links, joints, roots[0], materials, source, ())
+    reached = set(robot.links_depth_first())
+    unreached = [name for name in links if name not in reached]
+    if unreached:
+        raise UrdfError(f"the joints form a cycle through link(s): {', '.join(unreached)}")
+    return Robot(robot_name, links, joints, roots[0], materials, source, tuple(parser.warnings))

@@ -1,0 +1,108 @@
+"""What `simbridge urdf check` and `simbridge urdf fk` print: a tree report and link poses."""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+from simbridge.errors import UrdfError
+from simbridge.sim.urdf.inertia import InertiaPolicy, resolve_inertial
+from simbridge.sim.urdf.kinematics import JointValue, forward_kinematics
+from simbridge.sim.urdf.loader import load_urdf
+from simbridge.sim.urdf.meshes import MeshCache
+from simbridge.sim.urdf.model import Joint, JointType, Robot
+
+__all__ = ["check_report", "fk_poses", "parse_joint_assignments", "urdf_check", "urdf_fk"]
+
+
+def _joint_line(joint: Joint) -> str:
+    text = f"{joint.name} [{joint.type.value}] {joint.parent} -> {joint.child}"
+    if joint.type is not JointType.FIXED and joint.type is not JointType.FLOATING:
+        text += f" axis ({' '.join(f'{a:g}' for a in joint.axis)})"
+    if joint.limit is not None:
+        lim = joint.limit
+        if joint.limited:
+            text += f" limits [{lim.lower:g}, {lim.upper:g}]"
+        text += f" effort {lim.effort:g} velocity {lim.velocity:g}"
+    if joint.dynamics.damping or joint.dynamics.friction:
+        text += f" damping {joint.dynamics.damping:g} friction {joint.dynamics.friction:g}"
+    if joint.mimic is not None:
+        m = joint.mimic
+        text += f" mimics {m.joint} (x{m.multiplier:g} {m.offset:+g})"
+    return text
+
+
+def check_report(robot: Robot) -> str:
+    """A check_urdf-style report: root, link tree, joints with limits, warnings."""
+    lines = [
+        f"robot name is: {robot.name}",
+        "---------- Successfully Parsed XML ---------------",
+        f"root Link: {robot.root} has {len(robot.child_joints(robot.root))} child(ren)",
+    ]
+
+    def tree(link: str, depth: int) -> None:
+        for joint in robot.child_joints(link):
+            lines.append(f"{'    ' * depth}child({depth}):  {joint.child}")
+            tree(joint.child, depth + 1)
+
+    tree(robot.root, 1)
+    lines.append(f"joints ({len(robot.joints)}):")
+    lines.extend(f"  {_joint_line(j)}" for j in robot.joints.values())
+    problems = list(robot.warnings)
+    meshes = MeshCache()
+    for name, link in robot.links.items():
+        parent = robot.parent_joint(name)
+        moving = parent is not None and parent.type is not JointType.FIXED
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            try:
+                _, warning = resolve_inertial(link, moving, InertiaPolicy(), meshes)
+            except UrdfError as exc:
+                warning = str(exc)
+        if warning is not None:
+            problems.append(warning)
+    lines.append(f"warnings ({len(problems)}):")
+    lines.extend(f"  {w}" for w in problems)
+    return "\n".join(lines) + "\n"
+
+
+def urdf_check(path: str | Path, search_paths: Sequence[str | Path] = ()) -> str:
+    """Load `path` (URDF or xacro) and return its check report; raises `UrdfError` if malformed."""
+    return check_report(load_urdf(path, search_paths=search_paths))
+
+
+def parse_joint_assignments(items: Sequence[str]) -> dict[str, JointValue]:
+    """Parse CLI `JOINT=VALUE` items; VALUE is a number or comma-separated numbers."""
+    values: dict[str, JointValue] = {}
+    for item in items:
+        name, sep, text = item.partition("=")
+        if not sep or not name:
+            raise UrdfError(f"--set '{item}': expected JOINT=VALUE")
+        try:
+            numbers = [float(v) for v in text.split(",")]
+        except ValueError:
+            raise UrdfError(f"--set '{item}': '{text}' is not a number") from None
+        if any(math.isnan(v) or math.isinf(v) for v in numbers):
+            raise UrdfError(f"--set '{item}': value must be finite")
+        values[name] = numbers[0] if len(numbers) == 1 else tuple(numbers)
+    return values
+
+
+def fk_poses(
+    robot: Robot, values: Mapping[str, JointValue] | None = None
+) -> dict[str, dict[str, list[float]]]:
+    """`{"link": {"xyz": [...], "quat_xyzw": [...]}}` for every link, in the root link's frame."""
+    poses = forward_kinematics(robot, values)
+    return {
+        link: {"xyz": list(tf.xyz), "quat_xyzw": list(tf.quat_xyzw)} for link, tf in poses.items()
+    }
+
+
+def urdf_fk(
+    path: str | Path, assignments: Sequence[str] = (), search_paths: Sequence[str | Path] = ()
+) -> dict[str, dict[str, list[float]]]:
+    """`simbridge urdf fk FILE --set J=V ...`: every link's pose as a JSON-ready dict."""
+    robot = load_urdf(path, search_paths=search_paths)
+    return fk_poses(robot, parse_joint_assignments(assignments))
