@@ -1,0 +1,318 @@
+"""The ROS 1 backend: the endpoint joins a real ROS 1 master as a rospy node.
+
+Payloads cross rospy as raw bytes (see ros1_raw): nothing is decoded. rospy
+runs its own threads; every callback hops back to the endpoint's event loop
+with `call_soon_threadsafe`, and sim-implemented services run their async
+handler on the loop while the rospy service thread waits for the answer.
+"""
+
+from __future__ import annotations
+
+import abc
+import asyncio
+import logging
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+
+import rosgraph
+import rospy
+
+from simbridge.endpoint.backends.base import (
+    Backend,
+    BackendPublisher,
+    BackendServiceServer,
+    BackendSubscription,
+    MessageCallback,
+    ServiceHandler,
+    TopicInfo,
+)
+from simbridge.endpoint.backends.ros1_node import NodeIdentity, join_graph
+from simbridge.endpoint.backends.ros1_raw import (
+    RawMessage,
+    RawService,
+    raw_message_class,
+    raw_service_class,
+)
+from simbridge.endpoint.backends.ros1_rosout import RosoutForwarder
+from simbridge.endpoint.backends.ros1_types import Ros1TypeResolver, TypestoreResolver
+from simbridge.errors import EndpointError, MessageError, ServiceError
+
+__all__ = ["Ros1Backend", "Ros1Options"]
+
+_log = logging.getLogger(__name__)
+
+_RECEIVE_BUFFER = 1 << 20
+"""rospy's per-read receive size for subscriptions; large so images need few reads."""
+
+
+@dataclass(frozen=True, slots=True)
+class Ros1Options:
+    """How the endpoint joins the ROS 1 graph.
+
+    `ros_args` are ROS command-line arguments (`__name:=x`, `__master:=uri`,
+    `_tcp_port:=10000`), e.g. `ros_args(sys.argv)` under roslaunch.
+    """
+
+    node_name: str = "simbridge_endpoint"
+    ros_args: tuple[str, ...] = ()
+    connect_timeout: float = 5.0
+    service_handler_timeout: float = 30.0
+    forward_logs: bool = True
+    service_threads: int = 16
+
+
+class Ros1Backend(Backend):
+    """Bridges the endpoint's clients into a ROS 1 graph through rospy."""
+
+    name = "ros1"
+    protocol = "ROS1"
+
+    def __init__(
+        self, options: Ros1Options | None = None, types: Ros1TypeResolver | None = None
+    ) -> None:
+        self._options = options or Ros1Options()
+        self._types: Ros1TypeResolver = types or TypestoreResolver()
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._executor: ThreadPoolExecutor | None = None
+        self._identity: NodeIdentity | None = None
+        self._forwarder: RosoutForwarder | None = None
+        self._live: set[_Registration] = set()
+
+    @property
+    def identity(self) -> NodeIdentity:
+        """The node this backend speaks as (after start())."""
+        if self._identity is None:
+            raise EndpointError("the ROS 1 backend is not started")
+        return self._identity
+
+    async def start(self) -> None:
+        """Join the master (in a worker thread: rospy blocks until registered)."""
+        self._loop = asyncio.get_running_loop()
+        opts = self._options
+        self._identity = await asyncio.to_thread(
+            join_graph, opts.node_name, opts.ros_args, opts.connect_timeout
+        )
+        self._executor = ThreadPoolExecutor(
+            max_workers=opts.service_threads, thread_name_prefix="simbridge-ros1-call"
+        )
+        if opts.forward_logs:
+            self._forwarder = RosoutForwarder()
+            logging.getLogger("simbridge").addHandler(self._forwarder)
+        _log.info("joined ROS master %s as %s", self._identity.master_uri, rospy.get_name())
+
+    async def close(self) -> None:
+        """Unregister every publisher, subscription and service this backend made."""
+        for registration in list(self._live):
+            registration.close()
+        if self._executor is not None:
+            self._executor.shutdown(wait=False, cancel_futures=True)
+            self._executor = None
+        if self._forwarder is not None:
+            logging.getLogger("simbridge").removeHandler(self._forwarder)
+            self._forwarder = None
+        self._loop = None
+
+    def advertise(
+        self, topic: str, msg_type: str, *, queue_size: int, latch: bool
+    ) -> BackendPublisher:
+        """Advertise `topic`; publishing never blocks (rospy queues per subscriber)."""
+        self._started()
+        cls = raw_message_class(self._types.message(msg_type))
+        try:
+            publisher = _Ros1Publisher(topic, cls, max(queue_size, 0), latch, self._live)
+        except rospy.ROSException as exc:
+            raise EndpointError(f"cannot advertise {topic!r} as {msg_type}: {exc}") from exc
+        _log.info("publishing %s [%s] for the sim (latch=%s)", topic, msg_type, latch)
+        return publisher
+
+    def subscribe(
+        self, topic: str, msg_type: str, callback: MessageCallback
+    ) -> BackendSubscription:
+        """Subscribe with the type's real md5sum; payloads arrive on the event loop."""
+        loop = self._started()
+        cls = raw_message_class(self._types.message(msg_type))
+        try:
+            subscription = _Ros1Subscription(topic, cls, loop, callback, self._live)
+        except rospy.ROSException as exc:
+            raise EndpointError(f"cannot subscribe to {topic!r} as {msg_type}: {exc}") from exc
+        _log.info("subscribed to %s [%s] for the sim", topic, msg_type)
+        return subscription
+
+    async def call_service(
+        self, service: str, srv_type: str, request: bytes, *, timeout: float
+    ) -> bytes:
+        """Call a ROS service in a worker thread; missing, failed or slow -> ServiceError."""
+        loop = self._started()
+        try:
+            cls = raw_service_class(self._types.service(srv_type))
+        except MessageError as exc:
+            raise ServiceError(f"cannot call {service!r}: {exc}") from exc
+        proxy = rospy.ServiceProxy(service, cls, persistent=True)
+        call = loop.run_in_executor(self._executor, proxy.call, cls._request_class(request))
+        try:
+            response: RawMessage = await asyncio.wait_for(call, timeout)
+        except TimeoutError as exc:
+            raise ServiceError(f"service {service!r} did not answer within {timeout} s") from exc
+        except (rospy.ServiceException, rospy.ROSException, OSError) as exc:
+            raise ServiceError(f"service {service!r} failed: {exc}") from exc
+        finally:
+            proxy.close()  # also unblocks a worker still waiting after a timeout
+        return response.payload
+
+    def advertise_service(
+        self, service: str, srv_type: str, handler: ServiceHandler
+    ) -> BackendServiceServer:
+        """Offer `service` to ROS; each call runs `handler` on the event loop."""
+        loop = self._started()
+        cls = raw_service_class(self._types.service(srv_type))
+        timeout = self._options.service_handler_timeout
+        try:
+            server = _Ros1ServiceServer(service, cls, loop, handler, timeout, live=self._live)
+        except rospy.ROSException as exc:
+            raise EndpointError(f"cannot advertise service {service!r}: {exc}") from exc
+        _log.info("serving %s [%s] for the sim", service, srv_type)
+        return server
+
+    def topics(self) -> list[TopicInfo]:
+        """Every topic the master knows, with its type, sorted by name."""
+        self._started()
+        try:
+            pairs = rosgraph.Master(rospy.get_name()).getTopicTypes()
+        except (rosgraph.MasterException, OSError) as exc:
+            raise EndpointError(f"cannot list topics from the ROS master: {exc}") from exc
+        return [TopicInfo(name, msg_type) for name, msg_type in sorted(pairs)]
+
+    def _started(self) -> asyncio.AbstractEventLoop:
+        if self._loop is None:
+            raise EndpointError("the ROS 1 backend is not started: await start() first")
+        return self._loop
+
+
+class _Registration(abc.ABC):
+    """Something registered with the master that close() must undo, once."""
+
+    def __init__(self, live: set[_Registration]) -> None:
+        self._live = live
+        self._closed = False
+        live.add(self)
+
+    @property
+    def closed(self) -> bool:
+        return self._closed
+
+    def close(self) -> None:
+        if not self._closed:
+            self._closed = True
+            self._live.discard(self)
+            self._unregister()
+
+    @abc.abstractmethod
+    def _unregister(self) -> None:
+        """Undo the registration in rospy."""
+
+
+class _Ros1Publisher(_Registration, BackendPublisher):
+    """A rospy Publisher of raw bytes."""
+
+    def __init__(
+        self,
+        topic: str,
+        cls: type[RawMessage],
+        queue_size: int,
+        latch: bool,
+        live: set[_Registration],
+    ) -> None:
+        self._cls = cls
+        self._topic = topic
+        self._publisher = rospy.Publisher(topic, cls, queue_size=queue_size, latch=latch)
+        super().__init__(live)
+
+    def publish(self, payload: bytes) -> None:
+        if self.closed:
+            raise EndpointError(f"publisher of {self._topic!r} is closed")
+        try:
+            self._publisher.publish(self._cls(payload))
+        except rospy.ROSException as exc:
+            raise EndpointError(f"cannot publish on {self._topic!r}: {exc}") from exc
+
+    def _unregister(self) -> None:
+        self._publisher.unregister()
+        _log.info("stopped publishing %s", self._topic)
+
+
+class _Ros1Subscription(_Registration, BackendSubscription):
+    """A rospy Subscriber whose raw payloads are delivered on the event loop."""
+
+    def __init__(
+        self,
+        topic: str,
+        cls: type[RawMessage],
+        loop: asyncio.AbstractEventLoop,
+        callback: MessageCallback,
+        live: set[_Registration],
+    ) -> None:
+        self._topic = topic
+        self._loop = loop
+        self._callback = callback
+        self._subscriber = rospy.Subscriber(topic, cls, self._on_message, buff_size=_RECEIVE_BUFFER)
+        super().__init__(live)
+
+    def _on_message(self, message: RawMessage) -> None:
+        """Runs on a rospy receive thread."""
+        try:
+            self._loop.call_soon_threadsafe(self._deliver, message.payload)
+        except RuntimeError:  # the loop is closed: the endpoint is going away
+            return
+
+    def _deliver(self, payload: bytes) -> None:
+        if not self.closed:
+            self._callback(payload)
+
+    def _unregister(self) -> None:
+        self._subscriber.unregister()
+        _log.info("unsubscribed from %s", self._topic)
+
+
+class _Ros1ServiceServer(_Registration, BackendServiceServer):
+    """A rospy Service whose implementation is an async handler on the event loop."""
+
+    def __init__(
+        self,
+        service: str,
+        cls: type[RawService],
+        loop: asyncio.AbstractEventLoop,
+        handler: ServiceHandler,
+        timeout: float,
+        *,
+        live: set[_Registration],
+    ) -> None:
+        self._service = service
+        self._response_class = cls._response_class
+        self._loop = loop
+        self._handler = handler
+        self._timeout = timeout
+        self._server = rospy.Service(service, cls, self._on_request)
+        super().__init__(live)
+
+    async def _run(self, request: bytes) -> bytes:
+        return await self._handler(request)
+
+    def _on_request(self, request: RawMessage) -> RawMessage:
+        """Runs on a rospy service thread; any exception becomes the caller's error."""
+        if self.closed:
+            raise rospy.ServiceException(f"service {self._service} is being removed")
+        future = asyncio.run_coroutine_threadsafe(self._run(request.payload), self._loop)
+        try:
+            response = future.result(self._timeout)
+        except TimeoutError as exc:
+            future.cancel()
+            raise rospy.ServiceException(
+                f"the sim did not answer {self._service} within {self._timeout} s"
+            ) from exc
+        except Exception as exc:
+            raise rospy.ServiceException(f"the sim failed {self._service}: {exc}") from exc
+        return self._response_class(response)
+
+    def _unregister(self) -> None:
+        self._server.shutdown("removed by the endpoint")
+        _log.info("stopped serving %s", self._service)
