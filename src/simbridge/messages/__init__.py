@@ -1,1 +1,67 @@
-"""TODO"""
+"""ROS 1 message types for simbridge, built on rosbags.
+
+`default_registry()` returns the shared MessageRegistry: every ROS 1 noetic type
+in rosbags' typestore plus the definitions shipped in `definitions/` (a moveit_msgs
+subset, niryo_moveit from Unity's pick-and-place tutorial, tf2_msgs, std_srvs,
+roscpp and sensor_msgs services). More packages load from directories in the ROS
+layout with `registry.load(path)`; `.action` files expand like genmsg's.
+
+Names: `pkg/Type` is canonical; `pkg/msg/Type` is accepted too. Services are
+`pkg/Srv` (or `pkg/srv/Srv`); their parts `pkg/SrvRequest` / `pkg/SrvResponse`
+are ordinary message types.
+
+MessageRegistry API:
+- `has(name)`, `resolve(name) -> "pkg/Type"` (UnknownMessageTypeError names close matches),
+  `names()`, `service_names()`, `has_service(name)`.
+- `md5(name)`: genmsg md5 of a message or service; `definition(name)`: full text as
+  rospy `_full_text` / TCPROS `message_definition`; `text(name)`; `dependencies(name)`;
+  `schema(name)`: field layout; `show(name)`: `rosmsg show` / `rossrv show` text.
+- `service(name) -> ServiceInfo(name, request, response, md5)`.
+- `new(name, **fields)`: zero-initialised message (rosbags dataclass, mutable:
+  `msg.linear.x = 0.5`); `from_dict`, `to_dict`, `to_json`/`from_json`,
+  `to_msgpack`/`from_msgpack`, `from_yaml` (rostopic-pub style).
+- `encode(msg, name=None, fmt="ros1"|"cdr") -> bytes`, `decode(data, name, fmt)`,
+  `transcode(data, name, src, dst)`; `codec(name)` gives the cached per-type Codec
+  for hot paths. Malformed input raises MessageError, never anything else.
+- `load(*paths)`, `add_message(name, text)`, `add_service(name, text)`.
+
+Module functions `show(name)` and `md5(name)` use the default registry (for the CLI).
+"""
+
+from __future__ import annotations
+
+from .codec import Codec, WireFormat
+from .loader import InterfaceSources, expand_action, load_interface_dirs
+from .names import TypeName, parse_type_name
+from .registry import SHIPPED_DEFINITIONS, MessageRegistry, default_registry
+from .schema import ConstantSpec, FieldSpec, MessageSchema
+from .service_info import ServiceInfo
+
+__all__ = [
+    "SHIPPED_DEFINITIONS",
+    "Codec",
+    "ConstantSpec",
+    "FieldSpec",
+    "InterfaceSources",
+    "MessageRegistry",
+    "MessageSchema",
+    "ServiceInfo",
+    "TypeName",
+    "WireFormat",
+    "default_registry",
+    "expand_action",
+    "load_interface_dirs",
+    "md5",
+    "parse_type_name",
+    "show",
+]
+
+
+def show(name: str) -> str:
+    """`rosmsg show` / `rossrv show` text of `name` from the default registry."""
+    return default_registry().show(name)
+
+
+def md5(name: str) -> str:
+    """genmsg md5sum of message or service `name` from the default registry."""
+    return default_registry().md5(name)

@@ -1,0 +1,134 @@
+"""Per-type binary codecs (ROS 1 and CDR) built once from rosbags' generated functions."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any, Literal
+
+from simbridge.errors import MessageError
+
+if TYPE_CHECKING:
+    from rosbags.typesys.store import Typestore
+
+__all__ = ["Codec", "WireFormat"]
+
+WireFormat = Literal["ros1", "cdr"]
+"""`ros1`: ROS 1 binary; `cdr`: ROS 2 CDR with its 4-byte encapsulation header."""
+
+_CDR_LE = b"\x00\x01\x00\x00"
+_CDR_HEADERS = (b"\x00\x00", b"\x00\x01")
+
+
+class Codec:
+    """Encodes and decodes one message type; the hot path is a few direct calls."""
+
+    __slots__ = (
+        "_cls",
+        "_de_cdr_be",
+        "_de_cdr_le",
+        "_de_ros1",
+        "_fixed_cdr",
+        "_fixed_ros1",
+        "_getsize_cdr",
+        "_getsize_ros1",
+        "_ser_cdr",
+        "_ser_ros1",
+        "_store",
+        "name",
+    )
+
+    def __init__(self, typestore: Typestore, store_key: str, name: str) -> None:
+        msgdef = typestore.get_msgdef(store_key)
+        self.name = name
+        self._store = typestore
+        self._cls = msgdef.cls
+        self._fixed_ros1 = msgdef.size_ros1
+        self._getsize_ros1 = msgdef.getsize_ros1
+        self._ser_ros1 = msgdef.serialize_ros1
+        self._de_ros1 = msgdef.deserialize_ros1
+        self._fixed_cdr = msgdef.size_cdr
+        self._getsize_cdr = msgdef.getsize_cdr
+        self._ser_cdr = msgdef.serialize_cdr_le
+        self._de_cdr_le = msgdef.deserialize_cdr_le
+        self._de_cdr_be = msgdef.deserialize_cdr_be
+
+    def encode(self, msg: object, fmt: WireFormat = "ros1") -> bytes:
+        """Serialize `msg`; MessageError when a field holds a value its type cannot carry."""
+        if fmt == "ros1":
+            return self.encode_ros1(msg)
+        if fmt == "cdr":
+            return self.encode_cdr(msg)
+        raise MessageError(_bad_format(fmt))
+
+    def decode(self, data: bytes | bytearray | memoryview, fmt: WireFormat = "ros1") -> Any:
+        """Deserialize one message; any malformed input raises MessageError."""
+        if fmt == "ros1":
+            return self.decode_ros1(data)
+        if fmt == "cdr":
+            return self.decode_cdr(data)
+        raise MessageError(_bad_format(fmt))
+
+    def encode_ros1(self, msg: object) -> bytes:
+        """Serialize to ROS 1 binary."""
+        self._check_type(msg)
+        try:
+            size = self._fixed_ros1 or self._getsize_ros1(0, msg, self._store)
+            buf = bytearray(size)
+            self._ser_ros1(memoryview(buf), 0, msg, self._store)
+        except Exception as exc:
+            raise MessageError(f"cannot encode {self.name} as ROS 1: {exc}") from exc
+        return bytes(buf)
+
+    def decode_ros1(self, data: bytes | bytearray | memoryview) -> Any:
+        """Deserialize ROS 1 binary; the whole buffer must be consumed.
+
+        Numeric arrays in the result are read-only views of the input bytes.
+        """
+        try:
+            msg, pos = self._de_ros1(_frozen(data), 0, self._cls, self._store)
+        except Exception as exc:
+            raise MessageError(f"malformed ROS 1 {self.name} ({len(data)} bytes): {exc}") from exc
+        if pos != len(data):
+            msg_ = f"malformed ROS 1 {self.name}: {len(data) - pos} trailing byte(s)"
+            raise MessageError(msg_)
+        return msg
+
+    def encode_cdr(self, msg: object) -> bytes:
+        """Serialize to little-endian CDR with encapsulation header."""
+        self._check_type(msg)
+        try:
+            size = self._fixed_cdr or self._getsize_cdr(0, msg, self._store)
+            buf = bytearray(4 + size)
+            buf[:4] = _CDR_LE
+            self._ser_cdr(memoryview(buf)[4:], 0, msg, self._store)
+        except Exception as exc:
+            raise MessageError(f"cannot encode {self.name} as CDR: {exc}") from exc
+        return bytes(buf)
+
+    def decode_cdr(self, data: bytes | bytearray | memoryview) -> Any:
+        """Deserialize CDR (either byte order); at most 3 bytes of trailing padding."""
+        if len(data) < 4 or bytes(data[:2]) not in _CDR_HEADERS:
+            msg_ = f"malformed CDR {self.name}: missing or unknown encapsulation header"
+            raise MessageError(msg_)
+        func = self._de_cdr_le if data[1] else self._de_cdr_be
+        try:
+            msg, pos = func(memoryview(_frozen(data))[4:], 0, self._cls, self._store)
+        except Exception as exc:
+            raise MessageError(f"malformed CDR {self.name} ({len(data)} bytes): {exc}") from exc
+        if pos + 4 + 3 < len(data):
+            msg_ = f"malformed CDR {self.name}: {len(data) - pos - 4} trailing byte(s)"
+            raise MessageError(msg_)
+        return msg
+
+    def _check_type(self, msg: object) -> None:
+        if type(msg) is not self._cls:
+            got = getattr(msg, "__msgtype__", type(msg).__name__)
+            raise MessageError(f"expected a {self.name} message, got {got}")
+
+
+def _frozen(data: bytes | bytearray | memoryview) -> bytes:
+    """Decoded numpy arrays view the input, so never let them alias a mutable buffer."""
+    return data if type(data) is bytes else bytes(data)
+
+
+def _bad_format(fmt: object) -> str:
+    return f"unknown wire format {fmt!r}; valid formats: 'ros1', 'cdr'"
