@@ -20,6 +20,7 @@ import time
 import xmlrpc.client
 from collections.abc import Iterator, Sequence
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -106,8 +107,9 @@ class RosMaster:
             if self._process.poll() is not None:
                 break
             with contextlib.suppress(OSError):
-                code, _, state = master.getSystemState("/simbridge_tests")
-                publishers = state[0] if code == 1 else []  # type: ignore[index]
+                reply: Any = master.getSystemState("/simbridge_tests")
+                code, _, state = reply
+                publishers = state[0] if code == 1 else []
                 if any(topic == "/rosout_agg" for topic, _ in publishers):
                     return self
             time.sleep(0.1)

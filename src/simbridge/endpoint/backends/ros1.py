@@ -34,8 +34,9 @@ from simbridge.endpoint.backends.ros1_raw import (
     raw_service_class,
 )
 from simbridge.endpoint.backends.ros1_rosout import RosoutForwarder
-from simbridge.endpoint.backends.ros1_types import Ros1TypeResolver, TypestoreResolver
+from simbridge.endpoint.backends.ros1_types import Ros1Types
 from simbridge.errors import EndpointError, MessageError, ServiceError
+from simbridge.messages import MessageRegistry, default_registry
 
 __all__ = ["Ros1Backend", "Ros1Options"]
 
@@ -62,16 +63,20 @@ class Ros1Options:
 
 
 class Ros1Backend(Backend):
-    """Bridges the endpoint's clients into a ROS 1 graph through rospy."""
+    """Bridges the endpoint's clients into a ROS 1 graph through rospy.
+
+    Types come from `registry` (default: the shared one), so packages loaded into
+    it (`--msg-path`) work without catkin or any Python message module.
+    """
 
     name = "ros1"
     protocol = "ROS1"
 
     def __init__(
-        self, options: Ros1Options | None = None, types: Ros1TypeResolver | None = None
+        self, options: Ros1Options | None = None, registry: MessageRegistry | None = None
     ) -> None:
         self._options = options or Ros1Options()
-        self._types: Ros1TypeResolver = types or TypestoreResolver()
+        self._types = Ros1Types(registry or default_registry())
         self._loop: asyncio.AbstractEventLoop | None = None
         self._executor: ThreadPoolExecutor | None = None
         self._identity: NodeIdentity | None = None

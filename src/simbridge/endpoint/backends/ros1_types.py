@@ -1,57 +1,34 @@
-"""Look up the md5sum and full definition of ROS 1 message and service types."""
+"""What rospy must know about a type (md5sum, full definition), from the message registry."""
 
 from __future__ import annotations
 
-import difflib
-from typing import Protocol
-
-from rosbags.typesys import Stores, get_typestore
-from rosbags.typesys.store import Typestore
-
 from simbridge.endpoint.backends.ros1_raw import RawMessageType, RawServiceType
-from simbridge.errors import UnknownMessageTypeError
+from simbridge.messages import MessageRegistry
 
-__all__ = ["Ros1TypeResolver", "TypestoreResolver"]
-
-
-class Ros1TypeResolver(Protocol):
-    """Turns `package/Type` names into what the ROS 1 graph needs to know."""
-
-    def message(self, name: str) -> RawMessageType:
-        """The message type `name`; raises UnknownMessageTypeError."""
-        ...
-
-    def service(self, name: str) -> RawServiceType:
-        """The service type `name`; raises UnknownMessageTypeError."""
-        ...
+__all__ = ["Ros1Types"]
 
 
-class TypestoreResolver:
-    """Resolves types from a rosbags typestore (ROS 1 Noetic by default)."""
+class Ros1Types:
+    """Describes message and service types for raw rospy classes; no Python module needed."""
 
-    def __init__(self, typestore: Typestore | None = None) -> None:
-        self._store = typestore or get_typestore(Stores.ROS1_NOETIC)
+    def __init__(self, registry: MessageRegistry) -> None:
+        self._registry = registry
 
     def message(self, name: str) -> RawMessageType:
-        """The message type `name` (`package/Type`)."""
-        key = _store_key(name)
-        if key not in self._store.fielddefs:
-            known = [_ros_name(k) for k in self._store.fielddefs]
-            close = difflib.get_close_matches(name, known, n=3)
-            hint = f"; did you mean {', '.join(close)}?" if close else ""
-            raise UnknownMessageTypeError(f"unknown message type {name!r}{hint}")
-        definition, md5sum = self._store.generate_msgdef(key)
-        return RawMessageType(name=name, md5sum=md5sum, definition=definition)
+        """The message type `name` (`pkg/Type`); UnknownMessageTypeError names close matches."""
+        canonical = self._registry.resolve(name)
+        return RawMessageType(
+            name=canonical,
+            md5sum=self._registry.md5(canonical),
+            definition=self._registry.definition(canonical),
+        )
 
     def service(self, name: str) -> RawServiceType:
-        """Service types are not in a rosbags typestore."""
-        raise UnknownMessageTypeError(f"unknown service type {name!r}")
-
-
-def _store_key(name: str) -> str:
-    package, _, base = name.partition("/")
-    return f"{package}/msg/{base}"
-
-
-def _ros_name(key: str) -> str:
-    return key.replace("/msg/", "/")
+        """The service type `name` (`pkg/Srv`) with its request and response types."""
+        info = self._registry.service(name)
+        return RawServiceType(
+            name=info.name,
+            md5sum=info.md5,
+            request=self.message(info.request),
+            response=self.message(info.response),
+        )

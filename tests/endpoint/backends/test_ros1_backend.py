@@ -1,0 +1,345 @@
+"""Ros1Backend against a real roscore and the real ROS tools (rostopic, rosservice, rospy)."""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import struct
+import textwrap
+import time
+from collections.abc import Awaitable, Callable
+from pathlib import Path
+from typing import TypeVar
+
+import pytest
+import rosgraph
+from tests.ros1support import SYSTEM_PYTHON, RosMaster, require_ros, shared_master
+
+from simbridge.endpoint.backends.base import TopicInfo
+from simbridge.endpoint.backends.ros1 import Ros1Backend, Ros1Options
+from simbridge.endpoint.backends.ros1_node import read_drop_in_params, ros_args
+from simbridge.errors import EndpointError, ServiceError, UnknownMessageTypeError
+
+pytestmark = [
+    pytest.mark.ros1,
+    pytest.mark.timeout(120),
+    pytest.mark.filterwarnings("ignore:notifyAll:DeprecationWarning"),
+]
+
+T = TypeVar("T")
+
+STRING_HELLO = struct.pack("<I", 5) + b"hello"  # std_msgs/String data="hello"
+
+
+def ros_string(text: str) -> bytes:
+    """std_msgs/String by hand: uint32 LE length + UTF-8 bytes."""
+    raw = text.encode()
+    return struct.pack("<I", len(raw)) + raw
+
+
+@pytest.fixture(scope="module")
+def master() -> RosMaster:
+    require_ros()
+    return shared_master()
+
+
+def with_backend(
+    scenario: Callable[[Ros1Backend], Awaitable[T]], options: Ros1Options | None = None
+) -> T:
+    """Run `scenario` on a fresh event loop with a started backend, closing it after."""
+
+    async def main() -> T:
+        backend = Ros1Backend(options)
+        await backend.start()
+        try:
+            return await scenario(backend)
+        finally:
+            await backend.close()
+
+    return asyncio.run(main())
+
+
+async def until(predicate: Callable[[], bool], timeout: float, what: str) -> None:
+    deadline = time.monotonic() + timeout
+    while not predicate():
+        if time.monotonic() > deadline:
+            raise AssertionError(f"timed out waiting for {what}")
+        await asyncio.sleep(0.05)
+
+
+def test_published_bytes_reach_rostopic_echo(master: RosMaster) -> None:
+    async def scenario(backend: Ros1Backend) -> str:
+        publisher = backend.advertise("/sb/echo", "std_msgs/String", queue_size=10, latch=False)
+        with master.running(["rostopic", "echo", "-n", "1", "/sb/echo"]) as echo:
+            deadline = time.monotonic() + 30
+            while echo.poll() is None and time.monotonic() < deadline:
+                publisher.publish(STRING_HELLO)
+                await asyncio.sleep(0.1)
+            out, err = echo.communicate(timeout=5)
+        assert echo.returncode == 0, err
+        return out
+
+    assert with_backend(scenario).splitlines()[0] == 'data: "hello"'
+
+
+def test_rostopic_pub_reaches_subscriber_as_exact_bytes(master: RosMaster) -> None:
+    received: list[bytes] = []
+
+    async def scenario(backend: Ros1Backend) -> None:
+        backend.subscribe("/sb/cmd", "geometry_msgs/Twist", received.append)
+        pub = ["rostopic", "pub", "-r", "10", "/sb/cmd", "geometry_msgs/Twist"]
+        with master.running([*pub, "{linear: {x: 1.5, z: -2.0}, angular: {y: 0.25}}"]):
+            await until(lambda: bool(received), 30, "a Twist from rostopic pub")
+
+    with_backend(scenario)
+    # Twist = 6 float64 LE: linear xyz, angular xyz; no header, no padding.
+    assert received[0] == struct.pack("<6d", 1.5, 0.0, -2.0, 0.0, 0.25, 0.0)
+
+
+def test_callbacks_run_on_the_event_loop_thread(master: RosMaster) -> None:
+    threads: list[bool] = []
+
+    async def scenario(backend: Ros1Backend) -> None:
+        loop = asyncio.get_running_loop()
+
+        def on_message(_: bytes) -> None:
+            try:
+                threads.append(asyncio.get_running_loop() is loop)
+            except RuntimeError:
+                threads.append(False)
+
+        backend.subscribe("/sb/loop", "std_msgs/String", on_message)
+        publisher = backend.advertise("/sb/loop", "std_msgs/String", queue_size=0, latch=False)
+        while not threads:
+            publisher.publish(STRING_HELLO)
+            await asyncio.sleep(0.05)
+
+    with_backend(scenario)
+    assert all(threads)
+
+
+def test_latched_message_reaches_late_subscriber(master: RosMaster) -> None:
+    async def scenario(backend: Ros1Backend) -> str:
+        publisher = backend.advertise("/sb/latched", "std_msgs/String", queue_size=1, latch=True)
+        publisher.publish(ros_string("latched once"))
+        await asyncio.sleep(0.2)
+        echo = await asyncio.to_thread(
+            master.run, ["rostopic", "echo", "-n", "1", "/sb/latched"], 30
+        )
+        assert echo.returncode == 0, echo.stderr
+        return echo.stdout
+
+    assert with_backend(scenario).splitlines()[0] == 'data: "latched once"'
+
+
+def test_type_without_python_module_round_trips(master: RosMaster) -> None:
+    """visualization_msgs has no Python module here: the backend needs only its definition."""
+    with pytest.raises(ImportError):
+        __import__("visualization_msgs.msg")
+    # MenuEntry: uint32 id, uint32 parent_id, string title, string command, uint8 command_type
+    payload = struct.pack("<II", 7, 3) + ros_string("Open") + ros_string("open_cmd") + b"\x02"
+    received: list[bytes] = []
+
+    async def scenario(backend: Ros1Backend) -> str:
+        backend.subscribe("/sb/menu", "visualization_msgs/MenuEntry", received.append)
+        publisher = backend.advertise(
+            "/sb/menu", "visualization_msgs/MenuEntry", queue_size=0, latch=False
+        )
+        while not received:
+            publisher.publish(payload)
+            await asyncio.sleep(0.05)
+        info = await asyncio.to_thread(master.run, ["rostopic", "type", "/sb/menu"])
+        return info.stdout.strip()
+
+    assert with_backend(scenario) == "visualization_msgs/MenuEntry"
+    assert received[0] == payload
+
+
+def test_topics_lists_graph_with_types(master: RosMaster) -> None:
+    async def scenario(backend: Ros1Backend) -> list[TopicInfo]:
+        backend.advertise("/sb/listed", "sensor_msgs/Image", queue_size=1, latch=False)
+        return backend.topics()
+
+    listed = with_backend(scenario)
+    assert TopicInfo("/sb/listed", "sensor_msgs/Image") in listed
+    assert TopicInfo("/rosout", "rosgraph_msgs/Log") in listed
+    assert listed == sorted(listed, key=lambda t: t.name)
+
+
+def test_close_unregisters_from_master(master: RosMaster) -> None:
+    def registered(topic: str) -> bool:
+        publishers, subscribers, _ = rosgraph.Master("/sb_test").getSystemState()
+        nodes = [n for t, ns in publishers + subscribers if t == topic for n in ns]
+        return "/simbridge_endpoint" in nodes
+
+    async def scenario(backend: Ros1Backend) -> None:
+        publisher = backend.advertise("/sb/gone", "std_msgs/String", queue_size=1, latch=False)
+        backend.subscribe("/sb/gone_too", "std_msgs/String", lambda _: None)
+        assert registered("/sb/gone")
+        assert registered("/sb/gone_too")
+        publisher.close()
+        assert not registered("/sb/gone")
+        with pytest.raises(EndpointError, match="closed"):
+            publisher.publish(STRING_HELLO)
+
+    with_backend(scenario)
+    assert not registered("/sb/gone_too")  # closed with the backend
+
+
+def test_unknown_type_names_close_matches(master: RosMaster) -> None:
+    async def scenario(backend: Ros1Backend) -> None:
+        with pytest.raises(UnknownMessageTypeError, match="std_msgs/String"):
+            backend.advertise("/sb/bad", "std_msgs/Strin", queue_size=1, latch=False)
+
+    with_backend(scenario)
+
+
+def test_endpoint_logs_reach_rosout(master: RosMaster) -> None:
+    seen: list[bytes] = []
+
+    async def scenario(backend: Ros1Backend) -> None:
+        backend.subscribe("/rosout", "rosgraph_msgs/Log", seen.append)
+        logger = logging.getLogger("simbridge.endpoint.test")
+        logger.setLevel(logging.INFO)
+        while not any(b"client 42 connected" in m for m in seen):
+            logger.warning("client 42 connected")
+            await asyncio.sleep(0.1)
+
+    with_backend(scenario)
+
+
+def test_drop_in_params_are_read_from_the_parameter_server(master: RosMaster) -> None:
+    async def scenario(backend: Ros1Backend) -> tuple[str | None, int | None]:
+        rosgraph.Master("/sb_test").setParam("/simbridge_endpoint/tcp_ip", "127.0.0.1")
+        rosgraph.Master("/sb_test").setParam("/simbridge_endpoint/tcp_port", 10123)
+        try:
+            return read_drop_in_params()
+        finally:
+            rosgraph.Master("/sb_test").deleteParam("/simbridge_endpoint/tcp_ip")
+            rosgraph.Master("/sb_test").deleteParam("/simbridge_endpoint/tcp_port")
+
+    assert with_backend(scenario) == ("127.0.0.1", 10123)
+
+
+def test_ros_args_picks_remappings_and_private_params() -> None:
+    argv = ["simbridge", "endpoint", "__name:=bridge", "--port", "1", "_tcp_port:=9"]
+    assert ros_args(argv) == ("__name:=bridge", "_tcp_port:=9")
+
+
+def test_second_node_identity_in_one_process_is_refused(master: RosMaster) -> None:
+    with pytest.raises(EndpointError, match="one node per process"):
+        with_backend(lambda b: asyncio.sleep(0), Ros1Options(node_name="another_name"))
+
+
+def test_missing_master_fails_fast(master: RosMaster) -> None:
+    from simbridge.endpoint.backends.ros1_node import _wait_for_master
+
+    start = time.monotonic()
+    with pytest.raises(EndpointError, match="no ROS master"):
+        _wait_for_master("http://127.0.0.1:1/", 2.0)
+    assert time.monotonic() - start < 3
+
+
+def test_rosservice_call_reaches_sim_service(master: RosMaster) -> None:
+    requests: list[bytes] = []
+
+    async def toggle(request: bytes) -> bytes:
+        requests.append(request)
+        await asyncio.sleep(0)  # a real coroutine on the endpoint loop
+        return b"\x01" + ros_string("on")  # SetBoolResponse(success=True, message="on")
+
+    async def scenario(backend: Ros1Backend) -> str:
+        backend.advertise_service("/sb/toggle", "std_srvs/SetBool", toggle)
+        call = ["rosservice", "call", "/sb/toggle", "data: true"]
+        result = await asyncio.to_thread(master.run, call)
+        assert result.returncode == 0, result.stderr
+        return result.stdout
+
+    assert with_backend(scenario).split() == ["success:", "True", "message:", '"on"']
+    assert requests == [b"\x01"]
+
+
+def test_failing_sim_service_gives_ros_caller_an_error(master: RosMaster) -> None:
+    async def broken(request: bytes) -> bytes:
+        raise ValueError("motor jammed")
+
+    async def scenario(backend: Ros1Backend) -> tuple[int, str]:
+        backend.advertise_service("/sb/broken", "std_srvs/Trigger", broken)
+        result = await asyncio.to_thread(master.run, ["rosservice", "call", "/sb/broken"])
+        return result.returncode, result.stderr + result.stdout
+
+    code, output = with_backend(scenario)
+    assert code != 0
+    assert "motor jammed" in output
+
+
+def test_rospy_service_is_called_with_raw_bytes(master: RosMaster, tmp_path: Path) -> None:
+    script = tmp_path / "negate_node.py"
+    script.write_text(
+        textwrap.dedent(
+            """
+            import rospy
+            from std_srvs.srv import SetBool, SetBoolResponse
+
+            def handle(req):
+                return SetBoolResponse(success=not req.data, message="got %s" % req.data)
+
+            rospy.init_node("sb_negate_server")
+            rospy.Service("/sb/negate", SetBool, handle)
+            rospy.spin()
+            """
+        )
+    )
+
+    async def scenario(backend: Ros1Backend) -> bytes:
+        with master.running([SYSTEM_PYTHON, str(script)]) as node:
+            await until(
+                lambda: node.poll() is not None or service_registered("/sb/negate"),
+                30,
+                "the rospy service node",
+            )
+            assert node.poll() is None, node.communicate()[1]
+            return await backend.call_service("/sb/negate", "std_srvs/SetBool", b"\x00", timeout=10)
+
+    assert with_backend(scenario) == b"\x01" + ros_string("got False")
+
+
+def test_missing_service_fails_fast(master: RosMaster) -> None:
+    async def scenario(backend: Ros1Backend) -> float:
+        start = time.monotonic()
+        with pytest.raises(ServiceError, match="/sb/nobody"):
+            await backend.call_service("/sb/nobody", "std_srvs/Trigger", b"", timeout=10)
+        return time.monotonic() - start
+
+    assert with_backend(scenario) < 2
+
+
+def test_slow_service_times_out(master: RosMaster) -> None:
+    async def slow(request: bytes) -> bytes:
+        await asyncio.sleep(30)
+        return b""
+
+    async def scenario(backend: Ros1Backend) -> float:
+        backend.advertise_service("/sb/slow", "std_srvs/Trigger", slow)
+        start = time.monotonic()
+        with pytest.raises(ServiceError, match=r"did not answer within 0\.5 s"):
+            await backend.call_service("/sb/slow", "std_srvs/Trigger", b"", timeout=0.5)
+        return time.monotonic() - start
+
+    assert 0.5 <= with_backend(scenario) < 2
+
+
+def test_unknown_service_type_is_a_service_error(master: RosMaster) -> None:
+    async def scenario(backend: Ros1Backend) -> None:
+        with pytest.raises(ServiceError, match="std_srvs/SetBool"):
+            await backend.call_service("/sb/x", "std_srvs/SetBol", b"", timeout=1)
+
+    with_backend(scenario)
+
+
+def service_registered(name: str) -> bool:
+    try:
+        rosgraph.Master("/sb_test").lookupService(name)
+    except rosgraph.MasterError:
+        return False
+    return True
