@@ -1,0 +1,132 @@
+"""RGB camera: sensor_msgs/Image (rgb8), CompressedImage (jpeg/png) and CameraInfo."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+from numpy.typing import NDArray
+
+from simbridge.errors import SimError
+from simbridge.sim.sensors.base import Sensor
+from simbridge.sim.sensors.camera_model import OPTICAL_FROM_BODY, PinholeModel
+from simbridge.sim.sensors.config import SensorConfig
+from simbridge.sim.sensors.encoding import (
+    COMPRESSED_FORMATS,
+    compressed_format_string,
+    encode_rgb,
+)
+from simbridge.sim.sensors.frames import Pose
+from simbridge.sim.sensors.offscreen import OffscreenRenderer
+from simbridge.sim.sensors.rosmsg import Publication, header, new_message
+
+__all__ = ["Camera", "CameraConfig"]
+
+
+@dataclass(frozen=True, kw_only=True)
+class CameraConfig(SensorConfig):
+    """A colour camera looking along the mount's +x (z up). `fovy` is vertical, radians.
+
+    Topics under `topic` (default `camera`): image_raw, image_raw/compressed, camera_info.
+    Default frame: `<body>_optical_frame` (REP 103: z forward, x right, y down).
+    """
+
+    width: int = 640
+    height: int = 480
+    fovy: float = math.radians(60.0)
+    near: float = 0.01
+    far: float = 100.0
+    compression: str = "jpeg"
+    jpeg_quality: int = 80
+    shadows: bool = False
+    reflections: bool = False
+
+
+class Camera(Sensor):
+    """Renders the scene offscreen; only the wanted outputs are rendered and encoded."""
+
+    def __init__(self, model: mujoco.MjModel, config: CameraConfig) -> None:
+        if config.compression not in COMPRESSED_FORMATS:
+            raise SimError(
+                f"camera {config.name!r}: compression {config.compression!r} is not one of "
+                f"{COMPRESSED_FORMATS}"
+            )
+        if not 0 < config.near < config.far:
+            raise SimError(
+                f"camera {config.name!r}: needs 0 < near < far, got [{config.near}, {config.far}]"
+            )
+        self.config = config
+        self.pinhole = PinholeModel(config.width, config.height, config.fovy)
+        namespace = config.topic or "camera"
+        self.image_topic = f"{namespace}/image_raw"
+        self.compressed_topic = f"{namespace}/image_raw/compressed"
+        self.info_topic = f"{namespace}/camera_info"
+        super().__init__(
+            config.name,
+            config.mount().resolve(model),
+            config.rate,
+            frame_id=config.resolved_frame_id("_optical_frame"),
+            outputs={
+                self.image_topic: "sensor_msgs/Image",
+                self.compressed_topic: "sensor_msgs/CompressedImage",
+                self.info_topic: "sensor_msgs/CameraInfo",
+            },
+            data_in_frame=Pose(np.zeros(3), OPTICAL_FROM_BODY),
+        )
+        self._renderer: OffscreenRenderer | None = None
+
+    def render(self, model: mujoco.MjModel, data: mujoco.MjData) -> NDArray[np.uint8]:
+        """The current view as an (height, width, 3) rgb8 array."""
+        if self._renderer is None:
+            self._renderer = OffscreenRenderer(
+                model,
+                self.config.width,
+                self.config.height,
+                shadows=self.config.shadows,
+                reflections=self.config.reflections,
+            )
+        return self._renderer.render_rgb(
+            data, self.world_pose(data), self.config.fovy, self.config.near, self.config.far
+        )
+
+    def measure(self, model: mujoco.MjModel, data: mujoco.MjData) -> list[Publication]:
+        """Render once if any image output is wanted; publish the wanted outputs."""
+        now = float(data.time)
+        out: list[Publication] = []
+        if self.wanted(self.image_topic) or self.wanted(self.compressed_topic):
+            rgb = self.render(model, data)
+            if self.wanted(self.image_topic):
+                image = new_message(
+                    "sensor_msgs/Image",
+                    header=header(now, self.frame_id, self._next_seq(self.image_topic)),
+                    height=self.config.height,
+                    width=self.config.width,
+                    encoding="rgb8",
+                    is_bigendian=0,
+                    step=3 * self.config.width,
+                    data=rgb.reshape(-1),
+                )
+                out.append(self._publication(self.image_topic, image))
+            if self.wanted(self.compressed_topic):
+                fmt = self.config.compression
+                compressed = new_message(
+                    "sensor_msgs/CompressedImage",
+                    header=header(now, self.frame_id, self._next_seq(self.compressed_topic)),
+                    format=compressed_format_string(fmt),
+                    data=np.frombuffer(
+                        encode_rgb(rgb, fmt, self.config.jpeg_quality), dtype=np.uint8
+                    ),
+                )
+                out.append(self._publication(self.compressed_topic, compressed))
+        if self.wanted(self.info_topic):
+            info_header = header(now, self.frame_id, self._next_seq(self.info_topic))
+            out.append(self._publication(self.info_topic, self.pinhole.camera_info(info_header)))
+        return out
+
+    def close(self) -> None:
+        """Free the offscreen renderer."""
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None

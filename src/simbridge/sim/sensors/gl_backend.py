@@ -1,0 +1,78 @@
+"""Headless OpenGL backend choice: MUJOCO_GL if set, else EGL when it works, else OSMesa."""
+
+from __future__ import annotations
+
+import importlib
+import os
+import subprocess
+import sys
+from functools import cache
+from typing import Protocol
+
+from simbridge.errors import SimError
+
+__all__ = ["GLContext", "configure_gl", "create_gl_context", "probe_egl"]
+
+_BACKENDS = ("egl", "osmesa", "glfw")
+
+_EGL_PROBE = "from mujoco.egl import GLContext\nc = GLContext(8, 8)\nc.make_current()\nc.free()\n"
+
+
+class GLContext(Protocol):
+    """What MuJoCo's GL context classes (mujoco.egl / osmesa / glfw) offer."""
+
+    def make_current(self) -> None: ...
+
+    def free(self) -> None: ...
+
+
+def probe_egl(timeout_s: float = 30.0) -> bool:
+    """True when an EGL context can be created (tried in a child process, so a broken
+    driver cannot take this process down or pin PyOpenGL to the wrong platform)."""
+    env = dict(os.environ, MUJOCO_GL="egl", PYOPENGL_PLATFORM="egl")
+    try:
+        done = subprocess.run(
+            [sys.executable, "-c", _EGL_PROBE],
+            env=env,
+            capture_output=True,
+            timeout=timeout_s,
+            check=False,
+        )
+    except (OSError, subprocess.TimeoutExpired):
+        return False
+    return done.returncode == 0
+
+
+@cache
+def configure_gl() -> str:
+    """Choose the offscreen backend once per process and export it.
+
+    MUJOCO_GL wins when set; otherwise an explicit PYOPENGL_PLATFORM decides; otherwise
+    EGL if a context can be made, else OSMesa. The choice is written back to MUJOCO_GL
+    and PYOPENGL_PLATFORM so child processes and later imports agree. Call it before
+    anything imports PyOpenGL for the choice to reach mujoco's own Renderer too.
+    """
+    requested = os.environ.get("MUJOCO_GL", "").strip().lower()
+    if not requested:
+        platform = os.environ.get("PYOPENGL_PLATFORM", "").strip().lower()
+        if platform in ("egl", "osmesa"):
+            requested = platform
+        else:
+            requested = "egl" if probe_egl() else "osmesa"
+    if requested not in _BACKENDS:
+        raise SimError(f"MUJOCO_GL={requested!r} is not usable headless; choose one of {_BACKENDS}")
+    os.environ["MUJOCO_GL"] = requested
+    if requested in ("egl", "osmesa"):
+        os.environ.setdefault("PYOPENGL_PLATFORM", requested)
+    return requested
+
+
+def create_gl_context(width: int, height: int) -> GLContext:
+    """A current-able offscreen GL context of at least width x height on the chosen backend."""
+    backend = configure_gl()
+    try:
+        module = importlib.import_module(f"mujoco.{backend}")
+        context: GLContext = module.GLContext(width, height)
+    except (ImportError, RuntimeError, OSError) as exc:
+        raise SimError(f"cannot create a {backend} OpenGL context for rendering: {exc}") from exc
+    return context

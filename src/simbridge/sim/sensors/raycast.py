@@ -1,0 +1,99 @@
+"""Batched ray casting against the collision world with one `mj_multiRay` call."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+from numpy.typing import NDArray
+
+from simbridge.errors import SimError
+from simbridge.sim.sensors.frames import Pose
+
+__all__ = ["RayCaster", "RayHits", "collision_geom_groups"]
+
+NUM_GEOM_GROUPS = 6
+
+
+def collision_geom_groups(model: mujoco.MjModel) -> NDArray[np.uint8]:
+    """Geom-group mask selecting the groups that hold collidable geoms.
+
+    Visual-only geoms (contype = conaffinity = 0) usually live in groups of their own, so
+    this keeps rays off them; a model without any collidable geom gets every group.
+    """
+    collidable = (model.geom_contype != 0) | (model.geom_conaffinity != 0)
+    mask = np.zeros(NUM_GEOM_GROUPS, dtype=np.uint8)
+    groups = model.geom_group[collidable]
+    mask[groups[(groups >= 0) & (groups < NUM_GEOM_GROUPS)]] = 1
+    return mask if mask.any() else np.ones(NUM_GEOM_GROUPS, dtype=np.uint8)
+
+
+@dataclass(frozen=True)
+class RayHits:
+    """Per-ray results: distance (inf for no hit), hit geom (-1) and |cos(incidence)|."""
+
+    distance: NDArray[np.float64]
+    geom_id: NDArray[np.int32]
+    cos_incidence: NDArray[np.float64]
+
+
+class RayCaster:
+    """Casts a fixed fan of unit rays, given in the sensor frame, from the sensor origin.
+
+    Geoms of `exclude_body` (the body the sensor is mounted on) are ignored, as are
+    geoms outside `geomgroup` and, as in MuJoCo, fully transparent geoms.
+    """
+
+    def __init__(
+        self,
+        model: mujoco.MjModel,
+        directions: NDArray[np.float64],
+        *,
+        exclude_body: int,
+        cutoff: float,
+        geomgroup: tuple[int, ...] | None = None,
+    ) -> None:
+        if directions.ndim != 2 or directions.shape[1] != 3 or len(directions) == 0:
+            raise SimError(f"ray directions must be an (N, 3) array, got shape {directions.shape}")
+        if geomgroup is not None and len(geomgroup) != NUM_GEOM_GROUPS:
+            raise SimError(f"geomgroup needs {NUM_GEOM_GROUPS} flags (0/1), got {geomgroup!r}")
+        norms = np.linalg.norm(directions, axis=1, keepdims=True)
+        self.directions = np.ascontiguousarray(directions / norms)
+        self.exclude_body = exclude_body if exclude_body > 0 else -1
+        self.cutoff = cutoff
+        self.geomgroup = (
+            collision_geom_groups(model)
+            if geomgroup is None
+            else np.array([1 if flag else 0 for flag in geomgroup], dtype=np.uint8)
+        )
+        count = len(self.directions)
+        self._geom_id = np.zeros(count, dtype=np.int32)
+        self._dist = np.zeros(count, dtype=np.float64)
+        self._normal = np.zeros(3 * count, dtype=np.float64)
+
+    def __len__(self) -> int:
+        return len(self.directions)
+
+    def cast(self, model: mujoco.MjModel, data: mujoco.MjData, pose: Pose) -> RayHits:
+        """Cast every ray from `pose` (sensor frame in world) and report the hits."""
+        world_dirs = np.ascontiguousarray(self.directions @ pose.rotation.T)
+        mujoco.mj_multiRay(
+            model,
+            data,
+            np.ascontiguousarray(pose.position, dtype=np.float64),
+            world_dirs.ravel(),
+            self.geomgroup,
+            1,
+            self.exclude_body,
+            self._geom_id,
+            self._dist,
+            self._normal,
+            len(self.directions),
+            self.cutoff,
+        )
+        hit = self._geom_id >= 0
+        distance = np.where(hit, self._dist, np.inf)
+        normals = self._normal.reshape(-1, 3)
+        cos_incidence = np.where(hit, np.abs(np.einsum("ij,ij->i", normals, world_dirs)), 0.0)
+        return RayHits(distance, self._geom_id.copy(), cos_incidence)

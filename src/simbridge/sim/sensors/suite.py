@@ -1,0 +1,126 @@
+"""All sensors of a scene: built from config dictionaries, polled after each physics step."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from typing import Any
+
+import mujoco
+
+from simbridge.errors import SimError
+from simbridge.sim.sensors.base import Sensor
+from simbridge.sim.sensors.camera import Camera, CameraConfig
+from simbridge.sim.sensors.depth_camera import DepthCamera, DepthCameraConfig
+from simbridge.sim.sensors.imu import Imu, ImuConfig
+from simbridge.sim.sensors.lidar2d import Lidar2D, Lidar2DConfig
+from simbridge.sim.sensors.lidar3d import Lidar3D, Lidar3DConfig
+from simbridge.sim.sensors.odometry import Odometry, OdometryConfig
+from simbridge.sim.sensors.rosmsg import Publication
+
+__all__ = ["SENSOR_TYPES", "SensorSuite", "build_sensor"]
+
+
+def _lidar2d(model: mujoco.MjModel, cfg: Mapping[str, Any]) -> Sensor:
+    return Lidar2D(model, Lidar2DConfig.from_config(cfg))
+
+
+def _lidar3d(model: mujoco.MjModel, cfg: Mapping[str, Any]) -> Sensor:
+    return Lidar3D(model, Lidar3DConfig.from_config(cfg))
+
+
+def _camera(model: mujoco.MjModel, cfg: Mapping[str, Any]) -> Sensor:
+    return Camera(model, CameraConfig.from_config(cfg))
+
+
+def _depth(model: mujoco.MjModel, cfg: Mapping[str, Any]) -> Sensor:
+    return DepthCamera(model, DepthCameraConfig.from_config(cfg))
+
+
+def _imu(model: mujoco.MjModel, cfg: Mapping[str, Any]) -> Sensor:
+    return Imu(model, ImuConfig.from_config(cfg))
+
+
+def _odometry(model: mujoco.MjModel, cfg: Mapping[str, Any]) -> Sensor:
+    return Odometry(model, OdometryConfig.from_config(cfg))
+
+
+SENSOR_TYPES: dict[str, Callable[[mujoco.MjModel, Mapping[str, Any]], Sensor]] = {
+    "lidar_2d": _lidar2d,
+    "lidar_3d": _lidar3d,
+    "camera": _camera,
+    "depth_camera": _depth,
+    "imu": _imu,
+    "odometry": _odometry,
+}
+
+
+def build_sensor(model: mujoco.MjModel, config: Mapping[str, Any]) -> Sensor:
+    """Create one sensor from a scene-file mapping whose `type` is a key of SENSOR_TYPES."""
+    kind = config.get("type")
+    if kind not in SENSOR_TYPES:
+        raise SimError(
+            f"sensor {config.get('name', '?')!r}: type {kind!r} is not one of "
+            f"{sorted(SENSOR_TYPES)}"
+        )
+    return SENSOR_TYPES[kind](model, config)
+
+
+class SensorSuite:
+    """The sensors of one simulation; `poll` after every physics step returns what is due."""
+
+    def __init__(self, sensors: Iterable[Sensor] = ()) -> None:
+        self.sensors: list[Sensor] = []
+        for sensor in sensors:
+            self.add(sensor)
+
+    @classmethod
+    def from_config(
+        cls, model: mujoco.MjModel, configs: Sequence[Mapping[str, Any]]
+    ) -> SensorSuite:
+        """Build every sensor listed in a scene file's `sensors:` section."""
+        return cls(build_sensor(model, config) for config in configs)
+
+    def add(self, sensor: Sensor) -> None:
+        """Add a sensor; names and topics must be unique across the suite."""
+        if any(existing.name == sensor.name for existing in self.sensors):
+            raise SimError(f"two sensors are named {sensor.name!r}")
+        taken = {topic for existing in self.sensors for topic in existing.outputs}
+        clash = sorted(taken & set(sensor.outputs))
+        if clash:
+            raise SimError(f"sensor {sensor.name!r} publishes on topics already used: {clash}")
+        self.sensors.append(sensor)
+
+    def __getitem__(self, name: str) -> Sensor:
+        for sensor in self.sensors:
+            if sensor.name == name:
+                return sensor
+        raise SimError(
+            f"no sensor named {name!r}; sensors: {[sensor.name for sensor in self.sensors]}"
+        )
+
+    @property
+    def outputs(self) -> dict[str, str]:
+        """Every topic any sensor can publish -> its ROS 1 message type."""
+        return {topic: kind for sensor in self.sensors for topic, kind in sensor.outputs.items()}
+
+    def set_wanted(self, topic: str, wanted: bool) -> None:
+        """Switch the output `topic` on or off (the ROS layer follows subscriptions)."""
+        for sensor in self.sensors:
+            if topic in sensor.outputs:
+                sensor.set_wanted(topic, wanted)
+                return
+        raise SimError(f"no sensor publishes {topic!r}; topics: {sorted(self.outputs)}")
+
+    def poll(self, model: mujoco.MjModel, data: mujoco.MjData) -> list[Publication]:
+        """Messages from every sensor due at `data.time`."""
+        return [pub for sensor in self.sensors for pub in sensor.poll(model, data)]
+
+    def reset(self) -> None:
+        """Restart every schedule after the simulation was reset."""
+        for sensor in self.sensors:
+            sensor.reset()
+
+    def close(self) -> None:
+        """Release every sensor's resources."""
+        for sensor in self.sensors:
+            sensor.close()
