@@ -1,1 +1,24 @@
-"""TODO"""
+"""The simulation-side ROS-TCP client (what Unity's ROSConnection does, in Python).
+
+`Connector` publishes, subscribes, calls ROS services and implements services that
+ROS calls, over one TCP connection that it keeps alive, re-establishes with back-off
+and re-registers on its own.
+"""
+
+from __future__ import annotations
+
+from simbridge.connector.calls import ServiceHandler
+from simbridge.connector.connector import Connector
+from simbridge.connector.handles import MessageCallback, Publisher, Subscription
+from simbridge.connector.options import ConnectorOptions
+from simbridge.connector.stats import ConnectorStats
+
+__all__ = [
+    "Connector",
+    "ConnectorOptions",
+    "ConnectorStats",
+    "MessageCallback",
+    "Publisher",
+    "ServiceHandler",
+    "Subscription",
+]

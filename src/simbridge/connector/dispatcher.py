@@ -1,0 +1,72 @@
+"""The dispatch thread: runs user callbacks and service handlers off the socket reader.
+
+A slow callback therefore delays only later callbacks, never keepalives or service
+responses; exceptions in callbacks are logged and counted, not fatal.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+from collections.abc import Callable
+from typing import Any
+
+from simbridge.connector.fifo import BoundedFifo
+from simbridge.connector.stats import StatsCounters
+
+__all__ = ["Dispatcher", "Task"]
+
+_log = logging.getLogger("simbridge.connector")
+
+Task = Callable[[], None]
+_BATCH = 256
+
+
+class Dispatcher:
+    """Runs queued tasks in order on one thread; keyed tasks are bounded per key."""
+
+    def __init__(self, counters: StatsCounters) -> None:
+        self.fifo: BoundedFifo[Any, Task] = BoundedFifo()
+        self._counters = counters
+        self._stop = False
+        self._thread = threading.Thread(
+            target=self._run, name="simbridge-connector-dispatch", daemon=True
+        )
+
+    def start(self) -> None:
+        """Start the thread."""
+        self._thread.start()
+
+    def stop(self) -> None:
+        """End the thread once its current task returns (queued tasks are dropped)."""
+        self._stop = True
+        self.fifo.ready.set()
+        if self._thread.is_alive() and threading.current_thread() is not self._thread:
+            self._thread.join(timeout=5.0)
+
+    @property
+    def on_thread(self) -> bool:
+        """True when called from the dispatch thread itself."""
+        return threading.current_thread() is self._thread
+
+    def submit(self, task: Task) -> None:
+        """Run `task` after everything queued before it."""
+        self.fifo.put_control(task)
+
+    def _run(self) -> None:
+        fifo = self.fifo
+        while not self._stop:
+            fifo.ready.wait()
+            fifo.ready.clear()
+            while not self._stop:
+                batch = fifo.take(_BATCH, 1 << 62)
+                if not batch:
+                    break
+                for _key, task in batch:
+                    if self._stop:
+                        return
+                    try:
+                        task()
+                    except Exception:
+                        self._counters.callback_failed()
+                        _log.exception("callback raised; the connector keeps running")

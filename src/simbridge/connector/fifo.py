@@ -1,0 +1,128 @@
+"""A thread-safe FIFO whose items may carry a key; each key's queued items are bounded.
+
+One global order keeps frames in the order they were queued (a `__publish` before the
+messages it announces, a message before a later `__remove_publisher`), while a per-key
+deque finds a key's oldest item to drop in O(1) when the key's bound is reached.
+"""
+
+from __future__ import annotations
+
+import threading
+from collections import deque
+from collections.abc import Callable, Iterable
+from typing import Generic, TypeVar
+
+__all__ = ["BoundedFifo"]
+
+K = TypeVar("K")
+T = TypeVar("T")
+
+
+class _Slot(Generic[K, T]):
+    __slots__ = ("item", "key", "live", "size")
+
+    def __init__(self, key: K | None, item: T, size: int) -> None:
+        self.key = key
+        self.item = item
+        self.size = size
+        self.live = True
+
+
+class BoundedFifo(Generic[K, T]):
+    """FIFO for one consumer and many producers; `ready` is set whenever items arrive."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._order: deque[_Slot[K, T]] = deque()
+        self._by_key: dict[K, deque[_Slot[K, T]]] = {}
+        self._count = 0
+        self.ready = threading.Event()
+
+    def __len__(self) -> int:
+        return self._count
+
+    def put(self, key: K, item: T, bound: int, size: int = 0) -> bool:
+        """Queue `item` under `key`; when `key` already holds `bound` items drop its oldest.
+
+        Returns True when an item was dropped.
+        """
+        slot = _Slot(key, item, size)
+        with self._lock:
+            queue = self._by_key.get(key)
+            if queue is None:
+                queue = self._by_key[key] = deque()
+            dropped = len(queue) >= bound
+            if dropped:
+                queue.popleft().live = False
+                self._count -= 1
+            queue.append(slot)
+            self._order.append(slot)
+            self._count += 1
+        if not self.ready.is_set():
+            self.ready.set()
+        return dropped
+
+    def put_control(self, item: T, size: int = 0) -> None:
+        """Queue an unbounded item that has no key (a system command)."""
+        with self._lock:
+            self._order.append(_Slot(None, item, size))
+            self._count += 1
+        if not self.ready.is_set():
+            self.ready.set()
+
+    def put_control_front(self, items: Iterable[T]) -> None:
+        """Queue unkeyed items ahead of everything queued, keeping their own order."""
+        slots = [_Slot[K, T](None, item, 0) for item in items]
+        with self._lock:
+            self._order.extendleft(reversed(slots))
+            self._count += len(slots)
+        if slots and not self.ready.is_set():
+            self.ready.set()
+
+    def take(self, max_items: int, max_size: int) -> list[tuple[K | None, T]]:
+        """Remove and return items in order: at most `max_items`, and stop once their sizes
+        reach `max_size` (at least one item is returned when any is queued)."""
+        out: list[tuple[K | None, T]] = []
+        total = 0
+        with self._lock:
+            order = self._order
+            by_key = self._by_key
+            while order and len(out) < max_items and total < max_size:
+                slot = order.popleft()
+                if not slot.live:
+                    continue
+                key = slot.key
+                if key is not None:
+                    by_key[key].popleft()
+                out.append((key, slot.item))
+                total += slot.size
+            self._count -= len(out)
+        return out
+
+    def pending(self, key: K) -> int:
+        """How many items of `key` are queued."""
+        queue = self._by_key.get(key)
+        return len(queue) if queue is not None else 0
+
+    def discard_control(self, keep: Callable[[T], bool]) -> list[T]:
+        """Remove the unkeyed items `keep` rejects; returns them (keyed items stay)."""
+        removed: list[T] = []
+        with self._lock:
+            kept: deque[_Slot[K, T]] = deque()
+            for slot in self._order:
+                if not slot.live:
+                    continue
+                if slot.key is None and not keep(slot.item):
+                    removed.append(slot.item)
+                    self._count -= 1
+                else:
+                    kept.append(slot)
+            self._order = kept
+        return removed
+
+    def clear(self) -> None:
+        """Drop everything."""
+        with self._lock:
+            self._order.clear()
+            self._by_key.clear()
+            self._count = 0

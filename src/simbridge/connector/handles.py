@@ -1,0 +1,108 @@
+"""What registering returns: a `Publisher` to publish through, a `Subscription` to cancel."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+from simbridge.connector.codec import PayloadCodec
+from simbridge.connector.fifo import BoundedFifo
+from simbridge.connector.stats import StatsCounters
+from simbridge.connector.writer import OutTopic
+
+__all__ = ["MessageCallback", "Publisher", "Subscription"]
+
+MessageCallback = Callable[[Any], None]
+"""Receives a decoded message, or the payload bytes for a raw subscription."""
+
+
+class Publisher:
+    """A topic this connector publishes on. `publish` is thread-safe and never blocks."""
+
+    __slots__ = ("_codec", "_counters", "_fifo", "_last", "_out", "latch", "msg_type", "queue_size")
+
+    def __init__(
+        self,
+        out: OutTopic,
+        *,
+        msg_type: str,
+        queue_size: int,
+        latch: bool,
+        fifo: BoundedFifo[OutTopic, bytes],
+        codec: PayloadCodec,
+        counters: StatsCounters,
+    ) -> None:
+        self._out = out
+        self.msg_type = msg_type
+        self.queue_size = queue_size
+        """The ROS-side queue size announced to the endpoint."""
+        self.latch = latch
+        self._fifo = fifo
+        self._codec = codec
+        self._counters = counters
+        self._last: bytes | None = None
+
+    @property
+    def topic(self) -> str:
+        """The topic name."""
+        return self._out.topic
+
+    @property
+    def out(self) -> OutTopic:
+        """The writer's handle for this topic (the key of its outgoing queue)."""
+        return self._out
+
+    @property
+    def last_payload(self) -> bytes | None:
+        """The latest payload of a latched publisher (re-sent after a reconnect)."""
+        return self._last
+
+    def publish(self, msg: object) -> None:
+        """Queue one message (an object of `msg_type` or its serialized bytes).
+
+        When the topic already has its bound of unsent messages, the oldest is dropped
+        and counted in `Connector.stats().publish_drops`.
+        """
+        payload = self._codec.encode(msg, self.msg_type)
+        if self.latch:
+            self._last = payload
+        out = self._out
+        if self._fifo.put(out, payload, out.bound, len(payload)):
+            self._counters.publish_dropped(out.topic)
+
+
+class Subscription:
+    """One callback on a topic; `unsubscribe()` cancels just this one."""
+
+    __slots__ = ("_codec", "_remove", "callback", "msg_type", "queue_size", "raw", "topic")
+
+    def __init__(
+        self,
+        topic: str,
+        msg_type: str,
+        callback: MessageCallback,
+        *,
+        raw: bool,
+        queue_size: int,
+        codec: PayloadCodec,
+        remove: Callable[[Subscription], None],
+    ) -> None:
+        self.topic = topic
+        self.msg_type = msg_type
+        self.callback = callback
+        self.raw = raw
+        self.queue_size = queue_size
+        """Received messages waiting for this callback; the oldest is dropped beyond."""
+        self._codec = codec
+        self._remove = remove
+
+    def deliver(self, payload: bytes) -> None:
+        """Run the callback on one payload (called on the dispatch thread)."""
+        if self.raw:
+            self.callback(payload)
+        else:
+            self.callback(self._codec.decode(payload, self.msg_type))
+
+    def unsubscribe(self) -> None:
+        """Stop this callback; the topic is unsubscribed when no callback is left."""
+        self._remove(self)

@@ -1,0 +1,45 @@
+"""One TCP connection to the endpoint, shared by the connector's reader and writer."""
+
+from __future__ import annotations
+
+import contextlib
+import socket
+import threading
+
+__all__ = ["Link", "open_link"]
+
+
+class Link:
+    """A connected socket. `fail()` wakes any thread blocked on it; `close()` releases it."""
+
+    def __init__(self, sock: socket.socket) -> None:
+        self.sock = sock
+        self.send_lock = threading.Lock()
+        """Held by the writer while it sends, so `close()` never frees a socket in use."""
+        self.broken = threading.Event()
+
+    def fail(self) -> None:
+        """Mark broken and shut the socket down (blocked reads and writes return at once)."""
+        if self.broken.is_set():
+            return
+        self.broken.set()
+        with contextlib.suppress(OSError):
+            self.sock.shutdown(socket.SHUT_RDWR)
+
+    def close(self) -> None:
+        """Shut down, wait for a send in progress to give up, then close the socket."""
+        self.fail()
+        with self.send_lock:
+            self.sock.close()
+
+
+def open_link(host: str, port: int, timeout: float) -> Link:
+    """Connect with a timeout; the socket is then blocking, with Nagle's delay off."""
+    sock = socket.create_connection((host, port), timeout=timeout)
+    try:
+        sock.settimeout(None)
+        sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+    except OSError:
+        sock.close()
+        raise
+    return Link(sock)
