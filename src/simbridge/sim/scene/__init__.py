@@ -1,0 +1,33 @@
+"""Scene files: YAML describing robots, objects, lights, physics and ROS interfaces."""
+
+from __future__ import annotations
+
+from simbridge.sim.scene.builder import BuiltRobot, BuiltScene, build_scene
+from simbridge.sim.scene.loader import SHAPES, load_scene, parse_scene
+from simbridge.sim.scene.model import (
+    CommandTopics,
+    LightSpec,
+    ObjectSpec,
+    PhysicsSettings,
+    Pose,
+    RobotSpec,
+    RosSettings,
+    Scene,
+)
+
+__all__ = [
+    "SHAPES",
+    "BuiltRobot",
+    "BuiltScene",
+    "CommandTopics",
+    "LightSpec",
+    "ObjectSpec",
+    "PhysicsSettings",
+    "Pose",
+    "RobotSpec",
+    "RosSettings",
+    "Scene",
+    "build_scene",
+    "load_scene",
+    "parse_scene",
+]

@@ -1,0 +1,186 @@
+"""Turn a `Scene` into an MJCF document: robots with drive actuators, objects, lights, physics."""
+
+from __future__ import annotations
+
+import math
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass
+
+from simbridge.errors import SimError
+from simbridge.sim.control.drive import DriveSpec
+from simbridge.sim.control.drive_bank import add_drive_actuator
+from simbridge.sim.scene.model import LightSpec, ObjectSpec, PhysicsSettings, RobotSpec, Scene
+from simbridge.sim.urdf.document import MjcfDocument, fmt
+from simbridge.sim.urdf.inertia import inertial_from_collisions
+from simbridge.sim.urdf.loader import load_urdf
+from simbridge.sim.urdf.meshes import MeshCache
+from simbridge.sim.urdf.mjcf import MjcfOptions, RobotMjcf, add_robot
+from simbridge.sim.urdf.model import Box, Collision, Cylinder, Geometry, Mesh, Sphere
+
+__all__ = ["BuiltRobot", "BuiltScene", "build_scene"]
+
+
+@dataclass(frozen=True)
+class BuiltRobot:
+    """A robot as placed in the model: its scene entry, URDF mapping and resolved drives."""
+
+    name: str
+    spec: RobotSpec
+    mjcf: RobotMjcf
+    drives: dict[str, DriveSpec]
+    """MuJoCo joint name -> drive, force limit already resolved from the URDF."""
+
+
+@dataclass(frozen=True)
+class BuiltScene:
+    """The document (still editable before compiling) and what went into it."""
+
+    scene: Scene
+    document: MjcfDocument
+    robots: tuple[BuiltRobot, ...]
+
+
+def _physics(doc: MjcfDocument, physics: PhysicsSettings) -> None:
+    doc.option.attrib.update(
+        timestep=fmt(physics.timestep),
+        gravity=fmt(physics.gravity),
+        iterations=str(physics.solver_iterations),
+        integrator=physics.integrator,
+    )
+
+
+def _robot(doc: MjcfDocument, spec: RobotSpec, meshes: MeshCache) -> BuiltRobot:
+    robot = load_urdf(spec.urdf, search_paths=spec.search_paths, xacro_args=spec.xacro_args)
+    name = spec.name or robot.name
+    options = MjcfOptions(
+        prefix=spec.prefix,
+        base=spec.base.transform,
+        fixed_base=spec.fixed_base,
+        self_collision=spec.self_collision,
+        armature=spec.armature,
+    )
+    mjcf = add_robot(doc, robot, options, meshes)
+    drivable = {j.name: j for j in robot.movable_joints if j.mimic is None}
+    for joint_name in spec.joint_drives:
+        if joint_name not in drivable:
+            raise SimError(
+                f"robot '{name}' drives: '{joint_name}' is not a drivable joint "
+                f"(revolute/continuous/prismatic without mimic: {', '.join(drivable) or 'none'})"
+            )
+    for joint_name in spec.initial_positions:
+        if joint_name not in drivable:
+            raise SimError(
+                f"robot '{name}' initial_positions: '{joint_name}' is not a drivable joint "
+                f"(valid: {', '.join(drivable) or 'none'})"
+            )
+    drives: dict[str, DriveSpec] = {}
+    actuators = doc.section("actuator")
+    for joint_name, joint in drivable.items():
+        drive = spec.joint_drives.get(joint_name, spec.default_drive)
+        if drive.force_limit is None and joint.limit is not None and joint.limit.effort > 0:
+            drive = drive.with_changes(force_limit=joint.limit.effort)
+        mj_name = mjcf.joint_name(joint_name)
+        add_drive_actuator(actuators, mj_name, drive.force_limit)
+        drives[mj_name] = drive
+    return BuiltRobot(name, spec, mjcf, drives)
+
+
+def _object_geometry(obj: ObjectSpec) -> Geometry | None:
+    if obj.shape == "box":
+        x, y, z = obj.size
+        return Box((x, y, z))
+    if obj.shape == "sphere":
+        return Sphere(obj.size[0])
+    if obj.shape == "cylinder":
+        return Cylinder(obj.size[0], obj.size[1])
+    if obj.shape == "mesh":
+        assert obj.mesh is not None
+        if not obj.mesh.is_file():
+            raise SimError(f"scene object '{obj.name}': mesh file '{obj.mesh}' does not exist")
+        return Mesh(str(obj.mesh), obj.mesh_scale, obj.mesh)
+    return None
+
+
+def _object(doc: MjcfDocument, obj: ObjectSpec, meshes: MeshCache) -> None:
+    tf = obj.pose.transform
+    body = ET.SubElement(
+        doc.worldbody, "body", name=obj.name, pos=fmt(tf.translation), quat=fmt(tf.quat_wxyz)
+    )
+    geom = ET.SubElement(
+        body,
+        "geom",
+        name=obj.name,
+        friction=fmt(obj.friction),
+        rgba=fmt(obj.rgba),
+        contype="1",
+        conaffinity="3",
+        group="0",
+    )
+    geometry = _object_geometry(obj)
+    if geometry is None:
+        geom.attrib.update(type="plane", size=fmt((*obj.size, 0.05)))
+    elif isinstance(geometry, Box):
+        geom.attrib.update(type="box", size=fmt(x / 2 for x in geometry.size))
+    elif isinstance(geometry, Sphere):
+        geom.attrib.update(type="sphere", size=fmt(geometry.radius))
+    elif isinstance(geometry, Cylinder):
+        geom.attrib.update(type="cylinder", size=fmt((geometry.radius, geometry.length / 2)))
+    else:
+        assert isinstance(geometry, Mesh)
+        assert geometry.path is not None
+        ET.SubElement(
+            doc.asset,
+            "mesh",
+            name=f"object/{obj.name}",
+            file=str(meshes.mujoco_file(geometry.path)),
+            scale=fmt(geometry.scale),
+        )
+        geom.attrib.update(type="mesh", mesh=f"object/{obj.name}")
+    if obj.dynamic:
+        assert geometry is not None
+        unit = inertial_from_collisions([Collision(geometry)], 1.0, meshes)
+        if unit is None:
+            raise SimError(f"scene object '{obj.name}': has no volume to compute inertia from")
+        scale = (obj.mass if obj.mass is not None else 1000.0 * unit.mass) / unit.mass
+        ET.SubElement(body, "freejoint", name=obj.name)
+        ET.SubElement(
+            body,
+            "inertial",
+            mass=fmt(unit.mass * scale),
+            pos=fmt(unit.origin.xyz),
+            fullinertia=fmt(
+                v * scale for v in (unit.ixx, unit.iyy, unit.izz, unit.ixy, unit.ixz, unit.iyz)
+            ),
+        )
+
+
+def _light(doc: MjcfDocument, light: LightSpec, index: int) -> None:
+    norm = math.sqrt(sum(c * c for c in light.direction))
+    if norm == 0:
+        raise SimError(f"scene lights[{index}]: dir must not be zero")
+    attrs = {
+        "pos": fmt(light.pos),
+        "dir": fmt(light.direction),
+        "diffuse": fmt(light.diffuse),
+        "directional": str(light.directional).lower(),
+        "castshadow": str(light.cast_shadows).lower(),
+    }
+    if light.name:
+        attrs["name"] = light.name
+    ET.SubElement(doc.worldbody, "light", attrs)
+
+
+def build_scene(scene: Scene, meshes: MeshCache | None = None) -> BuiltScene:
+    """Build the MJCF document of `scene` (URDFs are loaded here); compile it with the world."""
+    cache = meshes or MeshCache()
+    doc = MjcfDocument("scene")
+    _physics(doc, scene.physics)
+    for i, light in enumerate(scene.lights):
+        _light(doc, light, i)
+    for obj in scene.objects:
+        _object(doc, obj, cache)
+    robots = tuple(_robot(doc, spec, cache) for spec in scene.robots)
+    names = [r.name for r in robots]
+    if len(set(names)) != len(names):
+        raise SimError(f"scene robots: duplicate robot names {names} (set 'name' on each)")
+    return BuiltScene(scene, doc, robots)

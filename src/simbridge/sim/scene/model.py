@@ -1,0 +1,135 @@
+"""A scene: robots, objects, lights, physics and ROS interfaces (frozen dataclasses)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from simbridge.sim.control.drive import DriveSpec
+from simbridge.sim.urdf.transforms import Transform, Vec3
+
+__all__ = [
+    "CommandTopics",
+    "LightSpec",
+    "ObjectSpec",
+    "PhysicsSettings",
+    "Pose",
+    "RobotSpec",
+    "RosSettings",
+    "Scene",
+]
+
+INTEGRATORS = ("euler", "implicit", "implicitfast", "rk4")
+
+
+@dataclass(frozen=True)
+class Pose:
+    """Position (m) and fixed-axis roll/pitch/yaw (rad), as in a URDF origin."""
+
+    xyz: Vec3 = (0.0, 0.0, 0.0)
+    rpy: Vec3 = (0.0, 0.0, 0.0)
+
+    @property
+    def transform(self) -> Transform:
+        """The rigid transform of this pose."""
+        return Transform.from_xyz_rpy(self.xyz, self.rpy)
+
+
+@dataclass(frozen=True)
+class PhysicsSettings:
+    """Integration settings; `realtime_factor` 0 runs as fast as possible."""
+
+    timestep: float = 0.002
+    gravity: Vec3 = (0.0, 0.0, -9.81)
+    solver_iterations: int = 100
+    integrator: str = "implicitfast"
+    realtime_factor: float = 1.0
+    seed: int = 0
+
+
+@dataclass(frozen=True)
+class RobotSpec:
+    """A robot from a URDF/xacro file placed at `base`, with its drives."""
+
+    urdf: Path
+    name: str | None = None
+    prefix: str = ""
+    base: Pose = Pose()
+    fixed_base: bool = True
+    self_collision: bool = False
+    xacro_args: dict[str, str] = field(default_factory=dict)
+    search_paths: tuple[Path, ...] = ()
+    initial_positions: dict[str, float] = field(default_factory=dict)
+    default_drive: DriveSpec = field(default_factory=DriveSpec)
+    joint_drives: dict[str, DriveSpec] = field(default_factory=dict)
+    armature: float = 0.0
+
+
+@dataclass(frozen=True)
+class ObjectSpec:
+    """A primitive or mesh body; static unless `dynamic` (then it gets a free joint).
+
+    `size` holds full edge lengths for boxes, (radius,) for spheres, (radius, length) for
+    cylinders and (x, y) half extents for planes (0 means infinite).
+    """
+
+    name: str
+    shape: str
+    size: tuple[float, ...] = ()
+    pose: Pose = Pose()
+    dynamic: bool = False
+    mass: float | None = None
+    friction: tuple[float, float, float] = (1.0, 0.005, 0.0001)
+    rgba: tuple[float, float, float, float] = (0.6, 0.6, 0.6, 1.0)
+    mesh: Path | None = None
+    mesh_scale: Vec3 = (1.0, 1.0, 1.0)
+
+
+@dataclass(frozen=True)
+class LightSpec:
+    """A light; directional lights shine along `direction` from infinitely far."""
+
+    name: str
+    pos: Vec3 = (0.0, 0.0, 3.0)
+    direction: Vec3 = (0.0, 0.0, -1.0)
+    directional: bool = False
+    diffuse: Vec3 = (0.7, 0.7, 0.7)
+    cast_shadows: bool = True
+
+
+@dataclass(frozen=True)
+class CommandTopics:
+    """Topics the simulator subscribes to (None switches one off)."""
+
+    trajectory: str | None = "/joint_trajectory"
+    position: str | None = "/joint_group_position_controller/command"
+    velocity: str | None = "/joint_group_velocity_controller/command"
+    follow_joint_states: str | None = None
+
+
+@dataclass(frozen=True)
+class RosSettings:
+    """Which ROS interfaces run and how often (rates in Hz of sim time)."""
+
+    enabled: bool = True
+    joint_states_topic: str = "/joint_states"
+    joint_states_rate: float = 50.0
+    tf: bool = True
+    tf_rate: float = 50.0
+    clock: bool = True
+    clock_rate: float = 100.0
+    commands: CommandTopics = CommandTopics()
+    command_joints: tuple[str, ...] = ()
+    services_prefix: str = "/simbridge"
+
+
+@dataclass(frozen=True)
+class Scene:
+    """Everything needed to build a `World`."""
+
+    physics: PhysicsSettings = PhysicsSettings()
+    robots: tuple[RobotSpec, ...] = ()
+    objects: tuple[ObjectSpec, ...] = ()
+    lights: tuple[LightSpec, ...] = ()
+    ros: RosSettings = RosSettings()
+    source: Path | None = None

@@ -1,0 +1,319 @@
+"""The running simulation: a compiled scene, its drives, step callbacks and a paced run loop."""
+
+from __future__ import annotations
+
+import os
+import threading
+import time
+from collections import deque
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from simbridge.errors import SimError
+from simbridge.sim.control.drive_bank import DriveBank
+from simbridge.sim.control.follower import TrajectoryFollower
+from simbridge.sim.scene.builder import BuiltScene, build_scene
+from simbridge.sim.scene.loader import load_scene
+from simbridge.sim.scene.model import Scene
+from simbridge.sim.urdf.document import MjcfDocument
+from simbridge.sim.urdf.transforms import Transform
+from simbridge.sim.world.pacer import Pacer
+from simbridge.sim.world.robot import RobotHandle
+
+__all__ = ["ModelExtension", "RunStats", "StepCallback", "World"]
+
+StepCallback = Callable[["World"], None]
+"""Called on the simulation thread after a step, with the world."""
+ModelExtension = Callable[[MjcfDocument], None]
+"""Edits the MJCF document before it is compiled (add sites, cameras, sensors, bodies)."""
+
+
+@dataclass(frozen=True)
+class RunStats:
+    """What a `World.run` call did."""
+
+    steps: int
+    sim_time: float
+    wall_time: float
+
+    @property
+    def realtime_factor(self) -> float:
+        """Sim seconds per wall second achieved."""
+        return self.sim_time / self.wall_time if self.wall_time > 0 else float("inf")
+
+
+@dataclass
+class _Callback:
+    fn: StepCallback
+    period: float | None
+    due: float
+
+
+class World:
+    """A MuJoCo model built from a `Scene`; step it, read joint and link state, drive joints.
+
+    Not thread-safe except `post`, `pause`, `resume`, `request_steps`, `request_reset` and
+    `stop`, which other threads (e.g. ROS callbacks) use to reach the simulation thread.
+    """
+
+    def __init__(self, built: BuiltScene) -> None:
+        self.scene: Scene = built.scene
+        self.document = built.document
+        self.model: mujoco.MjModel = built.document.compile()
+        self.data = mujoco.MjData(self.model)
+        self.robots = {r.name: RobotHandle(r, self.model) for r in built.robots}
+        specs = {name: spec for r in built.robots for name, spec in r.drives.items()}
+        self.drives = DriveBank(self.model, self.data, specs)
+        self.follower = TrajectoryFollower(self.drives)
+        self.rng = np.random.default_rng(self.scene.physics.seed)
+        self._callbacks: dict[int, _Callback] = {}
+        self._next_id = 0
+        self._posted: deque[Callable[[], None]] = deque()
+        self._lock = threading.Lock()
+        self._paused = False
+        self._pending_steps = 0
+        self._reset_requested = False
+        self._stop = threading.Event()
+        self.reset()
+
+    @classmethod
+    def from_scene(
+        cls, scene: Scene | str | Path, extensions: Sequence[ModelExtension] = ()
+    ) -> World:
+        """Build a world from a `Scene` or a scene YAML path; `extensions` edit the MJCF
+        document first (this is how sensors add sites and cameras on links by name)."""
+        if not isinstance(scene, Scene):
+            scene = load_scene(scene)
+        built = build_scene(scene)
+        for extend in extensions:
+            extend(built.document)
+        return cls(built)
+
+    # ---- state -----------------------------------------------------------------------------
+
+    @property
+    def time(self) -> float:
+        """Simulated time in seconds since the last reset."""
+        return float(self.data.time)
+
+    @property
+    def timestep(self) -> float:
+        """Seconds of sim time per step."""
+        return float(self.model.opt.timestep)
+
+    def robot(self, name: str | None = None) -> RobotHandle:
+        """The robot called `name` (or the only one)."""
+        if name is None and len(self.robots) == 1:
+            return next(iter(self.robots.values()))
+        if name not in self.robots:
+            raise SimError(f"unknown robot '{name}' (robots: {', '.join(self.robots) or 'none'})")
+        return self.robots[name]
+
+    def _slots(self, names: Sequence[str] | None) -> list[tuple[str, int, int]]:
+        table = {n: s for r in self.robots.values() for n, s in r.joints.items()}
+        if names is None:
+            return [(n, s.qpos, s.dof) for n, s in table.items()]
+        out = []
+        for name in names:
+            if name not in table:
+                raise SimError(f"unknown joint '{name}' (joints: {', '.join(table) or 'none'})")
+            out.append((name, table[name].qpos, table[name].dof))
+        return out
+
+    def joint_names(self) -> list[str]:
+        """Every robot's 1-DoF joint names (the /joint_states set)."""
+        return [n for r in self.robots.values() for n in r.joint_names]
+
+    def joint_positions(self, names: Sequence[str] | None = None) -> dict[str, float]:
+        """Joint positions (rad or m)."""
+        return {n: float(self.data.qpos[q]) for n, q, _ in self._slots(names)}
+
+    def joint_velocities(self, names: Sequence[str] | None = None) -> dict[str, float]:
+        """Joint velocities (rad/s or m/s)."""
+        return {n: float(self.data.qvel[d]) for n, _, d in self._slots(names)}
+
+    def joint_efforts(self, names: Sequence[str] | None = None) -> dict[str, float]:
+        """Force or torque the drives apply to each joint (N or N m)."""
+        return {n: float(self.data.qfrc_actuator[d]) for n, _, d in self._slots(names)}
+
+    def link_pose(self, name: str) -> Transform:
+        """World pose of body `name` (a URDF link name with its robot's prefix, or an object)."""
+        try:
+            body = self.model.body(name).id
+        except KeyError:
+            raise SimError(f"unknown link or body '{name}'") from None
+        return Transform(self.data.xmat[body].reshape(3, 3).copy(), self.data.xpos[body].copy())
+
+    def link_poses(self, robot: str | None = None) -> dict[str, Transform]:
+        """World poses of every link of `robot` (or of the only robot)."""
+        return {name: self.link_pose(name) for name in self.robot(robot).bodies}
+
+    # ---- commands --------------------------------------------------------------------------
+
+    def set_joint_positions(self, values: Mapping[str, float]) -> None:
+        """Teleport joints (kinematic follower): set positions, zero velocities, move drive
+        targets there and update mimic joints, then recompute poses."""
+        for name, qpos, dof in self._slots(list(values)):
+            self.data.qpos[qpos] = values[name]
+            self.data.qvel[dof] = 0.0
+            if name in self.drives.joints:
+                self.drives.set_position(name, values[name])
+        self._sync_mimics()
+        mujoco.mj_forward(self.model, self.data)
+
+    def _sync_mimics(self) -> None:
+        for robot in self.robots.values():
+            for name, slot in robot.joints.items():
+                mimic = robot.mimic_of(name)
+                if mimic is not None:
+                    leader, multiplier, offset = mimic
+                    lead = robot.joints[leader]
+                    self.data.qpos[slot.qpos] = multiplier * self.data.qpos[lead.qpos] + offset
+                    self.data.qvel[slot.dof] = multiplier * self.data.qvel[lead.dof]
+
+    # ---- callbacks and threads -------------------------------------------------------------
+
+    def add_step_callback(self, fn: StepCallback, period: float | None = None) -> int:
+        """Call `fn(world)` after every step, or every `period` seconds of sim time; returns
+        an id for `remove_step_callback`."""
+        if period is not None and period <= 0:
+            raise SimError(f"callback period must be > 0 seconds, got {period}")
+        self._next_id += 1
+        self._callbacks[self._next_id] = _Callback(fn, period, self.time)
+        return self._next_id
+
+    def remove_step_callback(self, callback_id: int) -> None:
+        """Stop calling a callback added with `add_step_callback`."""
+        self._callbacks.pop(callback_id, None)
+
+    def post(self, fn: Callable[[], None]) -> None:
+        """Run `fn()` on the simulation thread before the next step (thread-safe)."""
+        with self._lock:
+            self._posted.append(fn)
+
+    def pause(self) -> None:
+        """Stop advancing time in `run` (thread-safe)."""
+        self._paused = True
+
+    def resume(self) -> None:
+        """Continue advancing time in `run` (thread-safe)."""
+        self._paused = False
+
+    @property
+    def paused(self) -> bool:
+        """Whether `run` is holding time still."""
+        return self._paused
+
+    def request_steps(self, count: int) -> None:
+        """While paused, let `run` advance exactly `count` more steps (thread-safe)."""
+        if count < 0:
+            raise SimError(f"step count must be >= 0, got {count}")
+        with self._lock:
+            self._pending_steps += count
+
+    def request_reset(self) -> None:
+        """Reset at the start of `run`'s next iteration (thread-safe)."""
+        self._reset_requested = True
+
+    def stop(self) -> None:
+        """Make `run` return after the current step (thread-safe)."""
+        self._stop.set()
+
+    def process_posted(self) -> None:
+        """Run what other threads posted, and a requested reset (done by `run` and `step`)."""
+        if self._reset_requested:
+            self._reset_requested = False
+            self.reset()
+        while True:
+            with self._lock:
+                if not self._posted:
+                    return
+                fn = self._posted.popleft()
+            fn()
+
+    # ---- stepping --------------------------------------------------------------------------
+
+    def reset(self) -> None:
+        """Back to time 0: initial joint positions, drives holding them, RNG reseeded."""
+        mujoco.mj_resetData(self.model, self.data)
+        for robot in self.robots.values():
+            for name, value in robot.built.spec.initial_positions.items():
+                self.data.qpos[robot.joints[robot.prefix + name].qpos] = value
+        self._sync_mimics()
+        mujoco.mj_forward(self.model, self.data)
+        self.drives.hold_current()
+        self.follower.cancel()
+        self.rng = np.random.default_rng(self.scene.physics.seed)
+        for cb in self._callbacks.values():
+            cb.due = 0.0
+
+    def step(self, count: int = 1) -> None:
+        """Advance `count` physics steps, running posted work and due callbacks."""
+        for _ in range(count):
+            self.process_posted()
+            self.follower.update(self.time)
+            mujoco.mj_step(self.model, self.data)
+            now = self.time
+            for cb in list(self._callbacks.values()):
+                if cb.period is None:
+                    cb.fn(self)
+                elif now + 1e-9 >= cb.due:
+                    cb.due += cb.period * max(1, int((now - cb.due) // cb.period) + 1)
+                    cb.fn(self)
+
+    def run(
+        self,
+        duration: float | None = None,
+        realtime_factor: float | None = None,
+        viewer: bool = False,
+    ) -> RunStats:
+        """Step until `duration` sim seconds pass (forever if None) or `stop()` is called,
+        paced at `realtime_factor` (scene's value if None, 0 = as fast as possible);
+        `viewer` opens MuJoCo's passive viewer (needs a display)."""
+        factor = self.scene.physics.realtime_factor if realtime_factor is None else realtime_factor
+        handle = self._open_viewer() if viewer else None
+        pacer = Pacer(factor)
+        pacer.restart(self.time)
+        self._stop.clear()
+        start_wall, steps, sim_elapsed = time.perf_counter(), 0, 0.0
+        last_sync = 0.0
+        try:
+            while not self._stop.is_set():
+                if duration is not None and sim_elapsed >= duration - 1e-9:
+                    break
+                self.process_posted()
+                if self._paused and self._pending_steps == 0:
+                    time.sleep(0.002)
+                    pacer.restart(self.time)
+                    continue
+                if self._paused:
+                    with self._lock:
+                        self._pending_steps -= 1
+                before = self.time
+                self.step()
+                steps += 1
+                sim_elapsed += max(self.time - before, 0.0)
+                pacer.wait(self.time)
+                if handle is not None and time.perf_counter() - last_sync > 1 / 60:
+                    if not handle.is_running():
+                        break
+                    handle.sync()
+                    last_sync = time.perf_counter()
+        finally:
+            if handle is not None:
+                handle.close()
+        return RunStats(steps, sim_elapsed, time.perf_counter() - start_wall)
+
+    def _open_viewer(self) -> mujoco.viewer.Handle:
+        if not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+            raise SimError("the viewer needs a display, but DISPLAY is not set (run headless)")
+        import mujoco.viewer  # noqa: PLC0415 - pulls in GLFW, only wanted with a display
+
+        try:
+            return mujoco.viewer.launch_passive(self.model, self.data)
+        except Exception as exc:  # GLFW init failures surface as RuntimeError and others
+            raise SimError(f"could not open the MuJoCo viewer: {exc}") from None
