@@ -4,7 +4,7 @@
 in rosbags' typestore plus the definitions shipped in `definitions/` (a moveit_msgs
 subset, niryo_moveit from Unity's pick-and-place tutorial, tf2_msgs, std_srvs,
 roscpp and sensor_msgs services). More packages load from directories in the ROS
-layout with `registry.load(path)`; `.action` files expand like genmsg's.
+layout with `registry.load_packages(path)`; `.action` files expand like genmsg's.
 
 Names: `pkg/Type` is canonical; `pkg/msg/Type` is accepted too. Services are
 `pkg/Srv` (or `pkg/srv/Srv`); their parts `pkg/SrvRequest` / `pkg/SrvResponse`
@@ -22,8 +22,9 @@ MessageRegistry API:
   `to_msgpack`/`from_msgpack`, `from_yaml` (rostopic-pub style).
 - `encode(msg, name=None, fmt="ros1"|"cdr") -> bytes`, `decode(data, name, fmt)`,
   `transcode(data, name, src, dst)`; `codec(name)` gives the cached per-type Codec
-  for hot paths. Malformed input raises MessageError, never anything else.
-- `load(*paths)`, `add_message(name, text)`, `add_service(name, text)`.
+  for hot paths (`Codec.encode_buffer` skips the final copy of large messages).
+  Malformed input raises MessageError, never anything else.
+- `load_packages(*paths)`, `add_message(name, text)`, `add_service(name, text)`.
 
 Module functions `show(name)` and `md5(name)` use the default registry (for the CLI).
 """

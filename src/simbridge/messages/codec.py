@@ -15,6 +15,7 @@ WireFormat = Literal["ros1", "cdr"]
 """`ros1`: ROS 1 binary; `cdr`: ROS 2 CDR with its 4-byte encapsulation header."""
 
 _CDR_LE = b"\x00\x01\x00\x00"
+_ENCODE_HINT = "(numeric arrays must be numpy arrays; MessageRegistry.new/from_dict convert lists)"
 _CDR_HEADERS = (b"\x00\x00", b"\x00\x01")
 
 
@@ -54,9 +55,18 @@ class Codec:
     def encode(self, msg: object, fmt: WireFormat = "ros1") -> bytes:
         """Serialize `msg`; MessageError when a field holds a value its type cannot carry."""
         if fmt == "ros1":
-            return self.encode_ros1(msg)
+            return bytes(self.ros1_buffer(msg))
         if fmt == "cdr":
-            return self.encode_cdr(msg)
+            return bytes(self.cdr_buffer(msg))
+        raise MessageError(_bad_format(fmt))
+
+    def encode_buffer(self, msg: object, fmt: WireFormat = "ros1") -> bytearray:
+        """Like encode, but hands over the freshly written buffer instead of copying it
+        into bytes (saves a copy of every large message, e.g. images)."""
+        if fmt == "ros1":
+            return self.ros1_buffer(msg)
+        if fmt == "cdr":
+            return self.cdr_buffer(msg)
         raise MessageError(_bad_format(fmt))
 
     def decode(self, data: bytes | bytearray | memoryview, fmt: WireFormat = "ros1") -> Any:
@@ -67,7 +77,7 @@ class Codec:
             return self.decode_cdr(data)
         raise MessageError(_bad_format(fmt))
 
-    def encode_ros1(self, msg: object) -> bytes:
+    def ros1_buffer(self, msg: object) -> bytearray:
         """Serialize to ROS 1 binary."""
         self._check_type(msg)
         try:
@@ -75,8 +85,8 @@ class Codec:
             buf = bytearray(size)
             self._ser_ros1(memoryview(buf), 0, msg, self._store)
         except Exception as exc:
-            raise MessageError(f"cannot encode {self.name} as ROS 1: {exc}") from exc
-        return bytes(buf)
+            raise MessageError(f"cannot encode {self.name} as ROS 1: {exc} {_ENCODE_HINT}") from exc
+        return buf
 
     def decode_ros1(self, data: bytes | bytearray | memoryview) -> Any:
         """Deserialize ROS 1 binary; the whole buffer must be consumed.
@@ -92,7 +102,7 @@ class Codec:
             raise MessageError(msg_)
         return msg
 
-    def encode_cdr(self, msg: object) -> bytes:
+    def cdr_buffer(self, msg: object) -> bytearray:
         """Serialize to little-endian CDR with encapsulation header."""
         self._check_type(msg)
         try:
@@ -101,8 +111,8 @@ class Codec:
             buf[:4] = _CDR_LE
             self._ser_cdr(memoryview(buf)[4:], 0, msg, self._store)
         except Exception as exc:
-            raise MessageError(f"cannot encode {self.name} as CDR: {exc}") from exc
-        return bytes(buf)
+            raise MessageError(f"cannot encode {self.name} as CDR: {exc} {_ENCODE_HINT}") from exc
+        return buf
 
     def decode_cdr(self, data: bytes | bytearray | memoryview) -> Any:
         """Deserialize CDR (either byte order); at most 3 bytes of trailing padding."""

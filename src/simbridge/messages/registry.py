@@ -59,11 +59,11 @@ class MessageRegistry:
         self._builder = Builder(self)
         self._exporter = Exporter(self.schema)
         if shipped:
-            self.load(SHIPPED_DEFINITIONS)
+            self.load_packages(SHIPPED_DEFINITIONS)
 
     # -- adding types -----------------------------------------------------------------------
 
-    def load(self, *paths: str | Path) -> list[str]:
+    def load_packages(self, *paths: str | Path) -> list[str]:
         """Add the packages under `paths` (package dirs or dirs of packages); returns new types."""
         return self.add_sources(load_interface_dirs(*paths))
 
