@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import io
 import math
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -69,7 +70,7 @@ def ball_in_optical(sensor, data) -> np.ndarray:
     return optical.rotation.T @ (BALL - optical.position)
 
 
-def published(sensor, model, data) -> dict[str, object]:
+def published(sensor, model, data) -> dict[str, Any]:
     return {pub.topic: pub.message for pub in sensor.measure(model, data)}
 
 
