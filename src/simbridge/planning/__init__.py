@@ -1,1 +1,43 @@
-"""TODO"""
+"""Motion planning on a MuJoCo model: FK, IK, RRT-Connect, timing, pick and place."""
+
+from __future__ import annotations
+
+from simbridge.planning.geometry import (
+    FloatArray,
+    Pose,
+    matrix_to_quaternion,
+    quaternion_to_matrix,
+    rotation_error,
+    top_down_orientation,
+)
+from simbridge.planning.ik import IKOptions, IKSolver
+from simbridge.planning.kinematics import ArmKinematics, ArmSpec, Contact, niryo_one_arm
+from simbridge.planning.mover import MoverOptions, MoverPlanner, PickAndPlacePlan
+from simbridge.planning.rrt import JointPathPlanner, PathOptions
+from simbridge.planning.scene import BoxObstacle, add_obstacles, build_planning_model
+from simbridge.planning.timing import JointTrajectory, time_parameterize
+
+__all__ = [
+    "ArmKinematics",
+    "ArmSpec",
+    "BoxObstacle",
+    "Contact",
+    "FloatArray",
+    "IKOptions",
+    "IKSolver",
+    "JointPathPlanner",
+    "JointTrajectory",
+    "MoverOptions",
+    "MoverPlanner",
+    "PathOptions",
+    "PickAndPlacePlan",
+    "Pose",
+    "add_obstacles",
+    "build_planning_model",
+    "matrix_to_quaternion",
+    "niryo_one_arm",
+    "quaternion_to_matrix",
+    "rotation_error",
+    "time_parameterize",
+    "top_down_orientation",
+]
