@@ -1,1 +1,42 @@
-"""TODO"""
+"""The ROS-TCP endpoint: asyncio server, per-client sessions, pluggable backends."""
+
+from __future__ import annotations
+
+from simbridge.endpoint.backends.base import Backend, TopicInfo
+from simbridge.endpoint.backends.local import LocalBus
+from simbridge.endpoint.options import EndpointOptions
+from simbridge.endpoint.runner import EndpointThread
+from simbridge.endpoint.server import EndpointServer
+from simbridge.endpoint.session import ClientSession
+from simbridge.endpoint.typecheck import RegistryTypeCheck, TypeCheck
+from simbridge.errors import EndpointError
+
+__all__ = [
+    "BACKENDS",
+    "Backend",
+    "ClientSession",
+    "EndpointOptions",
+    "EndpointServer",
+    "EndpointThread",
+    "LocalBus",
+    "RegistryTypeCheck",
+    "TopicInfo",
+    "TypeCheck",
+    "make_backend",
+]
+
+BACKENDS = ("local", "ros1")
+
+
+def make_backend(name: str, *, node_name: str = "/simbridge_endpoint") -> Backend:
+    """The backend called `name` ("local" or "ros1")."""
+    if name == "local":
+        return LocalBus()
+    if name == "ros1":
+        from simbridge.endpoint.backends.ros1 import (  # noqa: PLC0415 - rospy is optional
+            Ros1Backend,
+            Ros1Options,
+        )
+
+        return Ros1Backend(Ros1Options(node_name=node_name.lstrip("/")))
+    raise EndpointError(f"unknown backend {name!r}; choose one of {', '.join(BACKENDS)}")

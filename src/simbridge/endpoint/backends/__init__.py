@@ -1,1 +1,25 @@
-"""TODO"""
+"""Backends: the ROS graphs an endpoint can bridge into."""
+
+from __future__ import annotations
+
+from simbridge.endpoint.backends.base import (
+    Backend,
+    BackendPublisher,
+    BackendServiceServer,
+    BackendSubscription,
+    MessageCallback,
+    ServiceHandler,
+    TopicInfo,
+)
+from simbridge.endpoint.backends.local import LocalBus
+
+__all__ = [
+    "Backend",
+    "BackendPublisher",
+    "BackendServiceServer",
+    "BackendSubscription",
+    "LocalBus",
+    "MessageCallback",
+    "ServiceHandler",
+    "TopicInfo",
+]

@@ -1,0 +1,179 @@
+"""The embedded `local` backend: an in-process ROS-like graph needing no ROS install.
+
+Topics (latched too), services and a typed topic list, living on the endpoint's
+event loop. Payloads stay serialized; subscribers get the publisher's bytes as they are.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import itertools
+import logging
+from dataclasses import dataclass, field
+
+from simbridge.endpoint.backends.base import (
+    Backend,
+    BackendPublisher,
+    BackendServiceServer,
+    BackendSubscription,
+    MessageCallback,
+    ServiceHandler,
+    TopicInfo,
+)
+from simbridge.errors import EndpointError, ServiceError
+
+__all__ = ["LocalBus"]
+
+log = logging.getLogger("simbridge.endpoint.local")
+
+
+@dataclass(slots=True)
+class _Topic:
+    msg_type: str
+    callbacks: dict[int, MessageCallback] = field(default_factory=dict)
+    publishers: int = 0
+    latched: dict[int, bytes] = field(default_factory=dict)
+    published: int = 0
+
+
+@dataclass(slots=True)
+class _Service:
+    srv_type: str
+    handler: ServiceHandler
+    owner: int
+
+
+class _Publisher(BackendPublisher):
+    __slots__ = ("_bus", "_id", "_latch", "_state", "_topic")
+
+    def __init__(self, bus: LocalBus, topic: str, state: _Topic, latch: bool) -> None:
+        self._bus = bus
+        self._topic = topic
+        self._state: _Topic | None = state
+        self._latch = latch
+        self._id = next(bus._ids)
+
+    def publish(self, payload: bytes) -> None:
+        state = self._state
+        if state is None:
+            raise EndpointError(f"publisher for {self._topic!r} is closed")
+        state.published += 1
+        if self._latch:
+            state.latched[self._id] = payload
+        for callback in tuple(state.callbacks.values()):
+            try:
+                callback(payload)
+            except Exception:
+                log.exception("subscriber callback on %s failed", self._topic)
+
+    def close(self) -> None:
+        state, self._state = self._state, None
+        if state is not None:
+            state.publishers -= 1
+            state.latched.pop(self._id, None)
+            self._bus._gc(self._topic)
+
+
+class _Subscription(BackendSubscription):
+    __slots__ = ("_bus", "_id", "_topic")
+
+    def __init__(self, bus: LocalBus, topic: str, sub_id: int) -> None:
+        self._bus, self._topic, self._id = bus, topic, sub_id
+
+    def close(self) -> None:
+        state = self._bus._topics.get(self._topic)
+        if state is not None and state.callbacks.pop(self._id, None) is not None:
+            self._bus._gc(self._topic)
+
+
+class _ServiceServer(BackendServiceServer):
+    __slots__ = ("_bus", "_id", "_name")
+
+    def __init__(self, bus: LocalBus, name: str, owner: int) -> None:
+        self._bus, self._name, self._id = bus, name, owner
+
+    def close(self) -> None:
+        service = self._bus._services.get(self._name)
+        if service is not None and service.owner == self._id:
+            del self._bus._services[self._name]
+
+
+class LocalBus(Backend):
+    """An in-process graph; every method must run on the loop that started it."""
+
+    name = "local"
+    protocol = "ROS1"
+
+    def __init__(self) -> None:
+        self._topics: dict[str, _Topic] = {}
+        self._services: dict[str, _Service] = {}
+        self._ids = itertools.count(1)
+        self.loop: asyncio.AbstractEventLoop | None = None
+
+    async def start(self) -> None:
+        self.loop = asyncio.get_running_loop()
+
+    def _state(self, topic: str, msg_type: str) -> _Topic:
+        state = self._topics.get(topic)
+        if state is None:
+            state = self._topics[topic] = _Topic(msg_type)
+        elif state.msg_type != msg_type:
+            raise EndpointError(
+                f"topic {topic!r} already has type {state.msg_type!r}; "
+                f"cannot use it as {msg_type!r}"
+            )
+        return state
+
+    def _gc(self, topic: str) -> None:
+        state = self._topics.get(topic)
+        if state is not None and not state.callbacks and state.publishers <= 0:
+            del self._topics[topic]
+
+    def advertise(
+        self, topic: str, msg_type: str, *, queue_size: int, latch: bool
+    ) -> BackendPublisher:
+        state = self._state(topic, msg_type)
+        state.publishers += 1
+        return _Publisher(self, topic, state, latch)
+
+    def subscribe(
+        self, topic: str, msg_type: str, callback: MessageCallback
+    ) -> BackendSubscription:
+        state = self._state(topic, msg_type)
+        sub_id = next(self._ids)
+        state.callbacks[sub_id] = callback
+        for payload in tuple(state.latched.values()):
+            callback(payload)
+        return _Subscription(self, topic, sub_id)
+
+    async def call_service(
+        self, service: str, srv_type: str, request: bytes, *, timeout: float
+    ) -> bytes:
+        entry = self._services.get(service)
+        if entry is None:
+            known = ", ".join(sorted(self._services)) or "none"
+            raise ServiceError(f"service {service!r} has no provider (services offered: {known})")
+        if entry.srv_type != srv_type:
+            raise ServiceError(f"service {service!r} has type {entry.srv_type!r}, not {srv_type!r}")
+        try:
+            return await asyncio.wait_for(entry.handler(request), timeout)
+        except TimeoutError:
+            raise ServiceError(f"service {service!r} did not answer within {timeout:g} s") from None
+        except ServiceError:
+            raise
+        except Exception as exc:
+            raise ServiceError(f"service {service!r} failed: {exc}") from exc
+
+    def advertise_service(
+        self, service: str, srv_type: str, handler: ServiceHandler
+    ) -> BackendServiceServer:
+        owner = next(self._ids)
+        self._services[service] = _Service(srv_type, handler, owner)
+        return _ServiceServer(self, service, owner)
+
+    def topics(self) -> list[TopicInfo]:
+        return [TopicInfo(name, state.msg_type) for name, state in sorted(self._topics.items())]
+
+    def services(self) -> dict[str, str]:
+        """Every offered service and its type."""
+        return {name: entry.srv_type for name, entry in sorted(self._services.items())}

@@ -1,0 +1,35 @@
+"""Endpoint settings."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from simbridge.protocol import DEFAULT_MAX_FRAME_SIZE
+
+__all__ = ["EndpointOptions"]
+
+
+@dataclass(frozen=True, slots=True)
+class EndpointOptions:
+    """How the endpoint listens and how hard it protects itself.
+
+    Every buffer is bounded: frames by `max_frame_size`, a slow client's kernel-side
+    backlog by `write_high_water`, queued messages by each registration's queue_size,
+    control frames (service replies, errors) by `max_control_backlog`.
+    """
+
+    host: str = "127.0.0.1"
+    port: int = 10000
+    max_frame_size: int = DEFAULT_MAX_FRAME_SIZE
+    keepalive_interval: float = 1.0
+    """Send a keepalive to a client that was sent nothing for this long (seconds)."""
+    idle_timeout: float = 10.0
+    """Close a client that sent nothing (not even a keepalive) for this long; 0 disables."""
+    service_timeout: float = 30.0
+    """Longest wait for a service answer, in either direction."""
+    write_high_water: int = 16 * 1024 * 1024
+    """Bytes buffered for a client before its per-topic queues take over."""
+    max_control_backlog: int = 10_000
+    """Control frames queued for a stalled client before it is disconnected."""
+    warn_interval: float = 1.0
+    """Shortest time between two drop/error summaries sent to one client."""

@@ -1,0 +1,107 @@
+"""Run an endpoint on a background thread with its own event loop (demos, tests, apps)."""
+
+from __future__ import annotations
+
+import asyncio
+import concurrent.futures
+import threading
+from collections.abc import Awaitable, Callable
+from typing import Any, TypeVar
+
+from simbridge.endpoint.backends.base import Backend
+from simbridge.endpoint.options import EndpointOptions
+from simbridge.endpoint.server import EndpointServer
+from simbridge.endpoint.typecheck import TypeCheck
+from simbridge.errors import EndpointError
+
+__all__ = ["EndpointThread"]
+
+T = TypeVar("T")
+
+
+class EndpointThread:
+    """An EndpointServer on a daemon thread; `start()` returns once it listens.
+
+    Use as a context manager: `with EndpointThread(EndpointOptions(port=0)) as ep: ep.port`.
+    """
+
+    def __init__(
+        self,
+        options: EndpointOptions | None = None,
+        backend: Backend | None = None,
+        types: TypeCheck | None = None,
+    ) -> None:
+        self.server = EndpointServer(options or EndpointOptions(port=0), backend, types)
+        self.loop = asyncio.new_event_loop()
+        self._thread = threading.Thread(target=self._run, name="simbridge-endpoint", daemon=True)
+        self._ready = threading.Event()
+        self._error: BaseException | None = None
+        self._stopped = asyncio.Event()
+
+    @property
+    def port(self) -> int:
+        """The port the endpoint listens on."""
+        return self.server.port
+
+    @property
+    def backend(self) -> Backend:
+        """The backend (e.g. the LocalBus for in-process nodes)."""
+        return self.server.backend
+
+    def start(self, timeout: float = 10.0) -> EndpointThread:
+        """Start serving; raise EndpointError if it cannot listen."""
+        self._thread.start()
+        if not self._ready.wait(timeout):
+            raise EndpointError(f"endpoint did not start within {timeout:g} s")
+        if self._error is not None:
+            raise self._error
+        return self
+
+    def _run(self) -> None:
+        asyncio.set_event_loop(self.loop)
+        self.loop.run_until_complete(self._main())
+        self.loop.close()
+
+    async def _main(self) -> None:
+        try:
+            await self.server.start()
+        except BaseException as exc:
+            self._error = exc
+            self._ready.set()
+            return
+        self._ready.set()
+        await self._stopped.wait()
+        await self.server.close()
+
+    def call(self, fn: Callable[[], T], timeout: float = 10.0) -> T:
+        """Run `fn()` on the endpoint's loop and return its result."""
+        future: concurrent.futures.Future[T] = concurrent.futures.Future()
+
+        def run() -> None:
+            try:
+                future.set_result(fn())
+            except BaseException as exc:
+                future.set_exception(exc)
+
+        self.loop.call_soon_threadsafe(run)
+        return future.result(timeout)
+
+    def run_coroutine(self, coro: Awaitable[T], timeout: float = 30.0) -> T:
+        """Await `coro` on the endpoint's loop from another thread."""
+
+        async def wrap() -> T:
+            return await coro
+
+        return asyncio.run_coroutine_threadsafe(wrap(), self.loop).result(timeout)
+
+    def stop(self, timeout: float = 10.0) -> None:
+        """Close every connection and stop the thread."""
+        if self._thread.is_alive() and not self.loop.is_closed():
+            self.loop.call_soon_threadsafe(self._stopped.set)
+            self._thread.join(timeout)
+
+    def __enter__(self) -> EndpointThread:
+        return self.start()
+
+    def __exit__(self, *exc: Any) -> None:
+        self.stop()

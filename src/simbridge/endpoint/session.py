@@ -1,0 +1,431 @@
+"""One client connection of the endpoint: its registrations, queues and service calls."""
+
+from __future__ import annotations
+
+import asyncio
+import itertools
+import logging
+import socket
+import struct
+import time
+from collections import deque
+from collections.abc import Awaitable, Callable, Coroutine
+from typing import TYPE_CHECKING, Any
+
+from simbridge.endpoint.backends.base import (
+    BackendPublisher,
+    BackendServiceServer,
+    BackendSubscription,
+)
+from simbridge.endpoint.stats import SessionStats
+from simbridge.errors import ServiceError, SimbridgeError
+from simbridge.protocol import (
+    KEEPALIVE,
+    CommandReceived,
+    ErrorMessage,
+    Handshake,
+    KeepaliveReceived,
+    MessageReceived,
+    ProtocolConnection,
+    ProtocolViolation,
+    Publish,
+    RemovePublisher,
+    RemoveRosService,
+    RemoveSubscriber,
+    RemoveUnityService,
+    RosService,
+    ServiceRequestReceived,
+    ServiceResponseReceived,
+    StatsReply,
+    StatsRequest,
+    Subscribe,
+    TopicListReply,
+    TopicListRequest,
+    UnityService,
+    WarnMessage,
+)
+from simbridge.protocol.commands import Command, LogMessage
+
+if TYPE_CHECKING:
+    from simbridge.endpoint.server import EndpointServer
+
+__all__ = ["ClientSession"]
+
+log = logging.getLogger("simbridge.endpoint")
+_pack_u32 = struct.Struct("<I").pack
+
+FIRST_SRV_ID = 1001
+"""Ids of endpoint-initiated service requests start here, as in the original endpoint."""
+
+
+class _Outbox:
+    """A subscription's bounded queue, used only while the client is not keeping up."""
+
+    __slots__ = ("prefix", "queue", "topic")
+
+    def __init__(self, topic: str, size: int) -> None:
+        self.topic = topic
+        dest = topic.encode()
+        self.prefix = _pack_u32(len(dest)) + dest
+        self.queue: deque[bytes] = deque(maxlen=max(1, size))
+
+
+class ClientSession(asyncio.Protocol):
+    """Protocol state, registrations and bounded output of one TCP client."""
+
+    def __init__(self, server: EndpointServer) -> None:
+        self.server = server
+        self.options = server.options
+        self.proto = ProtocolConnection("endpoint", server.options.max_frame_size)
+        self.stats = SessionStats()
+        self.peer = "?"
+        self.transport: asyncio.Transport | None = None
+        self.publishers: dict[str, tuple[str, BackendPublisher]] = {}
+        self.subscriptions: dict[str, tuple[BackendSubscription, _Outbox]] = {}
+        self.ros_services: dict[str, str] = {}
+        self.unity_services: dict[str, tuple[str, BackendServiceServer]] = {}
+        self._pending: dict[int, asyncio.Future[bytes]] = {}
+        self._srv_ids = itertools.count(FIRST_SRV_ID)
+        self._tasks: set[asyncio.Task[None]] = set()
+        self._out: list[bytes] = []
+        self._out_size = 0
+        self._flush_scheduled = False
+        self._paused = False
+        self._control: deque[bytes] = deque()
+        self._backlogged: dict[str, _Outbox] = {}
+        self._closing = False
+        now = time.monotonic()
+        self.last_recv = now
+        self.last_sent = now
+        self._last_warn = 0.0
+        self._reported_drops = 0
+        self._unregistered_seen: dict[str, float] = {}
+
+    # ---- asyncio.Protocol ------------------------------------------------------------
+
+    def connection_made(self, transport: asyncio.BaseTransport) -> None:
+        assert isinstance(transport, asyncio.Transport)
+        self.transport = transport
+        sock = transport.get_extra_info("socket")
+        if sock is not None:
+            sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        peer = transport.get_extra_info("peername")
+        self.peer = f"{peer[0]}:{peer[1]}" if isinstance(peer, tuple) else str(peer)
+        transport.set_write_buffer_limits(high=self.options.write_high_water)
+        self.server._sessions.add(self)
+        log.info("client %s connected", self.peer)
+        meta = {
+            "protocol": self.server.backend.protocol,
+            "keepalive": self.options.keepalive_interval,
+        }
+        self._send_control(Handshake(metadata=meta).encode())
+
+    def connection_lost(self, exc: Exception | None) -> None:
+        self._closing = True
+        self.server._sessions.discard(self)
+        log.info("client %s disconnected%s", self.peer, f" ({exc})" if exc else "")
+        self._release_all()
+
+    def pause_writing(self) -> None:
+        self._paused = True
+
+    def resume_writing(self) -> None:
+        self._paused = False
+        self._drain_backlog()
+
+    def data_received(self, data: bytes) -> None:
+        self.last_recv = time.monotonic()
+        stats = self.stats
+        stats.bytes_in += len(data)
+        publishers = self.publishers
+        for event in self.proto.receive_data(data):
+            stats.frames_in += 1
+            if type(event) is MessageReceived:
+                entry = publishers.get(event.topic)
+                if entry is not None:
+                    entry[1].publish(event.payload)
+                else:
+                    self._unregistered(event.topic)
+            elif type(event) is KeepaliveReceived:
+                pass
+            else:
+                self._handle_event(event)
+
+    # ---- output ---------------------------------------------------------------------
+
+    def _write(self, chunk: bytes) -> None:
+        self._out.append(chunk)
+        self._out_size += len(chunk)
+        if self._out_size >= self.options.write_high_water:
+            self._flush()
+        elif not self._flush_scheduled:
+            self._flush_scheduled = True
+            self.server.loop.call_soon(self._flush)
+
+    def _flush(self) -> None:
+        self._flush_scheduled = False
+        out, self._out = self._out, []
+        self._out_size = 0
+        transport = self.transport
+        if not out or transport is None or transport.is_closing():
+            return
+        size = sum(map(len, out))
+        self.stats.bytes_out += size
+        self.last_sent = time.monotonic()
+        transport.write(b"".join(out) if len(out) > 1 else out[0])
+
+    def _send_control(self, frame: bytes) -> None:
+        """Send a frame that must not be dropped (handshake, service frames, errors)."""
+        if self._closing:
+            return
+        self.stats.frames_out += 1
+        if not self._paused:
+            self._write(frame)
+            return
+        if len(self._control) >= self.options.max_control_backlog:
+            log.error(
+                "client %s stopped reading; %d control frames queued, disconnecting",
+                self.peer,
+                len(self._control),
+            )
+            self.close()
+            return
+        self._control.append(frame)
+
+    def deliver(self, outbox: _Outbox, payload: bytes) -> None:
+        """Queue one subscribed message, dropping the oldest when the client lags."""
+        if self._closing:
+            return
+        if not self._paused:
+            self.stats.frames_out += 1
+            self._write(outbox.prefix + _pack_u32(len(payload)))
+            self._write(payload)
+            return
+        queue = outbox.queue
+        if len(queue) == queue.maxlen:
+            self.stats.dropped[outbox.topic] += 1
+            self._maybe_warn_drops()
+        queue.append(payload)
+        self._backlogged[outbox.topic] = outbox
+
+    def _drain_backlog(self) -> None:
+        while self._control and not self._paused:
+            self._write(self._control.popleft())
+        while self._backlogged and not self._paused:
+            for key, outbox in list(self._backlogged.items()):
+                if self._paused:
+                    break
+                if outbox.queue:
+                    payload = outbox.queue.popleft()
+                    self.stats.frames_out += 1
+                    self._write(outbox.prefix + _pack_u32(len(payload)))
+                    self._write(payload)
+                    self._flush()
+                if not outbox.queue:
+                    del self._backlogged[key]
+
+    def _maybe_warn_drops(self) -> None:
+        now = time.monotonic()
+        if now - self._last_warn < self.options.warn_interval:
+            return
+        self._last_warn = now
+        total = sum(self.stats.dropped.values())
+        new = total - self._reported_drops
+        self._reported_drops = total
+        detail = ", ".join(f"{t}: {n}" for t, n in self.stats.dropped.most_common(5))
+        self._send_control(
+            WarnMessage(
+                f"client is not keeping up: dropped {new} message(s) since the last warning "
+                f"({total} in all; per topic {detail}); raise queue_size or read faster"
+            ).encode()
+        )
+
+    def send_error(self, text: str, srv_id: int | None = None) -> None:
+        """Report a bad request to the client and the log."""
+        self.stats.errors_sent += 1
+        log.warning("client %s: %s", self.peer, text)
+        self._send_control(ErrorMessage(text, srv_id).encode())
+
+    def send_keepalive_if_idle(self, now: float) -> None:
+        """Called by the server's timer."""
+        if now - self.last_sent >= self.options.keepalive_interval and not self._paused:
+            self._write(KEEPALIVE)
+            self.last_sent = now
+
+    def close(self) -> None:
+        """Drop the connection."""
+        if self.transport is not None:
+            self.transport.close()
+
+    # ---- events -----------------------------------------------------------------------
+
+    def _unregistered(self, topic: str) -> None:
+        now = time.monotonic()
+        if now - self._unregistered_seen.get(topic, -1e9) < self.options.warn_interval:
+            return
+        self._unregistered_seen[topic] = now
+        if topic in self.ros_services or topic in self.unity_services:
+            hint = "a service frame must follow a __request or __response header"
+        else:
+            hint = "send __publish for it first"
+        self.send_error(f"message on {topic!r}, which is not registered for publishing; {hint}")
+
+    def _handle_event(self, event: object) -> None:
+        if isinstance(event, CommandReceived):
+            try:
+                self._handle_command(event.command)
+            except SimbridgeError as exc:
+                self.send_error(f"{event.command.NAME} failed: {exc}")
+        elif isinstance(event, ServiceRequestReceived):
+            self._spawn(self._serve_client_request(event))
+        elif isinstance(event, ServiceResponseReceived):
+            future = self._pending.pop(event.srv_id, None)
+            if future is None:
+                self.send_error(f"__response for unknown srv_id {event.srv_id} ({event.service!r})")
+            elif not future.done():
+                future.set_result(event.payload)
+        elif isinstance(event, ProtocolViolation):
+            self.send_error(event.text)
+            if event.fatal:
+                self._flush()
+                self.close()
+
+    def _handle_command(self, command: Command) -> None:
+        types = self.server.types
+        backend = self.server.backend
+        if isinstance(command, Publish):
+            msg_type = types.message(command.message_name)
+            self._drop_publisher(command.topic)
+            publisher = backend.advertise(
+                command.topic, msg_type, queue_size=command.queue_size, latch=command.latch
+            )
+            self.publishers[command.topic] = (msg_type, publisher)
+            self._unregistered_seen.pop(command.topic, None)
+        elif isinstance(command, Subscribe):
+            msg_type = types.message(command.message_name)
+            self._drop_subscription(command.topic)
+            outbox = _Outbox(command.topic, command.queue_size)
+            deliver = self.deliver
+            subscription = backend.subscribe(
+                command.topic, msg_type, lambda payload: deliver(outbox, payload)
+            )
+            self.subscriptions[command.topic] = (subscription, outbox)
+        elif isinstance(command, RosService):
+            self.ros_services[command.topic] = types.service(command.message_name)
+        elif isinstance(command, UnityService):
+            srv_type = types.service(command.message_name)
+            self._drop_unity_service(command.topic)
+            server = backend.advertise_service(
+                command.topic, srv_type, self._make_unity_handler(command.topic)
+            )
+            self.unity_services[command.topic] = (srv_type, server)
+        elif isinstance(command, RemovePublisher):
+            self._drop_publisher(command.topic)
+        elif isinstance(command, RemoveSubscriber):
+            self._drop_subscription(command.topic)
+        elif isinstance(command, RemoveRosService):
+            self.ros_services.pop(command.topic, None)
+        elif isinstance(command, RemoveUnityService):
+            self._drop_unity_service(command.topic)
+        elif isinstance(command, TopicListRequest):
+            infos = backend.topics()
+            reply = TopicListReply(tuple(t.name for t in infos), tuple(t.msg_type for t in infos))
+            self._send_control(reply.encode())
+        elif isinstance(command, StatsRequest):
+            stats = {"session": self.stats.as_dict(), "server": self.server.stats()}
+            self._send_control(StatsReply(stats).encode())
+        else:
+            self.send_error(f"{command.NAME} is not something a client sends")
+
+    # ---- services -----------------------------------------------------------------------
+
+    def _spawn(self, coro: Coroutine[Any, Any, None]) -> None:
+        task = asyncio.ensure_future(coro)
+        self._tasks.add(task)
+        task.add_done_callback(self._tasks.discard)
+
+    async def _serve_client_request(self, event: ServiceRequestReceived) -> None:
+        srv_type = self.ros_services.get(event.service)
+        if srv_type is None:
+            self.send_error(
+                f"service {event.service!r} was not registered with __ros_service; "
+                "register it before calling",
+                event.srv_id,
+            )
+            return
+        try:
+            response = await self.server.backend.call_service(
+                event.service, srv_type, event.payload, timeout=self.options.service_timeout
+            )
+        except SimbridgeError as exc:
+            self.send_error(
+                f"call of {event.service!r} (srv_id {event.srv_id}) failed: {exc}", event.srv_id
+            )
+            return
+        except Exception as exc:
+            log.exception("service %s failed", event.service)
+            self.send_error(f"call of {event.service!r} failed: {exc!r}", event.srv_id)
+            return
+        self._send_control(
+            ProtocolConnection.service_response(event.srv_id, event.service, response)
+        )
+
+    def _make_unity_handler(self, service: str) -> Callable[[bytes], Awaitable[bytes]]:
+        async def handler(request: bytes) -> bytes:
+            return await self._call_client(service, request)
+
+        return handler
+
+    async def _call_client(self, service: str, request: bytes) -> bytes:
+        if self._closing:
+            raise ServiceError(f"the client implementing {service!r} has disconnected")
+        srv_id = next(self._srv_ids)
+        future: asyncio.Future[bytes] = self.server.loop.create_future()
+        self._pending[srv_id] = future
+        self._send_control(ProtocolConnection.service_request(srv_id, service, request))
+        try:
+            return await asyncio.wait_for(future, self.options.service_timeout)
+        except TimeoutError:
+            raise ServiceError(
+                f"client {self.peer} did not answer {service!r} within "
+                f"{self.options.service_timeout:g} s"
+            ) from None
+        finally:
+            self._pending.pop(srv_id, None)
+
+    # ---- registrations ----------------------------------------------------------------
+
+    def _drop_publisher(self, topic: str) -> None:
+        entry = self.publishers.pop(topic, None)
+        if entry is not None:
+            entry[1].close()
+
+    def _drop_subscription(self, topic: str) -> None:
+        entry = self.subscriptions.pop(topic, None)
+        if entry is not None:
+            entry[0].close()
+            self._backlogged.pop(topic, None)
+
+    def _drop_unity_service(self, topic: str) -> None:
+        entry = self.unity_services.pop(topic, None)
+        if entry is not None:
+            entry[1].close()
+
+    def _release_all(self) -> None:
+        for topic in list(self.publishers):
+            self._drop_publisher(topic)
+        for topic in list(self.subscriptions):
+            self._drop_subscription(topic)
+        for topic in list(self.unity_services):
+            self._drop_unity_service(topic)
+        self.ros_services.clear()
+        for future in self._pending.values():
+            if not future.done():
+                future.set_exception(ServiceError(f"client {self.peer} disconnected"))
+        self._pending.clear()
+        for task in list(self._tasks):
+            task.cancel()
+
+    def log_to_client(self, text: str) -> None:
+        """Send an informational `__log`."""
+        self._send_control(LogMessage(text).encode())

@@ -1,0 +1,57 @@
+"""A bare blocking ROS-TCP client for endpoint tests: sends frames, collects events."""
+
+from __future__ import annotations
+
+import socket
+import time
+from collections.abc import Callable
+from typing import Any
+
+from simbridge.protocol import Event, ProtocolConnection
+
+
+class RawClient:
+    """Speaks the protocol byte for byte, with no connector logic in between."""
+
+    def __init__(self, port: int, host: str = "127.0.0.1") -> None:
+        self.sock = socket.create_connection((host, port), timeout=5)
+        self.sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        self.proto = ProtocolConnection("client")
+        self.events: list[Event] = []
+
+    def send(self, data: bytes) -> None:
+        self.sock.sendall(data)
+
+    def poll(self, timeout: float = 0.05) -> None:
+        self.sock.settimeout(timeout)
+        try:
+            data = self.sock.recv(1 << 20)
+        except (TimeoutError, BlockingIOError):
+            return
+        if not data:
+            raise ConnectionError("endpoint closed the connection")
+        self.events += self.proto.receive_data(data)
+
+    def expect(self, predicate: Callable[[Any], bool], timeout: float = 5.0) -> Any:
+        """Wait for (and remove) the first event matching `predicate`."""
+        deadline = time.monotonic() + timeout
+        while True:
+            for i, event in enumerate(self.events):
+                if predicate(event):
+                    return self.events.pop(i)
+            if time.monotonic() > deadline:
+                got = [repr(e)[:80] for e in self.events[:10]]
+                raise AssertionError(f"no matching event within {timeout} s; got {got}")
+            self.poll()
+
+    def closed_by_peer(self, timeout: float = 5.0) -> bool:
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            try:
+                self.poll(0.1)
+            except (ConnectionError, OSError):
+                return True
+        return False
+
+    def close(self) -> None:
+        self.sock.close()
