@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from simbridge.endpoint.backends.base import Backend, TopicInfo
 from simbridge.endpoint.backends.local import LocalBus
+from simbridge.endpoint.node import Node, NodePublisher
 from simbridge.endpoint.options import EndpointOptions
 from simbridge.endpoint.runner import EndpointThread
 from simbridge.endpoint.server import EndpointServer
@@ -19,6 +20,8 @@ __all__ = [
     "EndpointServer",
     "EndpointThread",
     "LocalBus",
+    "Node",
+    "NodePublisher",
     "RegistryTypeCheck",
     "TopicInfo",
     "TypeCheck",
