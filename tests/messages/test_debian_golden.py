@@ -96,9 +96,9 @@ def test_default_message_bytes_match_genpy(registry: MessageRegistry, cls: Any) 
 
 
 def test_filled_messages_round_trip_with_genpy(registry: MessageRegistry) -> None:
-    import geometry_msgs.msg as gm
-    import sensor_msgs.msg as sm
-    import tf2_msgs.msg as tm
+    gm = importlib.import_module("geometry_msgs.msg")
+    sm = importlib.import_module("sensor_msgs.msg")
+    tm = importlib.import_module("tf2_msgs.msg")
 
     stamp = genpy.Time(1_700_000_000, 123_456_789)
     image = sm.Image(

@@ -90,6 +90,7 @@ class MessageRegistry:
         with self._lock:
             typs: dict[str, Any] = {}
             for canonical, text in sources.messages.items():
+                _check_field_lines(canonical, text)
                 try:
                     typs.update(get_types_from_msg(text, store_name(canonical)))
                 except TypesysError as exc:
@@ -246,9 +247,9 @@ class MessageRegistry:
         if source is not None:
             return source
         schema = self.schema(canonical)
-        lines = [f"{c.type} {c.name}={c.value}" for c in schema.constants]
-        lines += [f"{spec.type_text} {spec.name}" for spec in schema.fields]
-        return "\n".join(lines) + "\n"
+        lines = [f"{c.type} {c.name}={c.value}\n" for c in schema.constants]
+        lines += [f"{spec.type_text} {spec.name}\n" for spec in schema.fields]
+        return "".join(lines)
 
     def dependencies(self, name: str) -> list[str]:
         """Every message type `name` embeds, depth-first in declaration order (like genmsg)."""
@@ -381,6 +382,17 @@ class MessageRegistry:
             self.decode(data, name, src)
             return bytes(data)
         return self.encode(self.decode(data, name, src), name, dst)
+
+
+def _check_field_lines(canonical: str, text: str) -> None:
+    """Reject ROS 2-only syntax rosbags would accept, such as field default values."""
+    for number, line in enumerate(text.splitlines(), start=1):
+        if "=" in line:
+            continue
+        tokens = line.split("#", 1)[0].split()
+        if tokens and len(tokens) != 2:
+            msg = f"invalid definition of {canonical}, line {number}: {line.strip()!r}"
+            raise MessageError(msg + " (expected `type name` or `type NAME=value`)")
 
 
 def _constant_texts(text: str) -> dict[str, str]:
