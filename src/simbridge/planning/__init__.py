@@ -12,12 +12,21 @@ from simbridge.planning.geometry import (
 )
 from simbridge.planning.ik import IKOptions, IKSolver
 from simbridge.planning.kinematics import ArmKinematics, ArmSpec, Contact, niryo_one_arm
-from simbridge.planning.mover import MoverOptions, MoverPlanner, PickAndPlacePlan
+from simbridge.planning.mover import DEFAULT_PAYLOAD, MoverOptions, MoverPlanner, PickAndPlacePlan
 from simbridge.planning.rrt import JointPathPlanner, PathOptions
-from simbridge.planning.scene import BoxObstacle, add_obstacles, build_planning_model
+from simbridge.planning.scene import (
+    PAYLOAD_GEOM,
+    BoxObstacle,
+    Payload,
+    add_obstacles,
+    add_payload,
+    build_planning_model,
+)
 from simbridge.planning.timing import JointTrajectory, time_parameterize
 
 __all__ = [
+    "DEFAULT_PAYLOAD",
+    "PAYLOAD_GEOM",
     "ArmKinematics",
     "ArmSpec",
     "BoxObstacle",
@@ -30,9 +39,11 @@ __all__ = [
     "MoverOptions",
     "MoverPlanner",
     "PathOptions",
+    "Payload",
     "PickAndPlacePlan",
     "Pose",
     "add_obstacles",
+    "add_payload",
     "build_planning_model",
     "matrix_to_quaternion",
     "niryo_one_arm",

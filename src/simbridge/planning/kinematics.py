@@ -12,6 +12,7 @@ import numpy.typing as npt
 
 from simbridge.errors import PlanningError
 from simbridge.planning.geometry import FloatArray, Pose
+from simbridge.planning.scene import PAYLOAD_GEOM
 
 __all__ = ["ArmKinematics", "ArmSpec", "Contact", "niryo_one_arm"]
 
@@ -119,7 +120,14 @@ class ArmKinematics:
         ]
         self._tool_body, self._tool_site = self._frame(spec.tool_frame, "tool")
         self._base_body, self._base_site = self._frame(spec.base_frame, "base")
+        self._payload = _lookup(m, mujoco.mjtObj.mjOBJ_GEOM, PAYLOAD_GEOM)
+        if self._payload >= 0:  # compiled with collisions off; roles gate it from here on
+            payload_body = m.geom_bodyid[self._payload]
+            m.geom_contype[self._payload] = m.geom_conaffinity[self._payload] = 1
+            m.body_contype[payload_body] |= 1
+            m.body_conaffinity[payload_body] |= 1
         self._roles = self._geom_roles()
+        self.holding = False
         m.geom_margin[:] = spec.safety_margin
         self._geom_names = self._describe_geoms()
         self._joint_bodies = [int(m.jnt_bodyid[j]) for j in self.joint_ids]
@@ -176,7 +184,20 @@ class ArmKinematics:
                 roles[geom] = _STATIC
             elif in_robot[body]:
                 roles[geom] = _ROBOT
+        if self._payload >= 0:
+            roles[self._payload] = _IGNORED
         return roles
+
+    @property
+    def has_payload(self) -> bool:
+        """Whether the model carries a payload geom (see :func:`build_planning_model`)."""
+        return self._payload >= 0
+
+    def hold(self, holding: bool) -> None:
+        """Count the payload geom in collision checks (True) or ignore it (False)."""
+        if self._payload >= 0:
+            self._roles[self._payload] = _ROBOT if holding else _IGNORED
+        self.holding = holding
 
     def _describe_geoms(self) -> list[str]:
         m = self.model

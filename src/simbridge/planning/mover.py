@@ -15,10 +15,10 @@ from simbridge.planning.geometry import FloatArray, Pose
 from simbridge.planning.ik import IKOptions, IKSolver
 from simbridge.planning.kinematics import ArmKinematics, niryo_one_arm
 from simbridge.planning.rrt import JointPathPlanner, PathOptions
-from simbridge.planning.scene import BoxObstacle, build_planning_model
+from simbridge.planning.scene import BoxObstacle, Payload, build_planning_model
 from simbridge.planning.timing import JointTrajectory, time_parameterize
 
-__all__ = ["MoverOptions", "MoverPlanner", "PickAndPlacePlan"]
+__all__ = ["DEFAULT_PAYLOAD", "MoverOptions", "MoverPlanner", "PickAndPlacePlan"]
 
 
 @dataclass(frozen=True)
@@ -65,12 +65,16 @@ class PickAndPlacePlan:
         return (self.pre_grasp, self.grasp, self.pick_up, self.place)
 
 
+DEFAULT_PAYLOAD = Payload(body="grasp_link", half_extents=(0.025, 0.025, 0.025))
+
+
 class MoverPlanner:
     """Plans pick and place like the tutorial's MoveIt mover, on an :class:`ArmKinematics`.
 
     Poses are tool-frame goals in the arm's base frame. pick_pose is the pre-grasp pose (above
     the object); the grasp is ``grasp_drop`` lower along a straight line; pick up retraces it;
-    place goes to place_pose. Free-space moves use the joint-space planner.
+    place goes to place_pose, checking the held payload (if the model has one) for collisions.
+    Free-space moves use the joint-space planner.
     """
 
     def __init__(self, kinematics: ArmKinematics, options: MoverOptions | None = None) -> None:
@@ -85,9 +89,14 @@ class MoverPlanner:
         obstacles: Sequence[BoxObstacle] = (),
         options: MoverOptions | None = None,
         tool_frame: str = "tool_link",
+        payload: Payload | None = DEFAULT_PAYLOAD,
     ) -> MoverPlanner:
-        """A planner for the shipped Niryo One URDF among ``obstacles`` (world = base frame)."""
-        model = build_planning_model(robot_urdf("niryo_one"), obstacles)
+        """A planner for the shipped Niryo One URDF among ``obstacles`` (world = base frame).
+
+        ``payload`` is the held object checked for collisions while placing (default: the
+        tutorial's 5 cm cube centred between the finger pads).
+        """
+        model = build_planning_model(robot_urdf("niryo_one"), obstacles, payload)
         return cls(ArmKinematics(model, niryo_one_arm(tool_frame=tool_frame)), options)
 
     # --- single motions -------------------------------------------------------------------
@@ -177,7 +186,11 @@ class MoverPlanner:
         )
         grasp = self.cartesian_motion(pre_grasp[-1], grasp_goal, "grasp")
         pick_up = grasp[::-1].copy()
-        place = self.free_motion(pick_up[-1], place_pose, "place (place_pose)", rng)
+        kin.hold(True)
+        try:
+            place = self.free_motion(pick_up[-1], place_pose, "place (place_pose)", rng)
+        finally:
+            kin.hold(False)
         return PickAndPlacePlan(
             pre_grasp=self.timed(pre_grasp),
             grasp=self.timed(grasp),

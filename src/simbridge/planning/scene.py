@@ -11,7 +11,16 @@ import mujoco
 from simbridge.errors import PlanningError
 from simbridge.planning.geometry import FloatArray, matrix_to_quaternion, quaternion_to_matrix
 
-__all__ = ["BoxObstacle", "add_obstacles", "build_planning_model"]
+__all__ = [
+    "PAYLOAD_GEOM",
+    "BoxObstacle",
+    "Payload",
+    "add_obstacles",
+    "add_payload",
+    "build_planning_model",
+]
+
+PAYLOAD_GEOM = "planning_payload"
 
 
 @dataclass(frozen=True)
@@ -57,16 +66,45 @@ def add_obstacles(spec: mujoco.MjSpec, obstacles: Sequence[BoxObstacle]) -> None
         )
 
 
+@dataclass(frozen=True)
+class Payload:
+    """A held object as a box centred on a robot frame (e.g. the grasp frame between the pads)."""
+
+    body: str
+    half_extents: tuple[float, float, float]
+
+
+def add_payload(spec: mujoco.MjSpec, payload: Payload) -> None:
+    """Attach the payload box to its body, collisions disabled until the planner enables them."""
+    body = spec.body(payload.body)
+    if body is None:
+        raise PlanningError(f"payload body {payload.body!r} is not in the robot model")
+    body.add_geom(
+        name=PAYLOAD_GEOM,
+        type=mujoco.mjtGeom.mjGEOM_BOX,
+        size=list(payload.half_extents),
+        contype=0,
+        conaffinity=0,
+        group=3,
+        mass=0.0,
+        density=0.0,
+    )
+
+
 def build_planning_model(
-    robot_description: str | Path, obstacles: Sequence[BoxObstacle] = ()
+    robot_description: str | Path,
+    obstacles: Sequence[BoxObstacle] = (),
+    payload: Payload | None = None,
 ) -> mujoco.MjModel:
-    """Compile a URDF or MJCF robot file with MuJoCo's own loader and add box obstacles."""
+    """Compile a URDF or MJCF robot file with MuJoCo's own loader; add obstacles and a payload."""
     path = Path(robot_description)
     if not path.is_file():
         raise PlanningError(f"robot description {str(path)!r} does not exist")
     try:
         spec = mujoco.MjSpec.from_file(str(path))
         add_obstacles(spec, obstacles)
+        if payload is not None:
+            add_payload(spec, payload)
         model = spec.compile()
     except ValueError as exc:
         raise PlanningError(f"cannot build a planning model from {str(path)!r}: {exc}") from exc
