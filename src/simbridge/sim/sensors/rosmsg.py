@@ -1,7 +1,8 @@
 """Builds the ROS 1 (noetic) message objects that sensors publish.
 
-Messages are the rosbags noetic dataclasses that the message layer also uses, so a
-sensor reading can go straight to serialisation. Type names are ROS 1 canonical.
+Messages are instances of the message registry's classes (rosbags noetic dataclasses
+plus shipped packages such as tf2_msgs), built directly for speed, so a reading goes
+straight to the codec. Type names are ROS 1 canonical (`pkg/Type`).
 """
 
 from __future__ import annotations
@@ -12,8 +13,8 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-from rosbags.typesys import Stores, get_typestore
 
+from simbridge.messages import default_registry
 from simbridge.sim.sensors.frames import Pose
 
 __all__ = [
@@ -40,14 +41,13 @@ class Publication:
 
 
 @cache
-def _types() -> dict[str, Any]:
-    return dict(get_typestore(Stores.ROS1_NOETIC).types)
+def _message_class(msgtype: str) -> Any:
+    return default_registry().msg_class(msgtype)
 
 
 def new_message(msgtype: str, **fields: Any) -> Any:
-    """Instantiate the noetic message `pkg/Type` with the given fields."""
-    package, name = msgtype.split("/")
-    return _types()[f"{package}/msg/{name}"](**fields)
+    """Instantiate the message `pkg/Type`; every field must be given."""
+    return _message_class(msgtype)(**fields)
 
 
 def stamp_from_time(sim_time: float) -> Any:

@@ -1,0 +1,189 @@
+"""Suite built from scene-file dictionaries: rates in sim time, laziness, wire encoding."""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+
+import mujoco
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from simbridge.errors import SimError
+from simbridge.messages import default_registry
+from simbridge.sim.sensors import (
+    Lidar2DConfig,
+    Publication,
+    RateSchedule,
+    SensorSuite,
+    build_sensor,
+    configure_gl,
+)
+
+SCENE = """
+<mujoco>
+  <option timestep="0.002"/>
+  <worldbody>
+    <geom name="floor" type="plane" size="5 5 0.1"/>
+    <geom name="wall" type="box" pos="2 0 0.5" size="0.05 1 0.5"/>
+    <body name="base_link" pos="0 0 0.1">
+      <freejoint/>
+      <geom type="box" size="0.2 0.15 0.05" mass="5"/>
+      <body name="laser" pos="0.1 0 0.1"><geom type="cylinder" size="0.03 0.02"/></body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+CONFIGS = [
+    {"type": "lidar_2d", "name": "front", "body": "laser", "rate": 10, "samples": 90},
+    {"type": "lidar_3d", "name": "velo", "body": "base_link", "xyz": [0, 0, 0.3],
+     "channels": 4, "samples": 180, "rate": 5},
+    {"type": "camera", "name": "cam", "body": "base_link", "xyz": [0.2, 0, 0.1],
+     "width": 64, "height": 48, "rate": 10},
+    {"type": "depth_camera", "name": "depth", "body": "base_link", "topic": "rgbd",
+     "width": 32, "height": 24, "rate": 10},
+    {"type": "imu", "name": "imu", "body": "base_link", "rate": 100},
+    {"type": "odometry", "name": "odom", "body": "base_link", "rate": 20},
+]  # fmt: skip
+
+
+@pytest.fixture
+def world():
+    model = mujoco.MjModel.from_xml_string(SCENE)
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    suite = SensorSuite.from_config(model, CONFIGS)
+    yield model, data, suite
+    suite.close()
+
+
+def run(model, data, suite, seconds: float) -> list[Publication]:
+    published = list(suite.poll(model, data))
+    for _ in range(round(seconds / model.opt.timestep) - 1):
+        mujoco.mj_step(model, data)
+        published.extend(suite.poll(model, data))
+    return published
+
+
+def test_each_sensor_publishes_at_its_rate_in_sim_time(world):
+    model, data, suite = world
+    counts = Counter(pub.topic for pub in run(model, data, suite, 1.0))
+    assert counts["scan"] == 10
+    assert counts["points"] == 5
+    assert counts["camera/image_raw"] == 10
+    assert counts["camera/image_raw/compressed"] == 10
+    assert counts["rgbd/depth/image"] == 10
+    assert counts["imu"] == 100
+    assert counts["odom"] == 20
+    assert counts["/tf"] == 20
+
+
+def test_every_message_survives_the_ros1_codec(world):
+    model, data, suite = world
+    registry = default_registry()
+    seen = set()
+    for pub in suite.poll(model, data):
+        seen.add(pub.topic)
+        wire = registry.encode(pub.message, pub.msgtype)
+        back = registry.decode(wire, pub.msgtype)
+        assert registry.encode(back, pub.msgtype) == wire
+    assert seen == set(suite.outputs)
+
+
+def test_unwanted_topics_cost_nothing_and_rates_survive_sleep(world, monkeypatch):
+    model, data, suite = world
+    for topic in suite.outputs:
+        suite.set_wanted(topic, False)
+    calls: list[int] = []
+    real = mujoco.mj_multiRay
+
+    def counting(*args):
+        calls.append(1)
+        real(*args)
+
+    monkeypatch.setattr(mujoco, "mj_multiRay", counting)
+    assert run(model, data, suite, 0.5) == []
+    assert calls == []
+    suite.set_wanted("scan", True)
+    counts = Counter(pub.topic for pub in run(model, data, suite, 1.0))
+    assert counts == {"scan": 10}
+    assert len(calls) == 10
+
+
+def test_static_frames_for_offset_mounts(world):
+    model, _, suite = world
+    frames = {s.name: s.static_frame(model) for s in suite.sensors}
+    assert frames["front"] is None  # data frame is the `laser` body itself
+    assert frames["imu"] is None
+    parent, child, pose = frames["velo"]
+    assert (parent, child) == ("base_link", "velo")
+    np.testing.assert_allclose(pose.position, [0, 0, 0.3])
+    assert frames["cam"][:2] == ("base_link", "cam_optical_frame")
+
+
+def test_config_errors_name_the_problem():
+    model = mujoco.MjModel.from_xml_string(SCENE)
+    with pytest.raises(SimError, match=r"type 'sonar' is not one of"):
+        build_sensor(model, {"type": "sonar", "name": "s", "body": "laser"})
+    with pytest.raises(SimError, match=r"unknown option\(s\) \['sample'\]"):
+        build_sensor(model, {"type": "lidar_2d", "name": "s", "body": "laser", "sample": 5})
+    with pytest.raises(SimError, match=r"missing required option\(s\) \['body'\]"):
+        build_sensor(model, {"type": "imu", "name": "s"})
+    with pytest.raises(SimError, match="samples must be"):
+        Lidar2DConfig.from_config({"name": "s", "body": "laser", "samples": 2.5})
+    with pytest.raises(SimError, match="xyz needs 3 values"):
+        Lidar2DConfig.from_config({"name": "s", "body": "laser", "xyz": [1, 2]})
+    with pytest.raises(SimError, match="already used"):
+        SensorSuite.from_config(
+            model,
+            [
+                {"type": "imu", "name": "a", "body": "laser"},
+                {"type": "imu", "name": "b", "body": "laser"},
+            ],
+        )
+    config = Lidar2DConfig.from_config(
+        {"type": "lidar_2d", "name": "s", "body": "laser", "rate": 5, "geomgroup": [1] * 6}
+    )
+    assert config.rate == 5.0
+    assert isinstance(config.rate, float)
+    assert config.geomgroup == (1, 1, 1, 1, 1, 1)
+
+
+def test_schedule_counts_ticks_exactly():
+    schedule = RateSchedule(10.0)
+    dt = 0.003  # does not divide the period
+    fired = [step * dt for step in range(334) if schedule.due(step * dt)]
+    assert len(fired) == 10
+    np.testing.assert_allclose(
+        fired, [math.ceil(k * 0.1 / dt - 1e-9) * dt for k in range(10)], atol=1e-12
+    )
+    with pytest.raises(SimError):
+        RateSchedule(0.0)
+
+
+@settings(max_examples=60, deadline=None)
+@given(rate=st.floats(0.5, 200.0), dt=st.floats(1e-4, 0.01), steps=st.integers(1, 3000))
+def test_schedule_fires_once_per_reached_tick(rate, dt, steps):
+    schedule = RateSchedule(rate)
+    times = [i * dt for i in range(steps)]
+    fired = sum(schedule.due(t) for t in times)
+    ticks_reached = math.floor(times[-1] * rate + 1e-9) + 1
+    if dt <= 1 / rate:
+        assert fired == ticks_reached
+    else:
+        assert fired == steps
+
+
+def test_gl_backend_honours_mujoco_gl(monkeypatch):
+    choose = configure_gl.__wrapped__
+    monkeypatch.setenv("MUJOCO_GL", "osmesa")
+    assert choose() == "osmesa"
+    monkeypatch.setenv("MUJOCO_GL", "wgl")
+    with pytest.raises(SimError, match="MUJOCO_GL='wgl'"):
+        choose()
+    monkeypatch.delenv("MUJOCO_GL")
+    monkeypatch.setenv("PYOPENGL_PLATFORM", "osmesa")
+    assert choose() == "osmesa"
