@@ -11,8 +11,13 @@ import contextlib
 import logging
 import sys
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
-from simbridge.errors import SimbridgeError
+from simbridge.errors import ConnectorError, SimbridgeError
+
+if TYPE_CHECKING:
+    from simbridge.connector import Connector
+    from simbridge.messages import MessageRegistry
 
 __all__ = ["main"]
 
@@ -71,10 +76,140 @@ def _cmd_endpoint(args: argparse.Namespace) -> int:
     return 0
 
 
+def _connect(args: argparse.Namespace) -> Connector:
+    from simbridge.connector import Connector
+
+    host, port = args.endpoint
+    return Connector(host, port).connect(wait=args.connect_timeout)
+
+
+def _print_msg(registry: MessageRegistry, msg: object, no_arr: bool) -> None:
+    import yaml
+
+    data = registry.to_dict(msg)
+    shown = _strip_arrays(data) if no_arr else data
+    print(yaml.safe_dump(shown, sort_keys=False, default_flow_style=None).rstrip())
+    print("---", flush=True)
+
+
+def _strip_arrays(value: object) -> object:
+    if isinstance(value, dict):
+        return {k: _strip_arrays(v) for k, v in value.items()}
+    if isinstance(value, list | bytes) and len(value) > 8:
+        return f"<array of {len(value)}>"
+    if isinstance(value, list):
+        return [_strip_arrays(v) for v in value]
+    return value
+
+
+def _cmd_topic(args: argparse.Namespace) -> int:
+    import queue
+    import time
+
+    from simbridge.messages import default_registry
+
+    registry = default_registry()
+    with _connect(args) as conn:
+        if args.action == "list":
+            topics = conn.topic_list(timeout=args.connect_timeout)
+            width = max((len(t) for t in topics), default=0)
+            for name, name_type in sorted(topics.items()):
+                print(f"{name:<{width}}  {name_type}" if args.verbose else name)
+            return 0
+        msg_type: str | None = args.type or conn.topic_list(timeout=args.connect_timeout).get(
+            args.topic
+        )
+        if msg_type is None:
+            raise ConnectorError(
+                f"topic {args.topic!r} is not in the graph; pass its type with --type"
+            )
+        if args.action == "pub":
+            msg = registry.from_yaml(msg_type, args.data or "")
+            pub = conn.register_publisher(args.topic, msg_type, latch=args.latch)
+            period = 1.0 / args.rate if args.rate else 0.0
+            sent = 0
+            while True:
+                pub.publish(msg)
+                sent += 1
+                if not period or (args.count and sent >= args.count):
+                    break
+                time.sleep(period)
+            conn.flush(timeout=5)
+            if args.latch and not period:
+                time.sleep(args.linger)
+            print(f"published {sent} message(s) on {args.topic}", file=sys.stderr)
+            return 0
+        inbox: queue.Queue[object] = queue.Queue(maxsize=10_000)
+        raw = args.action == "hz"
+        conn.subscribe(args.topic, msg_type, inbox.put, raw=raw)
+        deadline = time.monotonic() + args.duration if args.duration else None
+        if args.action == "echo":
+            shown = 0
+            while args.count == 0 or shown < args.count:
+                remaining = None if deadline is None else deadline - time.monotonic()
+                if remaining is not None and remaining <= 0:
+                    break
+                try:
+                    msg = inbox.get(timeout=remaining)
+                except queue.Empty:
+                    break
+                _print_msg(registry, msg, args.no_arr)
+                shown += 1
+            return 0 if shown or args.count == 0 else 1
+        stamps: list[float] = []
+        next_report = time.monotonic() + 1.0
+        while deadline is None or time.monotonic() < deadline:
+            try:
+                inbox.get(timeout=0.1)
+                stamps.append(time.monotonic())
+            except queue.Empty:
+                pass
+            if time.monotonic() >= next_report:
+                next_report += 1.0
+                window = stamps[-args.window :]
+                if len(window) > 1:
+                    rate = (len(window) - 1) / (window[-1] - window[0])
+                    print(f"average rate: {rate:.3f}  (window {len(window)})", flush=True)
+                else:
+                    print("no new messages", flush=True)
+        return 0
+
+
+def _cmd_service(args: argparse.Namespace) -> int:
+    from simbridge.messages import default_registry
+
+    registry = default_registry()
+    info = registry.service(args.type)
+    request = registry.from_yaml(info.request, args.data or "")
+    with _connect(args) as conn:
+        conn.register_ros_service(args.service, info.name)
+        response = conn.call(args.service, request, timeout=args.timeout)
+    _print_msg(registry, response, no_arr=False)
+    return 0
+
+
+def _cmd_msg(args: argparse.Namespace) -> int:
+    from simbridge.messages import default_registry
+
+    registry = default_registry()
+    if args.msg_path:
+        registry.load_packages(*args.msg_path)
+    if args.action == "md5":
+        print(registry.md5(args.type))
+    elif args.action == "show":
+        print(registry.show(args.type).rstrip())
+    else:
+        for name in registry.service_names() if args.services else registry.names():
+            print(name)
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The full argument parser."""
     parser = argparse.ArgumentParser(prog="simbridge", description=__doc__)
-    parser.add_argument("--log-level", default="INFO", help="DEBUG, INFO, WARNING or ERROR")
+    parser.add_argument(
+        "--log-level", default=None, help="DEBUG, INFO, WARNING or ERROR (default INFO for servers)"
+    )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     ep = sub.add_parser("endpoint", help="run the ROS-TCP endpoint (TCP server on the ROS side)")
@@ -97,6 +232,58 @@ def build_parser() -> argparse.ArgumentParser:
         help="directory of .msg/.srv/.action packages (repeatable)",
     )
     ep.set_defaults(func=_cmd_endpoint)
+
+    topic = sub.add_parser("topic", help="list, echo, publish or measure topics via an endpoint")
+    tsub = topic.add_subparsers(dest="action", required=True)
+    t_list = tsub.add_parser("list", help="topics in the graph")
+    t_list.add_argument("-v", "--verbose", action="store_true", help="show types too")
+    t_echo = tsub.add_parser("echo", help="print messages on a topic")
+    t_echo.add_argument("topic")
+    t_echo.add_argument("-n", "--count", type=int, default=0, help="stop after N messages")
+    t_echo.add_argument("--no-arr", action="store_true", help="summarise arrays")
+    t_pub = tsub.add_parser("pub", help="publish a message given as YAML")
+    t_pub.add_argument("topic")
+    t_pub.add_argument("type", nargs="?", help="message type, e.g. geometry_msgs/Twist")
+    t_pub.add_argument("data", nargs="?", default="", help="YAML, e.g. '{linear: {x: 0.5}}'")
+    t_pub.add_argument("-r", "--rate", type=float, default=0.0, help="repeat at HZ")
+    t_pub.add_argument("-n", "--count", type=int, default=0, help="with --rate: stop after N")
+    t_pub.add_argument("-l", "--latch", action="store_true")
+    t_pub.add_argument("--linger", type=float, default=1.0, help="seconds to stay up when latched")
+    t_hz = tsub.add_parser("hz", help="print the publishing rate of a topic")
+    t_hz.add_argument("topic")
+    t_hz.add_argument("-w", "--window", type=int, default=100)
+    for p in (t_list, t_echo, t_pub, t_hz):
+        _add_endpoint_arg(p)
+        p.add_argument("--connect-timeout", type=float, default=5.0)
+    for p in (t_echo, t_hz):
+        p.add_argument("--type", help="message type (default: looked up in the topic list)")
+        p.add_argument("--duration", type=float, default=0.0, help="stop after S seconds")
+    t_pub.set_defaults(func=_cmd_topic, duration=0.0)
+    for p in (t_list, t_echo, t_hz):
+        p.set_defaults(func=_cmd_topic)
+
+    svc = sub.add_parser("service", help="call a ROS service via an endpoint")
+    ssub = svc.add_subparsers(dest="action", required=True)
+    s_call = ssub.add_parser("call", help="call a service with a YAML request")
+    s_call.add_argument("service")
+    s_call.add_argument("type", help="service type, e.g. std_srvs/SetBool")
+    s_call.add_argument("data", nargs="?", default="", help="YAML request, e.g. '{data: true}'")
+    s_call.add_argument("--timeout", type=float, default=10.0)
+    _add_endpoint_arg(s_call)
+    s_call.add_argument("--connect-timeout", type=float, default=5.0)
+    s_call.set_defaults(func=_cmd_service)
+
+    msg = sub.add_parser("msg", help="inspect message types")
+    msub = msg.add_subparsers(dest="action", required=True)
+    m_show = msub.add_parser("show", help="fields of a message or service type")
+    m_show.add_argument("type")
+    m_md5 = msub.add_parser("md5", help="genmsg md5sum of a type")
+    m_md5.add_argument("type")
+    m_list = msub.add_parser("list", help="every known type")
+    m_list.add_argument("--services", action="store_true")
+    for p in (m_show, m_md5, m_list):
+        p.add_argument("--msg-path", action="append", default=[], metavar="DIR")
+        p.set_defaults(func=_cmd_msg)
     return parser
 
 
@@ -104,8 +291,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the `simbridge` console script."""
     parser = build_parser()
     args = parser.parse_args(argv)
+    quiet_tool = args.command in ("topic", "service", "msg", "urdf")
+    level_name = args.log_level or ("WARNING" if quiet_tool else "INFO")
     logging.basicConfig(
-        level=getattr(logging, str(args.log_level).upper(), logging.INFO),
+        level=getattr(logging, str(level_name).upper(), logging.INFO),
         format="%(asctime)s %(levelname)s %(name)s: %(message)s",
     )
     try:
