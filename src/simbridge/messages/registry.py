@@ -293,7 +293,7 @@ class MessageRegistry:
 
     # -- construction and conversion --------------------------------------------------------
 
-    def new(self, name: str, **fields: Any) -> Any:
+    def new(self, name: str, /, **fields: Any) -> Any:
         """A message with every field zero/empty, then `fields` applied as in from_dict."""
         if not fields:
             return self._builder.default(self.resolve(name))
