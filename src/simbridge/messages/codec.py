@@ -6,6 +6,8 @@ from typing import TYPE_CHECKING, Any, Literal
 
 from simbridge.errors import MessageError
 
+from .schema import canonical_of
+
 if TYPE_CHECKING:
     from rosbags.typesys.store import Typestore
 
@@ -31,6 +33,7 @@ class Codec:
         "_fixed_ros1",
         "_getsize_cdr",
         "_getsize_ros1",
+        "_key",
         "_ser_cdr",
         "_ser_ros1",
         "_store",
@@ -40,6 +43,7 @@ class Codec:
     def __init__(self, typestore: Typestore, store_key: str, name: str) -> None:
         msgdef = typestore.get_msgdef(store_key)
         self.name = name
+        self._key = store_key
         self._store = typestore
         self._cls = msgdef.cls
         self._fixed_ros1 = msgdef.size_ros1
@@ -130,9 +134,11 @@ class Codec:
         return msg
 
     def _check_type(self, msg: object) -> None:
-        if type(msg) is not self._cls:
-            got = getattr(msg, "__msgtype__", type(msg).__name__)
-            raise MessageError(f"expected a {self.name} message, got {got}")
+        # Same-named classes from another registry have the same layout: accept them.
+        if type(msg) is not self._cls and getattr(msg, "__msgtype__", None) != self._key:
+            got = getattr(msg, "__msgtype__", None)
+            shown = canonical_of(got) if isinstance(got, str) else type(msg).__name__
+            raise MessageError(f"expected a {self.name} message, got {shown}")
 
 
 def _frozen(data: bytes | bytearray | memoryview) -> bytes:

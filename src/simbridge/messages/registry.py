@@ -15,6 +15,7 @@ import msgpack
 import yaml
 from rosbags.interfaces import Nodetype
 from rosbags.typesys import Stores, TypesysError, get_types_from_msg, get_typestore
+from rosbags.typesys.store import Typestore
 
 from simbridge.errors import MessageError, UnknownMessageTypeError
 
@@ -204,7 +205,7 @@ class MessageRegistry:
         return self._store.types[key]
 
     @property
-    def typestore(self) -> Any:
+    def typestore(self) -> Typestore:
         """The underlying rosbags Typestore (shared; do not register conflicting types)."""
         return self._store
 
