@@ -84,11 +84,10 @@ class Trajectory:
     def sample(self, t: float) -> tuple[Vector, Vector]:
         """Positions and velocities at time `t` after the start (held at the ends)."""
         pts = self.points
-        if t <= pts[0].time:
-            return np.array(pts[0].positions), np.zeros(len(self.joints))
-        if t >= pts[-1].time:
-            return np.array(pts[-1].positions), np.zeros(len(self.joints))
-        i = bisect.bisect_right([p.time for p in pts], t) - 1
+        if len(pts) == 1 or t < pts[0].time or t > pts[-1].time:
+            held = pts[0] if t < pts[0].time else pts[-1]
+            return np.array(held.positions), np.zeros(len(self.joints))
+        i = min(bisect.bisect_right([p.time for p in pts], t) - 1, len(pts) - 2)
         a, b = pts[i], pts[i + 1]
         h = b.time - a.time
         s = (t - a.time) / h

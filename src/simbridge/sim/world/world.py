@@ -183,7 +183,7 @@ class World:
         if period is not None and period <= 0:
             raise SimError(f"callback period must be > 0 seconds, got {period}")
         self._next_id += 1
-        self._callbacks[self._next_id] = _Callback(fn, period, self.time)
+        self._callbacks[self._next_id] = _Callback(fn, period, self.time + (period or 0.0))
         return self._next_id
 
     def remove_step_callback(self, callback_id: int) -> None:
@@ -249,7 +249,7 @@ class World:
         self.follower.cancel()
         self.rng = np.random.default_rng(self.scene.physics.seed)
         for cb in self._callbacks.values():
-            cb.due = 0.0
+            cb.due = cb.period or 0.0
 
     def step(self, count: int = 1) -> None:
         """Advance `count` physics steps, running posted work and due callbacks."""

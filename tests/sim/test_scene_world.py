@@ -1,0 +1,295 @@
+"""Scene files and the World: objects, lights, physics settings, callbacks, pausing, pacing."""
+
+from __future__ import annotations
+
+import threading
+import time
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+import trimesh
+import yaml
+
+from simbridge.errors import SimError
+from simbridge.sim.scene import build_scene, load_scene, parse_scene
+from simbridge.sim.urdf import MjcfDocument, forward_kinematics, parse_urdf
+from simbridge.sim.world import World
+from tests.sim.urdf_samples import GRAVITY_ARM
+from tests.sim.worlds import arm_world
+
+
+def test_objects_lights_and_physics_reach_the_model(tmp_path: Path) -> None:
+    trimesh.creation.icosphere(radius=0.05).export(str(tmp_path / "ball.obj"))
+    world = arm_world(
+        tmp_path,
+        physics={
+            "timestep": 0.001,
+            "gravity": [0, 0, -5],
+            "solver_iterations": 30,
+            "integrator": "implicit",
+        },
+        objects=[
+            {"name": "floor", "type": "plane", "friction": 0.8},
+            {
+                "name": "crate",
+                "type": "box",
+                "size": [0.1, 0.2, 0.3],
+                "dynamic": True,
+                "mass": 2.0,
+                "pose": {"xyz": [1.0, 0, 0.5]},
+            },
+            {
+                "name": "post",
+                "type": "cylinder",
+                "size": [0.05, 0.4],
+                "pose": {"xyz": [-1, 0, 0.2]},
+            },
+            {
+                "name": "ball",
+                "type": "mesh",
+                "mesh": "ball.obj",
+                "dynamic": True,
+                "pose": {"xyz": [-1.0, 1.0, 0.3]},
+            },
+        ],
+        lights=[{"name": "sun", "type": "directional", "dir": [0, 1, -1]}],
+    )
+    m = world.model
+    assert m.opt.timestep == 0.001
+    np.testing.assert_allclose(m.opt.gravity, [0, 0, -5])
+    assert m.opt.iterations == 30
+    assert m.opt.integrator == mujoco.mjtIntegrator.mjINT_IMPLICIT
+    assert m.body("crate").mass[0] == pytest.approx(2.0)
+    crate_i = 2.0 / 12 * np.array([0.04 + 0.09, 0.01 + 0.09, 0.01 + 0.04])
+    np.testing.assert_allclose(sorted(m.body("crate").inertia), sorted(crate_i))
+    assert m.geom("floor").friction[0] == pytest.approx(0.8)
+    assert m.light("sun").type[0] == mujoco.mjtLightType.mjLIGHT_DIRECTIONAL
+    assert m.body("post").jntnum[0] == 0  # static
+    world.step(2000)  # 2 s: the crate has fallen and rests on the floor
+    assert world.link_pose("crate").xyz[2] == pytest.approx(0.15, abs=2e-3)
+    assert world.link_pose("ball").xyz[2] == pytest.approx(0.05, abs=5e-3)  # icosphere: faceted
+    assert world.link_pose("post").xyz == pytest.approx((-1, 0, 0.2))
+
+
+def test_link_poses_match_urdf_fk_at_base_pose(tmp_path: Path) -> None:
+    world = arm_world(
+        tmp_path,
+        physics={"gravity": [0, 0, 0]},
+        robot={
+            "base": {"xyz": [1, 2, 0.5], "rpy": [0, 0, 1.0]},
+            "initial_positions": {"shoulder": 0.3, "elbow": -0.2, "wrist": 0.7},
+        },
+    )
+    from simbridge.sim.urdf import Transform
+
+    base = Transform.from_xyz_rpy((1, 2, 0.5), (0, 0, 1.0))
+    expected = forward_kinematics(
+        parse_urdf(GRAVITY_ARM), {"shoulder": 0.3, "elbow": -0.2, "wrist": 0.7}, base
+    )
+    for link, pose in world.link_poses().items():
+        np.testing.assert_allclose(pose.translation, expected[link].translation, atol=1e-6)
+        np.testing.assert_allclose(pose.rotation, expected[link].rotation, atol=1e-6)
+
+
+def test_two_prefixed_robots(tmp_path: Path) -> None:
+    (tmp_path / "arm.urdf").write_text(GRAVITY_ARM)
+    scene = parse_scene(
+        {
+            "robots": [
+                {"urdf": "arm.urdf", "name": "left", "prefix": "l_"},
+                {"urdf": "arm.urdf", "name": "right", "prefix": "r_", "base": {"xyz": [1, 0, 0]}},
+            ]
+        },
+        tmp_path,
+    )
+    world = World.from_scene(scene)
+    assert world.joint_names()[:2] == ["l_shoulder", "l_elbow"]
+    assert "r_grip_b" in world.joint_names()
+    assert world.link_pose("r_base").xyz == pytest.approx((1, 0, 0))
+    assert set(world.robots) == {"left", "right"}
+    with pytest.raises(SimError, match="unknown robot"):
+        world.robot("middle")
+
+
+@pytest.mark.parametrize(
+    ("scene", "message"),
+    [
+        ({"robot": []}, r"unknown key\(s\) robot"),
+        ({"physics": {"timestep": -1}}, r"physics.timestep: must be > 0"),
+        ({"physics": {"integrator": "magic"}}, "unknown integrator 'magic'"),
+        ({"objects": [{"name": "x", "type": "cone"}]}, r"objects\[0\].type: unknown shape 'cone'"),
+        (
+            {"objects": [{"name": "x", "type": "box", "size": [1, 2]}]},
+            "expected a list of 3 numbers",
+        ),
+        (
+            {"objects": [{"name": "x", "type": "plane", "dynamic": True}]},
+            "a plane cannot be dynamic",
+        ),
+        (
+            {
+                "objects": [
+                    {"name": "x", "type": "sphere", "size": 1},
+                    {"name": "x", "type": "sphere", "size": 1},
+                ]
+            },
+            "duplicate name",
+        ),
+        ({"robots": [{"name": "a"}]}, "missing key 'urdf'"),
+        (
+            {"robots": [{"urdf": "arm.urdf", "drives": {"default": {"mode": "torque"}}}]},
+            "unknown drive mode 'torque'",
+        ),
+        ({"lights": [{"type": "laser"}]}, "unknown light 'laser'"),
+        ({"ros": {"joint_states_rate": 0}}, "joint_states_rate: must be > 0"),
+    ],
+)
+def test_scene_errors_name_the_key(tmp_path: Path, scene: dict[str, object], message: str) -> None:
+    with pytest.raises(SimError, match=message):
+        parse_scene(scene, tmp_path)
+
+
+def test_scene_errors_found_when_building(tmp_path: Path) -> None:
+    (tmp_path / "arm.urdf").write_text(GRAVITY_ARM)
+    bad_drive = parse_scene(
+        {"robots": [{"urdf": "arm.urdf", "drives": {"joints": {"grip_b": {}}}}]}, tmp_path
+    )
+    with pytest.raises(SimError, match="'grip_b' is not a drivable joint"):
+        build_scene(bad_drive)
+    bad_initial = parse_scene(
+        {"robots": [{"urdf": "arm.urdf", "initial_positions": {"knee": 1}}]}, tmp_path
+    )
+    with pytest.raises(SimError, match="'knee' is not a drivable joint"):
+        build_scene(bad_initial)
+    (tmp_path / "s.yaml").write_text("robots: [")
+    with pytest.raises(SimError, match="not valid YAML"):
+        load_scene(tmp_path / "s.yaml")
+
+
+def _trace(tmp_path: Path) -> np.ndarray:
+    world = arm_world(
+        tmp_path,
+        objects=[
+            {"name": "floor", "type": "plane"},
+            {
+                "name": "crate",
+                "type": "box",
+                "size": [0.1, 0.1, 0.1],
+                "dynamic": True,
+                "pose": {"xyz": [0.75, 0, 0.2], "rpy": [0.3, 0.2, 0.1]},
+            },
+        ],
+    )
+    world.drives.set_position("shoulder", 0.8)  # swing down into the crate
+    world.drives.set_position("elbow", 0.6)
+    world.step(1000)
+    return np.concatenate([world.data.qpos, world.data.qvel])
+
+
+def test_runs_are_deterministic(tmp_path: Path) -> None:
+    (tmp_path / "a").mkdir()
+    (tmp_path / "b").mkdir()
+    first, second = _trace(tmp_path / "a"), _trace(tmp_path / "b")
+    assert np.array_equal(first, second)
+    assert first[:2].tolist() != [0.0, 0.0]  # the arm did move
+
+
+def test_reset_restores_initial_state_and_rng(tmp_path: Path) -> None:
+    world = arm_world(tmp_path, robot={"initial_positions": {"elbow": 0.5}}, physics={"seed": 7})
+    first = world.rng.random()
+    world.drives.set_position("elbow", -1.0)
+    world.step(200)
+    world.reset()
+    assert world.time == 0.0
+    assert world.joint_positions()["elbow"] == 0.5
+    assert world.drives.target("elbow").position == 0.5
+    assert world.rng.random() == first
+
+
+def test_step_callbacks_run_at_their_period(tmp_path: Path) -> None:
+    world = arm_world(tmp_path)
+    times: list[float] = []
+    every: list[float] = []
+    cb = world.add_step_callback(lambda w: times.append(w.time), period=0.01)
+    world.add_step_callback(lambda w: every.append(w.time))
+    world.step(50)  # 0.1 s
+    assert times == pytest.approx([0.01 * k for k in range(1, 11)])
+    assert len(every) == 50
+    world.remove_step_callback(cb)
+    world.step(10)
+    assert len(times) == 10
+    with pytest.raises(SimError, match="period must be > 0"):
+        world.add_step_callback(lambda w: None, period=0)
+
+
+def test_run_paces_to_real_time_and_runs_fast_unpaced(tmp_path: Path) -> None:
+    world = arm_world(tmp_path)
+    paced = world.run(duration=0.3, realtime_factor=1.0)
+    assert paced.steps == 150
+    assert 0.28 <= paced.wall_time < 0.6
+    double = world.run(duration=0.3, realtime_factor=2.0)
+    assert 0.14 <= double.wall_time < 0.4
+    fast = world.run(duration=1.0, realtime_factor=0)
+    assert fast.realtime_factor > 5
+
+
+def test_pause_step_and_reset_from_another_thread(tmp_path: Path) -> None:
+    world = arm_world(tmp_path)
+    world.pause()
+    runner = threading.Thread(target=world.run, kwargs={"realtime_factor": 0})
+    runner.start()
+    try:
+        time.sleep(0.05)
+        assert world.time == 0.0
+        world.request_steps(7)
+        deadline = time.monotonic() + 5
+        while world.time < 7 * 0.002 - 1e-9 and time.monotonic() < deadline:
+            time.sleep(0.005)
+        time.sleep(0.05)
+        assert world.time == pytest.approx(7 * 0.002)
+        seen: list[float] = []
+        world.post(lambda: seen.append(world.time))
+        world.resume()
+        while world.time < 0.1 and time.monotonic() < deadline:
+            time.sleep(0.005)
+        assert seen
+        assert seen[0] >= 7 * 0.002 - 1e-12
+        world.pause()
+        world.request_reset()
+        while world.time != 0.0 and time.monotonic() < deadline:
+            time.sleep(0.005)
+        assert world.time == 0.0
+    finally:
+        world.stop()
+        runner.join(5)
+    assert not runner.is_alive()
+
+
+def test_viewer_without_display_is_a_clear_error(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    world = arm_world(tmp_path)
+    with pytest.raises(SimError, match="DISPLAY is not set"):
+        world.run(duration=0.01, viewer=True)
+
+
+def test_extensions_edit_the_model_before_compiling(tmp_path: Path) -> None:
+    (tmp_path / "arm.urdf").write_text(GRAVITY_ARM)
+    (tmp_path / "scene.yaml").write_text(yaml.safe_dump({"robots": [{"urdf": "arm.urdf"}]}))
+
+    def add_site(doc: MjcfDocument) -> None:
+        doc.add_site("fore", "probe", pos=(0.3, 0, 0))
+
+    world = World.from_scene(tmp_path / "scene.yaml", extensions=[add_site])
+    site = world.model.site("probe")
+    np.testing.assert_allclose(world.data.site_xpos[site.id], [0.8, 0, 0.5], atol=1e-9)
+
+    def misplaced(doc: MjcfDocument) -> None:
+        doc.add_site("nope", "x")
+
+    with pytest.raises(SimError, match="no body named 'nope'"):
+        World.from_scene(tmp_path / "scene.yaml", extensions=[misplaced])

@@ -1,0 +1,103 @@
+"""Trajectory interpolation (pure math) and following it with the drives."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from simbridge.errors import SimError
+from simbridge.sim.control import Trajectory, TrajectoryPoint
+from tests.sim.worlds import arm_world
+
+
+def test_linear_segments_without_velocities() -> None:
+    traj = Trajectory.from_lists(["a", "b"], [1.0, 3.0], [[0.0, 1.0], [2.0, -1.0]])
+    pos, vel = traj.sample(2.0)
+    np.testing.assert_allclose(pos, [1.0, 0.0])
+    np.testing.assert_allclose(vel, [1.0, -1.0])
+    np.testing.assert_allclose(traj.sample(0.5)[0], [0.0, 1.0])  # before the first point: held
+    np.testing.assert_allclose(traj.sample(9.0)[0], [2.0, -1.0])  # after the last: held
+    assert traj.duration == 3.0
+
+
+def test_cubic_segment_hits_ends_with_given_velocities() -> None:
+    traj = Trajectory.from_lists(["a"], [0.0, 2.0], [[0.0], [1.0]], [[0.0], [0.0]])
+    # smoothstep: p(s) = 3s^2 - 2s^3 over s = t/2; at t=1: 0.5, velocity 1.5/2 * ... = 0.75
+    pos, vel = traj.sample(1.0)
+    assert pos[0] == pytest.approx(0.5)
+    assert vel[0] == pytest.approx(0.75)
+    pos, vel = traj.sample(0.5)
+    s = 0.25
+    assert pos[0] == pytest.approx(3 * s**2 - 2 * s**3)
+    assert vel[0] == pytest.approx((6 * s - 6 * s**2) / 2)
+
+
+@settings(max_examples=50, deadline=None)
+@given(
+    ends=st.tuples(st.floats(-3, 3), st.floats(-3, 3), st.floats(-3, 3), st.floats(-3, 3)),
+    h=st.floats(0.1, 5),
+    s=st.floats(0, 1),
+)
+def test_hermite_velocity_is_the_derivative_of_position(ends, h, s) -> None:
+    p0, p1, v0, v1 = ends
+    traj = Trajectory(
+        (("j",)), (TrajectoryPoint(1.0, (p0,), (v0,)), TrajectoryPoint(1.0 + h, (p1,), (v1,)))
+    )
+    t = 1.0 + s * h
+    eps = 1e-6 * h
+    lo, hi = max(t - eps, 1.0), min(t + eps, 1.0 + h)
+    if hi - lo < eps:
+        return
+    numeric = (traj.sample(hi)[0][0] - traj.sample(lo)[0][0]) / (hi - lo)
+    assert traj.sample(t)[1][0] == pytest.approx(numeric, abs=1e-4 * (1 + abs(numeric)))
+    np.testing.assert_allclose(traj.sample(1.0)[0], [p0])
+    np.testing.assert_allclose(traj.sample(1.0 + h)[0], [p1], atol=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("joints", "times", "positions", "message"),
+    [
+        (["a"], [1.0, 1.0], [[0.0], [1.0]], "after the previous point"),
+        (["a"], [-1.0], [[0.0]], "must be >= 0"),
+        (["a", "a"], [1.0], [[0.0, 1.0]], "unique"),
+        (["a"], [1.0], [[0.0, 1.0]], "2 positions for 1 joints"),
+        (["a"], [1.0], [[float("nan")]], "finite"),
+        (["a"], [], [], "no points"),
+    ],
+)
+def test_invalid_trajectories(joints, times, positions, message) -> None:
+    with pytest.raises(SimError, match=message):
+        Trajectory.from_lists(joints, times, positions)
+
+
+def test_world_follows_a_trajectory(tmp_path: Path) -> None:
+    world = arm_world(tmp_path)
+    traj = Trajectory.from_lists(
+        ["shoulder", "elbow"], [1.0, 2.0], [[-0.5, 0.5], [-1.0, 1.2]], [[-0.5, 0.7], [0.0, 0.0]]
+    )
+    world.follower.start(traj, world.time)
+    errors = []
+    while world.follower.active is not None:
+        world.step()
+        want, _ = (
+            world.follower.active.sample(world.time) if world.follower.active else (None, None)
+        )
+        if want is not None:
+            got = world.joint_positions(["shoulder", "elbow"])
+            errors.append(max(abs(got["shoulder"] - want[0]), abs(got["elbow"] - want[1])))
+    assert world.time == pytest.approx(2.0, abs=0.003)
+    assert max(errors) < 0.02  # tracks while moving
+    world.step(500)
+    final = world.joint_positions()
+    assert final["shoulder"] == pytest.approx(-1.0, abs=2e-3)
+    assert final["elbow"] == pytest.approx(1.2, abs=2e-3)
+
+
+def test_following_an_undriven_joint_fails(tmp_path: Path) -> None:
+    world = arm_world(tmp_path)
+    with pytest.raises(SimError, match="grip_b"):
+        world.follower.start(Trajectory.from_lists(["grip_b"], [1.0], [[0.0]]), 0.0)
