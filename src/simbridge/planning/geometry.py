@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
@@ -104,16 +104,20 @@ def _quaternion(values: npt.ArrayLike) -> FloatArray:
     return np.asarray(array / norm)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, init=False)
 class Pose:
     """A frame's position (m) and orientation (unit quaternion x, y, z, w) in a reference frame."""
 
-    position: FloatArray = field(default_factory=lambda: np.zeros(3))
-    orientation: FloatArray = field(default_factory=lambda: np.array([0.0, 0.0, 0.0, 1.0]))
+    position: FloatArray
+    orientation: FloatArray
 
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "position", _vector3(self.position))
-        object.__setattr__(self, "orientation", _quaternion(self.orientation))
+    def __init__(
+        self,
+        position: npt.ArrayLike = (0.0, 0.0, 0.0),
+        orientation: npt.ArrayLike = (0.0, 0.0, 0.0, 1.0),
+    ) -> None:
+        object.__setattr__(self, "position", _vector3(position))
+        object.__setattr__(self, "orientation", _quaternion(orientation))
 
     @classmethod
     def from_matrix(cls, position: npt.ArrayLike, rotation: npt.ArrayLike) -> Pose:

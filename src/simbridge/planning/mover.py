@@ -8,6 +8,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
+import numpy.typing as npt
 
 from simbridge.assets import robot_urdf
 from simbridge.errors import PlanningError
@@ -170,13 +171,13 @@ class MoverPlanner:
 
     # --- the service ----------------------------------------------------------------------
 
-    def plan(self, joints: Sequence[float], pick_pose: Pose, place_pose: Pose) -> PickAndPlacePlan:
+    def plan(self, joints: npt.ArrayLike, pick_pose: Pose, place_pose: Pose) -> PickAndPlacePlan:
         """Four trajectories (pre-grasp, grasp, pick up, place) from ``joints`` (radians)."""
         began = time.perf_counter()
         kin = self.kinematics
         start = np.asarray(joints, dtype=np.float64)
         if start.shape != (kin.dof,):
-            raise PlanningError(f"expected {kin.dof} start joint values, got {len(start)}")
+            raise PlanningError(f"expected {kin.dof} start joint values, got {start.size}")
         self.paths.check_state(start, "start configuration")
         rng = np.random.default_rng(self.options.seed)
         pre_grasp = self.free_motion(start, pick_pose, "pre-grasp (pick_pose)", rng)
