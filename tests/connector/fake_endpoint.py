@@ -7,6 +7,7 @@ killed and restarted on the same port.
 
 from __future__ import annotations
 
+import contextlib
 import socket
 import threading
 import time
@@ -49,10 +50,8 @@ class FakeClientConn:
 
     def close(self) -> None:
         self.closed = True
-        try:
+        with contextlib.suppress(OSError):
             self.sock.shutdown(socket.SHUT_RDWR)
-        except OSError:
-            pass
         self.sock.close()
 
     def _read(self) -> None:
@@ -76,6 +75,8 @@ class FakeClientConn:
 
     def _answer(self, event: Event) -> None:
         ep = self.endpoint
+        if not ep.answer:
+            return
         if isinstance(event, ServiceRequestReceived) and ep.service_answer is not None:
             response = ep.service_answer(event.service, event.payload)
             if response is None:
@@ -111,6 +112,8 @@ class FakeEndpoint:
         self.topics: dict[str, str] = {}
         self.silent = False
         """When True nothing more is sent (simulates a hung endpoint)."""
+        self.answer = True
+        """When False requests (services, topic list, stats) get no reply."""
         self.lock = threading.Lock()
         self.conns: list[FakeClientConn] = []
         self.bytes_received = 0
@@ -159,10 +162,8 @@ class FakeEndpoint:
             if self.keepalive is None or self.silent:
                 continue
             for conn in self.live_conns():
-                try:
+                with contextlib.suppress(OSError):
                     conn.send(KEEPALIVE)
-                except OSError:
-                    pass
 
     def live_conns(self) -> list[FakeClientConn]:
         with self.lock:
@@ -190,10 +191,8 @@ class FakeEndpoint:
     def stop(self) -> None:
         """Close the listener and every client connection; join the threads."""
         self._stop.set()
-        try:
+        with contextlib.suppress(OSError):
             self._listener.shutdown(socket.SHUT_RDWR)
-        except OSError:
-            pass
         self._listener.close()
         with self.lock:
             conns = list(self.conns)

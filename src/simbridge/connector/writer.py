@@ -114,25 +114,32 @@ class FrameWriter:
                 self._link_changed.clear()
                 last_send = time.monotonic()
                 continue
+            fifo.ready.clear()  # anything queued after this sets it again
+            if self._drain(link):
+                last_send = time.monotonic()
+                continue
             wait = self._keepalive - (time.monotonic() - last_send)
             if wait <= 0:
                 if self._send(link, [KEEPALIVE], 1):
                     self._counters.keepalives_sent += 1
                 last_send = time.monotonic()
-                continue
-            if not fifo.ready.wait(wait):
-                continue
-            fifo.ready.clear()
-            while not self._stop and self._link is link and not link.broken.is_set():
-                self._busy = True
-                batch = fifo.take(_BATCH_ITEMS, _BATCH_BYTES)
+            else:
+                fifo.ready.wait(wait)
+
+    def _drain(self, link: Link) -> bool:
+        """Write batches until the FIFO is empty or the link changes; True if any was sent."""
+        sent = False
+        while not self._stop and self._link is link and not link.broken.is_set():
+            self._busy = True
+            try:
+                batch = self._fifo.take(_BATCH_ITEMS, _BATCH_BYTES)
                 if not batch:
-                    self._busy = False
                     break
-                parts = self._pack(batch)
-                self._send(link, parts, len(batch))
+                self._send(link, self._pack(batch), len(batch))
+                sent = True
+            finally:
                 self._busy = False
-                last_send = time.monotonic()
+        return sent
 
     @staticmethod
     def _pack(batch: list[tuple[OutTopic | None, bytes]]) -> list[bytes | bytearray]:

@@ -1,0 +1,59 @@
+"""Fixtures: a fake endpoint, connectors with fast timings, and a thread-leak check."""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Callable, Iterator
+
+import pytest
+
+from simbridge.connector import Connector, ConnectorOptions
+from tests.connector.fake_endpoint import FakeEndpoint
+
+FAST = ConnectorOptions(
+    keepalive_interval=0.2,
+    dead_timeout=0.6,
+    connect_timeout=1.0,
+    reconnect_initial=0.1,
+    reconnect_max=0.4,
+    service_timeout=3.0,
+    request_timeout=3.0,
+)
+
+
+def _our_threads() -> list[threading.Thread]:
+    return [
+        t
+        for t in threading.enumerate()
+        if t.name.startswith(("simbridge-connector", "fake-endpoint"))
+    ]
+
+
+@pytest.fixture(autouse=True)
+def _no_leaked_threads() -> Iterator[None]:
+    yield
+    deadline = time.monotonic() + 5
+    while _our_threads() and time.monotonic() < deadline:
+        time.sleep(0.01)
+    assert not _our_threads(), f"threads left running: {_our_threads()}"
+
+
+@pytest.fixture
+def endpoint() -> Iterator[FakeEndpoint]:
+    with FakeEndpoint(keepalive=0.2) as ep:
+        yield ep
+
+
+@pytest.fixture
+def make_connector() -> Iterator[Callable[..., Connector]]:
+    made: list[Connector] = []
+
+    def make(port: int, options: ConnectorOptions = FAST, **kwargs: object) -> Connector:
+        connector = Connector(port=port, options=options, **kwargs)  # type: ignore[arg-type]
+        made.append(connector)
+        return connector
+
+    yield make
+    for connector in made:
+        connector.close()
