@@ -19,7 +19,8 @@ class OffscreenRenderer:
 
     The camera looks along its frame's +x with +z up (ROS body axes); `fovy` is the
     vertical field of view. Pixels are square and the principal point is the image
-    centre. Shadows and reflections are off unless asked for (they double CPU cost).
+    centre. Shadows, reflections and multisample anti-aliasing are off unless asked for:
+    on a CPU (OSMesa/llvmpipe) 4x MSAA alone makes a frame about four times slower.
     """
 
     def __init__(
@@ -30,6 +31,7 @@ class OffscreenRenderer:
         *,
         shadows: bool = False,
         reflections: bool = False,
+        multisamples: int = 0,
         max_geom: int = 10000,
     ) -> None:
         # The offscreen framebuffer is sized from the model; grow it when too small.
@@ -40,9 +42,15 @@ class OffscreenRenderer:
         self._model = model
         self._context: GLContext | None = create_gl_context(width, height)
         self._context.make_current()
-        self._mjr: mujoco.MjrContext | None = mujoco.MjrContext(
-            model, mujoco.mjtFontScale.mjFONTSCALE_100
-        )
+        # The context reads the sample count from the model; leave the model as it was.
+        model_samples = int(model.vis.quality.offsamples)
+        model.vis.quality.offsamples = multisamples
+        try:
+            self._mjr: mujoco.MjrContext | None = mujoco.MjrContext(
+                model, mujoco.mjtFontScale.mjFONTSCALE_100
+            )
+        finally:
+            model.vis.quality.offsamples = model_samples
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self._mjr)
         self._mjr.readDepthMap = mujoco.mjtDepthMap.mjDEPTH_ZEROFAR
         self._scene = mujoco.MjvScene(model, maxgeom=max_geom)
