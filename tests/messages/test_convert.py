@@ -135,3 +135,39 @@ def test_special_floats_survive_dicts(registry: MessageRegistry) -> None:
 def test_to_dict_rejects_non_messages(registry: MessageRegistry) -> None:
     with pytest.raises(MessageError, match="not a message object: dict"):
         registry.to_dict({"x": 1})
+
+
+json_like = st.recursive(
+    st.none()
+    | st.booleans()
+    | st.integers(-(2**70), 2**70)
+    | st.floats()
+    | st.text(max_size=6)
+    | st.binary(max_size=6),
+    lambda children: (
+        st.lists(children, max_size=4)
+        | st.dictionaries(
+            st.sampled_from(["x", "data", "header", "stamp", "secs", "linear", "name", "position"]),
+            children,
+            max_size=4,
+        )
+    ),
+    max_leaves=12,
+)
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    name=st.sampled_from(
+        ["geometry_msgs/Twist", "sensor_msgs/JointState", "std_msgs/Header", "sensor_msgs/Image"]
+    ),
+    data=json_like,
+)
+def test_arbitrary_data_gives_message_or_message_error(
+    registry: MessageRegistry, name: str, data: object
+) -> None:
+    try:
+        msg = registry.from_dict(name, data)
+    except MessageError:
+        return
+    assert registry.decode(registry.encode(msg), name) is not None

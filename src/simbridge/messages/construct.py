@@ -173,7 +173,7 @@ class Builder:
         cls = self._source.msg_class(typ)
         if isinstance(value, cls):
             return value
-        if value == "now" and typ == "time":
+        if isinstance(value, str) and value == "now" and typ == "time":
             value = time.time()
         if isinstance(value, Mapping):
             keys = set(value)
@@ -223,7 +223,7 @@ def _primitive(typ: str, value: object, path: str) -> Any:
         msg = f"{path}: expected a string, got {value!r}"
         raise MessageError(msg)
     if typ == "bool":
-        if isinstance(value, bool) or value in (0, 1):
+        if isinstance(value, bool) or (isinstance(value, int | float) and value in (0, 1)):
             return bool(value)
         msg = f"{path}: expected a bool, got {value!r}"
         raise MessageError(msg)
