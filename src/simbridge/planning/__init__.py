@@ -22,10 +22,18 @@ from simbridge.planning.scene import (
     add_payload,
     build_planning_model,
 )
+from simbridge.planning.service import (
+    MOVER_SERVICE_TYPE,
+    MoverService,
+    mover_response,
+    pose_from_message,
+    robot_trajectory_message,
+)
 from simbridge.planning.timing import JointTrajectory, time_parameterize
 
 __all__ = [
     "DEFAULT_PAYLOAD",
+    "MOVER_SERVICE_TYPE",
     "PAYLOAD_GEOM",
     "ArmKinematics",
     "ArmSpec",
@@ -38,6 +46,7 @@ __all__ = [
     "JointTrajectory",
     "MoverOptions",
     "MoverPlanner",
+    "MoverService",
     "PathOptions",
     "Payload",
     "PickAndPlacePlan",
@@ -46,8 +55,11 @@ __all__ = [
     "add_payload",
     "build_planning_model",
     "matrix_to_quaternion",
+    "mover_response",
     "niryo_one_arm",
+    "pose_from_message",
     "quaternion_to_matrix",
+    "robot_trajectory_message",
     "rotation_error",
     "time_parameterize",
     "top_down_orientation",
