@@ -1,0 +1,228 @@
+"""Connectors talking through the real simbridge endpoint (local backend) over TCP."""
+
+from __future__ import annotations
+
+import dataclasses
+import queue
+import threading
+import time
+from collections.abc import Callable, Iterator
+from typing import Any
+
+import pytest
+
+from simbridge.connector import Connector, ConnectorOptions
+from simbridge.endpoint import EndpointOptions, EndpointThread, LocalBus, Node
+from simbridge.errors import ServiceError
+from simbridge.messages import default_registry
+from tests.connector.conftest import FAST
+
+REG = default_registry()
+
+
+@pytest.fixture
+def endpoint() -> Iterator[EndpointThread]:
+    with EndpointThread(EndpointOptions(port=0, keepalive_interval=0.2)) as ep:
+        yield ep
+
+
+def twist(x: float, z: float) -> Any:
+    msg = REG.new("geometry_msgs/Twist")
+    msg.linear.x = x
+    msg.angular.z = z
+    return msg
+
+
+def wait_until(predicate: Callable[[], bool], timeout: float = 5.0) -> bool:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if predicate():
+            return True
+        time.sleep(0.01)
+    return predicate()
+
+
+def test_topic_between_two_connectors_with_message_objects(endpoint, make_connector):
+    sim = make_connector(endpoint.port).connect()
+    ros = make_connector(endpoint.port).connect()
+    got: queue.Queue[Any] = queue.Queue()
+    ros.subscribe("/cmd_vel", "geometry_msgs/Twist", got.put)
+    assert wait_until(lambda: "/cmd_vel" in sim.topic_list())
+    pub = sim.register_publisher("/cmd_vel", "geometry_msgs/Twist")
+    for i in range(5):
+        pub.publish(twist(0.5 * i, -0.25))
+    received = [got.get(timeout=5) for _ in range(5)]
+    assert [m.linear.x for m in received] == [0.0, 0.5, 1.0, 1.5, 2.0]
+    assert {m.angular.z for m in received} == {-0.25}
+    assert type(received[0]).__name__ == "geometry_msgs__msg__Twist"
+
+
+def test_latched_topic_reaches_a_late_subscriber(endpoint, make_connector):
+    sim = make_connector(endpoint.port).connect()
+    pub = sim.register_publisher("/map_name", "std_msgs/String", latch=True)
+    pub.publish(REG.new("std_msgs/String", data="warehouse"))
+    assert sim.flush(2.0)
+    time.sleep(0.2)
+    late = make_connector(endpoint.port).connect()
+    got: queue.Queue[Any] = queue.Queue()
+    late.subscribe("/map_name", "std_msgs/String", got.put)
+    assert got.get(timeout=5).data == "warehouse"
+
+
+def test_services_both_ways(endpoint, make_connector):
+    server = make_connector(endpoint.port).connect()
+    client = make_connector(endpoint.port).connect()
+
+    def flip(req: Any) -> Any:
+        return REG.new("std_srvs/SetBoolResponse", success=not req.data, message="flipped")
+
+    server.implement_service("/flip", "std_srvs/SetBool", flip)
+    client.register_ros_service("/flip", "std_srvs/SetBool")
+    server.endpoint_stats()  # a barrier: the endpoint handled the registration before it
+    response = client.call("/flip", REG.new("std_srvs/SetBoolRequest", data=True), timeout=5)
+    assert (response.success, response.message) == (False, "flipped")
+    raw = client.call_service(
+        "/flip", REG.encode(REG.new("std_srvs/SetBoolRequest", data=False)), timeout=5
+    ).result(5)
+    assert REG.decode(raw, "std_srvs/SetBoolResponse").success is True
+
+
+def test_services_with_an_in_process_node(endpoint, make_connector):
+    sim = make_connector(endpoint.port).connect()
+    sim.implement_service(
+        "/sim/step",
+        "std_srvs/Trigger",
+        lambda _req: REG.new("std_srvs/TriggerResponse", success=True, message="stepped"),
+    )
+    assert isinstance(endpoint.backend, LocalBus)
+    with Node(endpoint.backend, "/ros_side") as node:
+        node.serve(
+            "/ros/double",
+            "std_srvs/SetBool",
+            lambda req: REG.new("std_srvs/SetBoolResponse", success=req.data, message="ok"),
+        )
+        sim.register_ros_service("/ros/double", "std_srvs/SetBool")
+        answer = sim.call("/ros/double", REG.new("std_srvs/SetBoolRequest", data=True), 5.0)
+        assert (answer.success, answer.message) == (True, "ok")
+        sim.endpoint_stats()  # a barrier: `/sim/step` is advertised once this returns
+        reply = node.call("/sim/step", "std_srvs/Trigger", REG.new("std_srvs/TriggerRequest"))
+        assert (reply.success, reply.message) == (True, "stepped")
+
+
+def test_call_to_a_service_nobody_serves_fails_fast(endpoint, make_connector):
+    sim = make_connector(endpoint.port).connect()
+    sim.register_ros_service("/nobody", "std_srvs/Trigger")
+    t0 = time.monotonic()
+    with pytest.raises(ServiceError, match="/nobody"):
+        sim.call("/nobody", REG.new("std_srvs/TriggerRequest"), timeout=5.0)
+    assert time.monotonic() - t0 < 2.0
+
+
+def test_topic_list_names_types(endpoint, make_connector):
+    sim = make_connector(endpoint.port).connect()
+    sim.register_publisher("/joint_states", "sensor_msgs/JointState")
+    sim.subscribe("/cmd_vel", "geometry_msgs/Twist", lambda _m: None)
+    assert wait_until(lambda: len(sim.topic_list()) >= 2)
+    topics = sim.topic_list()
+    assert topics["/joint_states"] == "sensor_msgs/JointState"
+    assert topics["/cmd_vel"] == "geometry_msgs/Twist"
+
+
+def test_twenty_concurrent_clients(endpoint, make_connector):
+    clients = [make_connector(endpoint.port).connect(wait=None) for _ in range(20)]
+    assert all(c.wait_connected(5) for c in clients)
+    inboxes: list[list[int]] = [[] for _ in clients]
+    collected: list[int] = []
+    lock = threading.Lock()
+    collector = make_connector(endpoint.port).connect()
+
+    def collect(msg: Any) -> None:
+        with lock:
+            collected.append(msg.data)
+
+    collector.subscribe("/reports", "std_msgs/Int32", collect)
+    for i, client in enumerate(clients):
+        client.subscribe("/broadcast", "std_msgs/Int32", lambda m, i=i: inboxes[i].append(m.data))
+        client.register_publisher("/reports", "std_msgs/Int32")
+    assert wait_until(lambda: len(collector.topic_list()) >= 2)
+    time.sleep(0.3)  # every registration has reached the endpoint
+    source = make_connector(endpoint.port).connect()
+    pub = source.register_publisher("/broadcast", "std_msgs/Int32")
+    for n in range(50):
+        pub.publish(REG.new("std_msgs/Int32", data=n))
+
+    def report(i: int) -> None:
+        for n in range(10):
+            clients[i].publish("/reports", REG.new("std_msgs/Int32", data=i * 100 + n))
+
+    threads = [threading.Thread(target=report, args=(i,)) for i in range(20)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert wait_until(lambda: all(len(box) == 50 for box in inboxes))
+    assert all(box == list(range(50)) for box in inboxes)
+    assert wait_until(lambda: len(collected) == 200)
+    assert sorted(collected) == sorted(i * 100 + n for i in range(20) for n in range(10))
+
+
+def test_traffic_resumes_after_endpoint_restart_without_reregistering():
+    first = EndpointThread(EndpointOptions(port=0)).start()
+    port = first.port
+    options = ConnectorOptions()  # production timings: first retry after 1 s
+    sim = Connector(port=port, options=options).connect()
+    ros = Connector(port=port, options=options).connect()
+    second: EndpointThread | None = None
+    try:
+        got: queue.Queue[Any] = queue.Queue()
+        ros.subscribe("/odom_x", "std_msgs/Float64", lambda m: got.put(m.data))
+        sim.implement_service(
+            "/sim/ping",
+            "std_srvs/Trigger",
+            lambda _r: REG.new("std_srvs/TriggerResponse", success=True, message="pong"),
+        )
+        ros.register_ros_service("/sim/ping", "std_srvs/Trigger")
+        pub = sim.register_publisher("/odom_x", "std_msgs/Float64")
+        assert wait_until(lambda: len(ros.topic_list()) >= 1)
+        pub.publish(REG.new("std_msgs/Float64", data=1.0))
+        assert got.get(timeout=5) == 1.0
+
+        first.stop()
+        assert wait_until(lambda: not sim.connected and not ros.connected, timeout=3)
+        t0 = time.monotonic()
+        second = EndpointThread(EndpointOptions(port=port)).start()
+        resumed = None
+        while time.monotonic() - t0 < 3.0:
+            pub.publish(REG.new("std_msgs/Float64", data=2.0))
+            try:
+                resumed = got.get(timeout=0.1)
+                break
+            except queue.Empty:
+                continue
+        assert resumed == 2.0, "traffic did not resume within 3 s"
+        answer = ros.call("/sim/ping", REG.new("std_srvs/TriggerRequest"), timeout=3.0)
+        assert answer.message == "pong"
+        assert sim.stats().reconnects == 1
+    finally:
+        sim.close()
+        ros.close()
+        first.stop()
+        if second is not None:
+            second.stop()
+
+
+def test_dead_endpoint_detected_within_dead_timeout(make_connector):
+    with EndpointThread(EndpointOptions(port=0, keepalive_interval=0.2)) as ep:
+        options = dataclasses.replace(FAST, dead_timeout=0.6)
+        sim = make_connector(ep.port, options).connect()
+        assert wait_until(lambda: sim.handshake is not None)
+        assert sim.handshake is not None
+        assert sim.handshake.metadata.get("keepalive") == 0.2
+        # freeze the endpoint's event loop: the TCP connection stays open but goes silent
+        frozen = threading.Event()
+        ep.loop.call_soon_threadsafe(lambda: frozen.wait(3.0))
+        t0 = time.monotonic()
+        assert wait_until(lambda: not sim.connected, timeout=2.5)
+        assert time.monotonic() - t0 < 0.6 + 0.5
+        frozen.set()
+        assert sim.wait_connected(3.0)
