@@ -176,3 +176,17 @@ def test_twist_codec_throughput_floor(registry: MessageRegistry) -> None:
             codec.decode(codec.encode(twist))
         best = max(best, 5000 / (time.perf_counter() - start))
     assert best > 20_000
+
+
+def test_ros2_store_gives_ros2_layouts() -> None:
+    from rosbags.typesys import Stores
+
+    ros2 = MessageRegistry(store=Stores.ROS2_HUMBLE)
+    header = ros2.new("std_msgs/Header", stamp={"secs": 1, "nsecs": 2}, frame_id="a")
+    assert ros2.encode(header, fmt="cdr") == b"\x00\x01\x00\x00" + struct.pack(
+        "<iII2s", 1, 2, 2, b"a\x00"
+    )  # no seq in ROS 2
+    assert ros2.has("moveit_msgs/RobotTrajectory")  # shipped packages with satisfied deps
+    assert ros2.has_service("niryo_moveit/MoverService")
+    assert not ros2.has("roscpp/GetLoggersRequest")  # needs roscpp/Logger, noetic-only
+    assert MessageRegistry(store=Stores.EMPTY, shipped=False).names() == []

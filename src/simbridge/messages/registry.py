@@ -48,8 +48,10 @@ class MessageRegistry:
     `pkg/Srv` or `pkg/srv/Srv`, their parts as `pkg/SrvRequest` / `pkg/SrvResponse`.
     """
 
-    def __init__(self, *, noetic: bool = True, shipped: bool = True) -> None:
-        self._store = get_typestore(Stores.ROS1_NOETIC if noetic else Stores.EMPTY)
+    def __init__(self, *, store: Stores = Stores.ROS1_NOETIC, shipped: bool = True) -> None:
+        """Start from rosbags' `store` (ROS 1 noetic; a ROS 2 store gives ROS 2 layouts,
+        e.g. Header without seq, for CDR peers), plus the shipped definitions."""
+        self._store = get_typestore(store)
         self._lock = threading.RLock()
         self._texts: dict[str, str] = {}
         self._constant_texts: dict[str, dict[str, str]] = {}
@@ -60,13 +62,31 @@ class MessageRegistry:
         self._builder = Builder(self)
         self._exporter = Exporter(self.schema)
         if shipped:
-            self.load_packages(SHIPPED_DEFINITIONS)
+            self._load_shipped(strict=store == Stores.ROS1_NOETIC)
 
     # -- adding types -----------------------------------------------------------------------
 
     def load_packages(self, *paths: str | Path) -> list[str]:
         """Add the packages under `paths` (package dirs or dirs of packages); returns new types."""
         return self.add_sources(load_interface_dirs(*paths))
+
+    def _load_shipped(self, *, strict: bool) -> None:
+        """Shipped packages are written for noetic; other stores get those whose
+        dependencies they have (e.g. no roscpp/Logger in ROS 2)."""
+        if strict:
+            self.load_packages(SHIPPED_DEFINITIONS)
+            return
+        pending = sorted(p for p in SHIPPED_DEFINITIONS.iterdir() if p.is_dir())
+        progress = True
+        while pending and progress:
+            progress = False
+            for package in list(pending):
+                try:
+                    self.load_packages(package)
+                except MessageError:
+                    continue
+                pending.remove(package)
+                progress = True
 
     def add_message(self, name: str, text: str) -> str:
         """Add one message type from its `.msg` text; returns its canonical name."""
