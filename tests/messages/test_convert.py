@@ -156,7 +156,7 @@ json_like = st.recursive(
 )
 
 
-@settings(max_examples=300, deadline=None)
+@settings(max_examples=200, deadline=None)
 @given(
     name=st.sampled_from(
         ["geometry_msgs/Twist", "sensor_msgs/JointState", "std_msgs/Header", "sensor_msgs/Image"]

@@ -27,6 +27,13 @@ MessageRegistry API:
 - `load_packages(*paths)`, `add_message(name, text)`, `add_service(name, text)`.
 
 Module functions `show(name)` and `md5(name)` use the default registry (for the CLI).
+
+Messages are rosbags' generated (mutable) dataclasses. Numeric array fields hold numpy
+arrays (`new`/`from_dict` convert lists; assigning a plain list fails at encode time);
+arrays in decoded messages are read-only views of the input bytes. Time and duration
+fields are `builtin_interfaces` Time/Duration objects (`sec`, `nanosec`); dicts spell
+them `{secs, nsecs}` like rospy. CDR uses the registry's layouts: ROS 1 noetic by
+default (Header with seq); `MessageRegistry(store=Stores.ROS2_HUMBLE)` gives ROS 2 ones.
 """
 
 from __future__ import annotations
