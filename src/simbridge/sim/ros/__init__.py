@@ -1,0 +1,29 @@
+"""ROS interfaces of the simulator, through the connector: joint states, TF, clock, commands."""
+
+from __future__ import annotations
+
+from simbridge.sim.ros.bridge import SimRosBridge
+from simbridge.sim.ros.commands import CommandSubscriber
+from simbridge.sim.ros.convert import (
+    StampMaker,
+    duration_seconds,
+    joint_state_message,
+    tf_message,
+    trajectory_from_message,
+)
+from simbridge.sim.ros.publishers import StatePublisher
+from simbridge.sim.ros.services import STEP_SRV, STEP_SRV_TEXT, ControlServices
+
+__all__ = [
+    "STEP_SRV",
+    "STEP_SRV_TEXT",
+    "CommandSubscriber",
+    "ControlServices",
+    "SimRosBridge",
+    "StampMaker",
+    "StatePublisher",
+    "duration_seconds",
+    "joint_state_message",
+    "tf_message",
+    "trajectory_from_message",
+]

@@ -1,0 +1,53 @@
+"""Connect a `World` to ROS through a `Connector`: state out, commands in, control services."""
+
+from __future__ import annotations
+
+from simbridge.connector import Connector
+from simbridge.messages import MessageRegistry, default_registry
+from simbridge.sim.ros.commands import CommandSubscriber
+from simbridge.sim.ros.publishers import StatePublisher
+from simbridge.sim.ros.services import ControlServices
+from simbridge.sim.scene.model import RosSettings
+from simbridge.sim.world.world import World
+
+__all__ = ["SimRosBridge"]
+
+
+class SimRosBridge:
+    """All ROS interfaces of a simulation, as configured by the scene's `ros` section."""
+
+    def __init__(
+        self,
+        world: World,
+        connector: Connector,
+        settings: RosSettings | None = None,
+        registry: MessageRegistry | None = None,
+    ) -> None:
+        self.world = world
+        self.connector = connector
+        self.settings = settings or world.scene.ros
+        self.registry = registry or default_registry()
+        self.state = StatePublisher(world, connector, self.settings, self.registry)
+        self.commands = CommandSubscriber(world, connector, self.settings)
+        self.services = ControlServices(
+            world, connector, self.settings.services_prefix, self.registry
+        )
+
+    def start(self) -> SimRosBridge:
+        """Register every topic and service; state is published as the world steps."""
+        self.services.start()
+        self.commands.start()
+        self.state.start()
+        return self
+
+    def close(self) -> None:
+        """Unregister everything (the connector stays open)."""
+        self.state.close()
+        self.commands.close()
+        self.services.close()
+
+    def __enter__(self) -> SimRosBridge:
+        return self.start()
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
