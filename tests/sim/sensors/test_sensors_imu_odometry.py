@@ -88,8 +88,8 @@ def test_imu_noise_and_bias_are_seeded(imu_world):
     )
     first, second = Imu(model, config), Imu(model, config)
     np.testing.assert_array_equal(first.accel_bias, second.accel_bias)
-    readings = np.array([first.read(model, data).linear_acceleration for _ in range(2000)])
-    again = np.array([second.read(model, data).linear_acceleration for _ in range(2000)])
+    readings = np.array([first.read(model, data).linear_acceleration for _ in range(1000)])
+    again = np.array([second.read(model, data).linear_acceleration for _ in range(1000)])
     np.testing.assert_array_equal(readings, again)
     assert np.linalg.norm(first.accel_bias) > 0
     np.testing.assert_allclose(

@@ -5,6 +5,7 @@ their own rate in simulated time and do no work while none of their outputs is w
 """
 
 from simbridge.sim.sensors.base import Sensor
+from simbridge.sim.sensors.binding import SteppedWorld, attach_sensors
 from simbridge.sim.sensors.camera import Camera, CameraConfig
 from simbridge.sim.sensors.camera_model import PinholeModel, optical_pose
 from simbridge.sim.sensors.config import SensorConfig
@@ -51,6 +52,8 @@ __all__ = [
     "Sensor",
     "SensorConfig",
     "SensorSuite",
+    "SteppedWorld",
+    "attach_sensors",
     "build_sensor",
     "configure_gl",
     "optical_pose",

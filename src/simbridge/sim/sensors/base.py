@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from abc import ABC, abstractmethod
 from collections.abc import Mapping
 
@@ -41,6 +42,7 @@ class Sensor(ABC):
         self._outputs = dict(outputs)
         self._wanted = dict.fromkeys(outputs, True)
         self._seq = dict.fromkeys(outputs, 0)
+        self._last_time = -math.inf
 
     @property
     def outputs(self) -> dict[str, str]:
@@ -71,8 +73,15 @@ class Sensor(ABC):
         return any(self._wanted.values())
 
     def poll(self, model: mujoco.MjModel, data: mujoco.MjData) -> list[Publication]:
-        """Messages due at `data.time` (empty between ticks or when inactive)."""
-        if not self.schedule.due(float(data.time)) or not self.active:
+        """Messages due at `data.time` (empty between ticks or when inactive).
+
+        A clock that went backwards (a simulation reset) restarts the sensor first.
+        """
+        now = float(data.time)
+        if now < self._last_time:
+            self.reset()
+        self._last_time = now
+        if not self.schedule.due(now) or not self.active:
             return []
         return self.measure(model, data)
 

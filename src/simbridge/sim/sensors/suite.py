@@ -15,7 +15,7 @@ from simbridge.sim.sensors.imu import Imu, ImuConfig
 from simbridge.sim.sensors.lidar2d import Lidar2D, Lidar2DConfig
 from simbridge.sim.sensors.lidar3d import Lidar3D, Lidar3DConfig
 from simbridge.sim.sensors.odometry import Odometry, OdometryConfig
-from simbridge.sim.sensors.rosmsg import Publication
+from simbridge.sim.sensors.rosmsg import Publication, transform_stamped
 
 __all__ = ["SENSOR_TYPES", "SensorSuite", "build_sensor"]
 
@@ -110,6 +110,15 @@ class SensorSuite:
                 sensor.set_wanted(topic, wanted)
                 return
         raise SimError(f"no sensor publishes {topic!r}; topics: {sorted(self.outputs)}")
+
+    def static_transforms(self, model: mujoco.MjModel) -> list[Any]:
+        """geometry_msgs/TransformStamped for /tf_static: every sensor data frame that is
+        not a model body (offset mounts, camera optical frames), stamped at time 0."""
+        frames = (sensor.static_frame(model) for sensor in self.sensors)
+        return [
+            transform_stamped(0.0, parent, child, pose)
+            for parent, child, pose in (frame for frame in frames if frame is not None)
+        ]
 
     def poll(self, model: mujoco.MjModel, data: mujoco.MjData) -> list[Publication]:
         """Messages from every sensor due at `data.time`."""
