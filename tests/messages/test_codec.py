@@ -103,6 +103,9 @@ def test_truncated_and_trailing_bytes(registry: MessageRegistry) -> None:
         registry.decode(wire + b"\x00", "std_msgs/Header")
     with pytest.raises(MessageError, match="encapsulation header"):
         registry.decode(b"\x00\x07\x00\x00", "std_msgs/Header", "cdr")
+    for fmt in ("ros1", "cdr"):
+        with pytest.raises(MessageError):
+            registry.decode("text", "std_msgs/Header", fmt)  # type: ignore[arg-type]
     huge = struct.pack("<IIII", 0, 0, 0, 0xFFFFFFFF)
     with pytest.raises(MessageError):
         registry.decode(huge, "std_msgs/Header")

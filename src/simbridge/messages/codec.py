@@ -120,12 +120,16 @@ class Codec:
 
     def decode_cdr(self, data: bytes | bytearray | memoryview) -> Any:
         """Deserialize CDR (either byte order); at most 3 bytes of trailing padding."""
-        if len(data) < 4 or bytes(data[:2]) not in _CDR_HEADERS:
+        try:
+            raw = _frozen(data)
+        except TypeError as exc:
+            raise MessageError(f"cannot decode {type(data).__name__} as CDR {self.name}") from exc
+        if len(raw) < 4 or raw[:2] not in _CDR_HEADERS:
             msg_ = f"malformed CDR {self.name}: missing or unknown encapsulation header"
             raise MessageError(msg_)
-        func = self._de_cdr_le if data[1] else self._de_cdr_be
+        func = self._de_cdr_le if raw[1] else self._de_cdr_be
         try:
-            msg, pos = func(memoryview(_frozen(data))[4:], 0, self._cls, self._store)
+            msg, pos = func(memoryview(raw)[4:], 0, self._cls, self._store)
         except Exception as exc:
             raise MessageError(f"malformed CDR {self.name} ({len(data)} bytes): {exc}") from exc
         if pos + 4 + 3 < len(data):
