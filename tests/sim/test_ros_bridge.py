@@ -209,3 +209,54 @@ def test_trajectory_message_conversion() -> None:
     assert [p.time for p in traj.points] == [0.5, 1.25]
     assert traj.points[0].velocities is None
     assert trajectory_from_message(REG.new("trajectory_msgs/JointTrajectory")) is None
+
+
+def test_session_serves_scene_with_sensors(tmp_path: Path) -> None:
+    import yaml
+
+    from simbridge.sim.ros import SimulationSession
+
+    (tmp_path / "arm.urdf").write_text(GRAVITY_ARM)
+    (tmp_path / "scene.yaml").write_text(
+        yaml.safe_dump(
+            {
+                "physics": {"realtime_factor": 1.0},
+                "robots": [{"urdf": "arm.urdf"}],
+                "sensors": [
+                    {
+                        "type": "imu",
+                        "name": "wrist_imu",
+                        "body": "fore",
+                        "rate": 50,
+                        "topic": "/wrist/imu",
+                    }
+                ],
+            }
+        )
+    )
+    with EndpointThread(EndpointOptions(port=0)) as endpoint:
+        assert isinstance(endpoint.backend, LocalBus)
+        with Node(endpoint.backend, "/tester") as node:
+            imu = _collect(node, "/wrist/imu", "sensor_msgs/Imu")
+            states = _collect(node, "/joint_states", "sensor_msgs/JointState")
+            address = f"127.0.0.1:{endpoint.port}"
+            scene = tmp_path / "scene.yaml"
+            with SimulationSession(scene, address, connect_timeout=5) as session:
+                assert session.connector is not None
+                assert session.connector.flush(5)
+                stats = session.run(duration=0.5)
+                assert stats.steps == 250
+                readings = [imu.get(timeout=5) for _ in range(20)]
+                assert states.get(timeout=5).name
+    # once the arm has settled, the IMU reads +g upward (the forearm is level at zero angles)
+    assert readings[-1].linear_acceleration.z == pytest.approx(9.81, abs=0.05)
+
+
+@pytest.mark.parametrize("text", ["localhost", "host:0", "host:http", ":99999"])
+def test_bad_endpoint_text(text: str) -> None:
+    from simbridge.errors import SimError
+    from simbridge.sim.ros import parse_endpoint
+
+    with pytest.raises(SimError, match="is not host:port"):
+        parse_endpoint(text)
+    assert parse_endpoint(":10000") == ("127.0.0.1", 10000)

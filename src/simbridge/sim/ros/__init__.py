@@ -12,18 +12,24 @@ from simbridge.sim.ros.convert import (
     trajectory_from_message,
 )
 from simbridge.sim.ros.publishers import StatePublisher
+from simbridge.sim.ros.sensor_link import SensorPublisher
 from simbridge.sim.ros.services import STEP_SRV, STEP_SRV_TEXT, ControlServices
+from simbridge.sim.ros.session import SimulationSession, parse_endpoint, run_scene
 
 __all__ = [
     "STEP_SRV",
     "STEP_SRV_TEXT",
     "CommandSubscriber",
     "ControlServices",
+    "SensorPublisher",
     "SimRosBridge",
+    "SimulationSession",
     "StampMaker",
     "StatePublisher",
     "duration_seconds",
     "joint_state_message",
+    "parse_endpoint",
+    "run_scene",
     "tf_message",
     "trajectory_from_message",
 ]

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import Any
 
 from simbridge.connector import Connector
 from simbridge.messages import MessageRegistry
@@ -26,6 +27,8 @@ class StatePublisher:
         self.stamps = StampMaker(registry)
         self._callbacks: list[int] = []
         self._topics: list[str] = []
+        self.extra_static: list[Any] = []
+        """More geometry_msgs/TransformStamped for /tf_static (e.g. sensor frames)."""
 
     def start(self) -> None:
         """Advertise the topics, publish /tf_static once (latched), schedule the rest."""
@@ -86,9 +89,9 @@ class StatePublisher:
 
     def publish_tf_static(self) -> None:
         """Transforms across fixed joints and to fixed robot bases (latched)."""
-        self.connector.publish(
-            "/tf_static", tf_message(self.stamps, self.world.time, self._edges(fixed=True))
-        )
+        msg = tf_message(self.stamps, self.world.time, self._edges(fixed=True))
+        msg.transforms.extend(self.extra_static)
+        self.connector.publish("/tf_static", msg)
 
     def publish_clock(self) -> None:
         """The sim time, so ROS nodes with use_sim_time follow the simulation."""

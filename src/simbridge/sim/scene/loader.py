@@ -338,6 +338,12 @@ def _ros(section: _Section) -> RosSettings:
     return settings
 
 
+def _sensor(section: _Section) -> dict[str, Any]:
+    if not isinstance(section.data.get("type"), str):
+        raise SimError(f"scene {section.where}: a sensor needs a 'type' (e.g. lidar_2d, camera)")
+    return dict(section.data)
+
+
 def parse_scene(data: object, base_dir: Path, source: Path | None = None) -> Scene:
     """Build a `Scene` from parsed YAML `data`; relative paths are taken from `base_dir`."""
     root = _Section(data, "")
@@ -347,9 +353,10 @@ def parse_scene(data: object, base_dir: Path, source: Path | None = None) -> Sce
         objects=tuple(_object(s, base_dir) for s in root.items("objects")),
         lights=tuple(_light(s) for s in root.items("lights")),
         ros=_ros(root.sub("ros")),
+        sensors=tuple(_sensor(s) for s in root.items("sensors")),
         source=source,
     )
-    root.done(("physics", "robots", "objects", "lights", "ros"))
+    root.done(("physics", "robots", "objects", "lights", "ros", "sensors"))
     names = [o.name for o in scene.objects]
     duplicates = sorted({n for n in names if names.count(n) > 1})
     if duplicates:

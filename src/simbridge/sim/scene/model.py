@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from simbridge.sim.control.drive import DriveSpec
 from simbridge.sim.urdf.transforms import Transform, Vec3
@@ -132,4 +133,6 @@ class Scene:
     objects: tuple[ObjectSpec, ...] = ()
     lights: tuple[LightSpec, ...] = ()
     ros: RosSettings = RosSettings()
+    sensors: tuple[dict[str, Any], ...] = ()
+    """Raw `sensors:` entries, each with a `type`; `simbridge.sim.sensors` interprets them."""
     source: Path | None = None

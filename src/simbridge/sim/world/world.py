@@ -71,6 +71,7 @@ class World:
         self.follower = TrajectoryFollower(self.drives)
         self.rng = np.random.default_rng(self.scene.physics.seed)
         self._callbacks: dict[int, _Callback] = {}
+        self._reset_callbacks: list[StepCallback] = []
         self._next_id = 0
         self._posted: deque[Callable[[], None]] = deque()
         self._lock = threading.Lock()
@@ -186,6 +187,10 @@ class World:
         self._callbacks[self._next_id] = _Callback(fn, period, self.time + (period or 0.0))
         return self._next_id
 
+    def add_reset_callback(self, fn: StepCallback) -> None:
+        """Call `fn(world)` after every `reset()` (e.g. to restart sensor schedules)."""
+        self._reset_callbacks.append(fn)
+
     def remove_step_callback(self, callback_id: int) -> None:
         """Stop calling a callback added with `add_step_callback`."""
         self._callbacks.pop(callback_id, None)
@@ -250,6 +255,8 @@ class World:
         self.rng = np.random.default_rng(self.scene.physics.seed)
         for cb in self._callbacks.values():
             cb.due = cb.period or 0.0
+        for fn in self._reset_callbacks:
+            fn(self)
 
     def step(self, count: int = 1) -> None:
         """Advance `count` physics steps, running posted work and due callbacks."""

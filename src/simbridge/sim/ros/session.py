@@ -1,0 +1,106 @@
+"""A simulation with its ROS side: what `simbridge sim SCENE.yaml --endpoint host:port` runs."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from simbridge.connector import Connector, ConnectorOptions
+from simbridge.errors import SimError
+from simbridge.sim.ros.bridge import SimRosBridge
+from simbridge.sim.ros.sensor_link import SensorPublisher
+from simbridge.sim.scene.loader import load_scene
+from simbridge.sim.scene.model import Scene
+from simbridge.sim.sensors import SensorSuite
+from simbridge.sim.world.world import RunStats, World
+
+__all__ = ["SimulationSession", "parse_endpoint", "run_scene"]
+
+
+def parse_endpoint(text: str) -> tuple[str, int]:
+    """("host", port) from "host:port" (or ":port" for localhost)."""
+    host, sep, port_text = text.rpartition(":")
+    try:
+        port = int(port_text)
+    except ValueError:
+        port = -1
+    if not sep or not 0 < port < 65536:
+        raise SimError(f"endpoint '{text}' is not host:port (e.g. 127.0.0.1:10000)")
+    return host or "127.0.0.1", port
+
+
+class SimulationSession:
+    """A `World` from a scene plus, given an endpoint, a connector with the scene's ROS
+    interfaces and sensors. Use as a context manager, or `start()` then `close()`."""
+
+    def __init__(
+        self,
+        scene: Scene | str | Path,
+        endpoint: str | None = None,
+        connector_options: ConnectorOptions | None = None,
+        connect_timeout: float | None = None,
+    ) -> None:
+        self.scene = scene if isinstance(scene, Scene) else load_scene(scene)
+        self.world = World.from_scene(self.scene)
+        self.connector: Connector | None = None
+        self.bridge: SimRosBridge | None = None
+        self.sensors: SensorPublisher | None = None
+        self._endpoint = parse_endpoint(endpoint) if endpoint else None
+        self._options = connector_options
+        self._connect_timeout = connect_timeout
+
+    def start(self) -> SimulationSession:
+        """Connect (in the background unless the session has a `connect_timeout`; the
+        connector keeps retrying) and register every topic and service the scene asks for."""
+        if self._endpoint is None or not self.scene.ros.enabled or self.connector is not None:
+            return self
+        host, port = self._endpoint
+        self.connector = Connector(host, port, self._options).connect(wait=self._connect_timeout)
+        self.bridge = SimRosBridge(self.world, self.connector, self.scene.ros)
+        if self.scene.sensors:
+            suite = SensorSuite.from_config(self.world.model, self.scene.sensors)
+            self.sensors = SensorPublisher(self.world, self.connector, suite)
+            self.bridge.state.extra_static.extend(suite.static_transforms(self.world.model))
+            self.sensors.start()
+        self.bridge.start()
+        return self
+
+    def run(
+        self,
+        duration: float | None = None,
+        realtime_factor: float | None = None,
+        viewer: bool = False,
+    ) -> RunStats:
+        """Run the world (see `World.run`)."""
+        return self.world.run(duration, realtime_factor, viewer)
+
+    def close(self) -> None:
+        """Unregister and disconnect."""
+        if self.sensors is not None:
+            self.sensors.close()
+        if self.bridge is not None:
+            self.bridge.close()
+        if self.connector is not None:
+            self.connector.close()
+
+    def __enter__(self) -> SimulationSession:
+        return self.start()
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def run_scene(
+    scene: Scene | str | Path,
+    *,
+    endpoint: str | None = None,
+    duration: float | None = None,
+    realtime_factor: float | None = None,
+    viewer: bool = False,
+) -> RunStats:
+    """Load and run a scene headless (or in the viewer) until `duration` sim seconds pass
+    or the process is interrupted, serving ROS through `endpoint` ("host:port") if given."""
+    with SimulationSession(scene, endpoint) as session:
+        try:
+            return session.run(duration, realtime_factor, viewer)
+        except KeyboardInterrupt:
+            return RunStats(0, session.world.time, 0.0)
