@@ -383,10 +383,9 @@ class MessageRegistry:
     def encode(self, msg: object, name: str | None = None, fmt: WireFormat = "ros1") -> bytes:
         """Serialize `msg` (type taken from the message when `name` is None)."""
         if name is None:
-            msgtype = getattr(msg, "__msgtype__", None)
-            if not isinstance(msgtype, str):
+            name = getattr(msg, "__msgtype__", None)  # `pkg/msg/Type`, a valid spelling
+            if not isinstance(name, str):
                 raise MessageError(f"not a message object: {type(msg).__name__}")
-            name = canonical_of(msgtype)
         return self.codec(name).encode(msg, fmt)
 
     def decode(
