@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import os
 from collections import Counter
 
 import mujoco
@@ -21,6 +22,7 @@ from simbridge.sim.sensors import (
     build_sensor,
     configure_gl,
 )
+from simbridge.sim.sensors.gl_backend import is_software_renderer, probe_egl
 
 SCENE = """
 <mujoco>
@@ -187,3 +189,14 @@ def test_gl_backend_honours_mujoco_gl(monkeypatch):
     monkeypatch.delenv("MUJOCO_GL")
     monkeypatch.setenv("PYOPENGL_PLATFORM", "osmesa")
     assert choose() == "osmesa"
+
+
+def test_gl_backend_probes_egl_and_prefers_it_only_on_a_gpu(monkeypatch):
+    monkeypatch.delenv("MUJOCO_GL", raising=False)
+    monkeypatch.delenv("PYOPENGL_PLATFORM", raising=False)
+    renderer = probe_egl()
+    expected = "osmesa" if renderer is None or is_software_renderer(renderer) else "egl"
+    assert configure_gl.__wrapped__() == expected
+    assert os.environ["MUJOCO_GL"] == expected
+    assert is_software_renderer("llvmpipe (LLVM 15.0.6, 256 bits)")
+    assert not is_software_renderer("NVIDIA H100 80GB HBM3/PCIe/SSE2")

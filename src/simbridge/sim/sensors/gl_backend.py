@@ -1,4 +1,4 @@
-"""Headless OpenGL backend choice: MUJOCO_GL if set, else EGL when it works, else OSMesa."""
+"""Headless OpenGL backend choice: MUJOCO_GL if set, else EGL on a GPU, else OSMesa."""
 
 from __future__ import annotations
 
@@ -11,11 +11,26 @@ from typing import Protocol
 
 from simbridge.errors import SimError
 
-__all__ = ["GLContext", "configure_gl", "create_gl_context", "probe_egl"]
+__all__ = [
+    "GLContext",
+    "configure_gl",
+    "create_gl_context",
+    "is_software_renderer",
+    "probe_egl",
+]
 
 _BACKENDS = ("egl", "osmesa", "glfw")
 
-_EGL_PROBE = "from mujoco.egl import GLContext\nc = GLContext(8, 8)\nc.make_current()\nc.free()\n"
+_EGL_PROBE = """
+from mujoco.egl import GLContext
+from OpenGL import GL
+context = GLContext(8, 8)
+context.make_current()
+print(GL.glGetString(GL.GL_RENDERER).decode())
+context.free()
+"""
+
+_SOFTWARE_RENDERERS = ("llvmpipe", "softpipe", "swrast", "swiftshader", "software")
 
 
 class GLContext(Protocol):
@@ -26,9 +41,15 @@ class GLContext(Protocol):
     def free(self) -> None: ...
 
 
-def probe_egl(timeout_s: float = 30.0) -> bool:
-    """True when an EGL context can be created (tried in a child process, so a broken
-    driver cannot take this process down or pin PyOpenGL to the wrong platform)."""
+def is_software_renderer(renderer: str) -> bool:
+    """Whether a GL_RENDERER string names a CPU rasteriser (Mesa llvmpipe and the like)."""
+    lowered = renderer.lower()
+    return any(name in lowered for name in _SOFTWARE_RENDERERS)
+
+
+def probe_egl(timeout_s: float = 30.0) -> str | None:
+    """The GL_RENDERER of an EGL context, or None when none can be made (tried in a child
+    process, so a broken driver cannot take this process down or pin PyOpenGL to EGL)."""
     env = dict(os.environ, MUJOCO_GL="egl", PYOPENGL_PLATFORM="egl")
     try:
         done = subprocess.run(
@@ -39,8 +60,9 @@ def probe_egl(timeout_s: float = 30.0) -> bool:
             check=False,
         )
     except (OSError, subprocess.TimeoutExpired):
-        return False
-    return done.returncode == 0
+        return None
+    lines = done.stdout.decode(errors="replace").strip().splitlines()
+    return lines[-1] if done.returncode == 0 and lines else None
 
 
 @cache
@@ -48,9 +70,10 @@ def configure_gl() -> str:
     """Choose the offscreen backend once per process and export it.
 
     MUJOCO_GL wins when set; otherwise an explicit PYOPENGL_PLATFORM decides; otherwise
-    EGL if a context can be made, else OSMesa. The choice is written back to MUJOCO_GL
-    and PYOPENGL_PLATFORM so child processes and later imports agree. Call it before
-    anything imports PyOpenGL for the choice to reach mujoco's own Renderer too.
+    EGL if it reaches a GPU, else OSMesa (Mesa's EGL on a CPU is no faster than OSMesa).
+    The choice is written back to MUJOCO_GL and PYOPENGL_PLATFORM so child processes and
+    later imports agree. Call it before anything imports PyOpenGL for the choice to reach
+    mujoco's own Renderer too.
     """
     requested = os.environ.get("MUJOCO_GL", "").strip().lower()
     if not requested:
@@ -58,7 +81,9 @@ def configure_gl() -> str:
         if platform in ("egl", "osmesa"):
             requested = platform
         else:
-            requested = "egl" if probe_egl() else "osmesa"
+            renderer = probe_egl()
+            gpu = renderer is not None and not is_software_renderer(renderer)
+            requested = "egl" if gpu else "osmesa"
     if requested not in _BACKENDS:
         raise SimError(f"MUJOCO_GL={requested!r} is not usable headless; choose one of {_BACKENDS}")
     os.environ["MUJOCO_GL"] = requested
