@@ -170,3 +170,19 @@ def test_poses_are_relative_to_the_base_frame() -> None:
     np.testing.assert_allclose(pose.position, HAND_COMPUTED[0][1], atol=1e-9)
     world_pos, _ = k.to_world(Pose(pose.position, pose.orientation))
     np.testing.assert_allclose(world_pos, np.array(HAND_COMPUTED[0][1]) + np.array([1.0, 2.0, 0.5]))
+
+
+def test_same_kinematics_through_the_simulators_urdf_builder() -> None:
+    """The planner works on the sim's MjModel (simbridge.sim.urdf) exactly as on MuJoCo's own."""
+    from simbridge.sim.urdf import MjcfOptions, load_urdf, robot_to_mjcf
+
+    doc, _ = robot_to_mjcf(load_urdf(robot_urdf()), MjcfOptions(self_collision=True))
+    ours = ArmKinematics(doc.compile(), niryo_one_arm())
+    mujocos = ArmKinematics(mujoco.MjModel.from_xml_path(str(robot_urdf())), niryo_one_arm())
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        q = rng.uniform(ours.lower, ours.upper)
+        a, b = ours.forward(q), mujocos.forward(q)
+        np.testing.assert_allclose(a.position, b.position, atol=1e-9)
+        np.testing.assert_allclose(a.rotation, b.rotation, atol=1e-9)
+        assert ours.in_collision(q) == mujocos.in_collision(q)

@@ -104,6 +104,11 @@ class IKSolver:
             # Levenberg-Marquardt style: damping fades as the error shrinks
             damping = lam2 * min(1.0, score / 0.02) + 1e-8
             step = jac.T @ np.linalg.solve(jac @ jac.T + damping * np.eye(6), err)
+            # joints pinned at a limit and pushed outward drop out; the rest re-solve
+            pinned = ((q <= kin.lower) & (step < 0)) | ((q >= kin.upper) & (step > 0))
+            if np.any(pinned):
+                jac[:, pinned] = 0.0
+                step = jac.T @ np.linalg.solve(jac @ jac.T + damping * np.eye(6), err)
             largest = float(np.max(np.abs(step)))
             if largest > opts.max_step:
                 step *= opts.max_step / largest
