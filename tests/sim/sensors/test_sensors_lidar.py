@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import threading
 
 import mujoco
 import numpy as np
@@ -183,3 +184,18 @@ def test_point_cloud2_layout(world):
     np.testing.assert_array_equal(records["ring"], scan.ring)
     np.testing.assert_array_equal(records["x"], scan.points[:, 0])
     assert msg.is_dense
+
+
+def test_threaded_casting_gives_identical_points(world):
+    model, data = world
+    config = Lidar3DConfig(name="velo", body="robot", channels=16, samples=1800)
+    serial = Lidar3D(model, config).scan(model, data)
+    threaded_lidar = Lidar3D(model, Lidar3DConfig(**{**config.__dict__, "threads": 3}))
+    try:
+        threaded = threaded_lidar.scan(model, data)
+        assert [t for t in threading.enumerate() if t.name.startswith("raycast")]
+    finally:
+        threaded_lidar.close()
+    np.testing.assert_array_equal(threaded.points, serial.points)
+    np.testing.assert_array_equal(threaded.ring, serial.ring)
+    assert not [t for t in threading.enumerate() if t.name.startswith("raycast")]

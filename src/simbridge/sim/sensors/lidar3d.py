@@ -32,6 +32,7 @@ POINT_DTYPE = np.dtype(
 class Lidar3DConfig(SensorConfig):
     """`channels` beams from vertical_min to vertical_max (rad), each swept over `samples`
     azimuths from angle_min to angle_max. Ring 0 is the lowest beam. Default topic `points`.
+    `threads`: ray-casting worker threads (0: one per CPU, 1: cast on the calling thread).
     """
 
     channels: int = 16
@@ -45,6 +46,7 @@ class Lidar3DConfig(SensorConfig):
     noise_stddev: float = 0.0
     seed: int = 0
     geomgroup: tuple[int, ...] | None = None
+    threads: int = 1
 
 
 @dataclass(frozen=True)
@@ -93,6 +95,7 @@ class Lidar3D(Sensor):
             exclude_body=frame.body_id,
             cutoff=config.range_max * 1.01,
             geomgroup=config.geomgroup,
+            threads=config.threads,
         )
         self._rng = np.random.default_rng(config.seed)
 
@@ -131,3 +134,7 @@ class Lidar3D(Sensor):
             width=len(records),
         )
         return [self._publication(self.topic, message)]
+
+    def close(self) -> None:
+        """Stop the ray-casting worker threads."""
+        self._caster.close()

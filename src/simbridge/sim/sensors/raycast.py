@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import mujoco
@@ -14,6 +16,9 @@ from simbridge.sim.sensors.frames import Pose
 __all__ = ["RayCaster", "RayHits", "collision_geom_groups"]
 
 NUM_GEOM_GROUPS = 6
+
+# Below this many rays per worker, thread hand-off costs more than it saves.
+_MIN_RAYS_PER_THREAD = 4096
 
 
 def collision_geom_groups(model: mujoco.MjModel) -> NDArray[np.uint8]:
@@ -42,7 +47,9 @@ class RayCaster:
     """Casts a fixed fan of unit rays, given in the sensor frame, from the sensor origin.
 
     Geoms of `exclude_body` (the body the sensor is mounted on) are ignored, as are
-    geoms outside `geomgroup` and, as in MuJoCo, fully transparent geoms.
+    geoms outside `geomgroup` and, as in MuJoCo, fully transparent geoms. MuJoCo releases
+    the GIL while casting, so large fans are split over up to `threads` worker threads
+    (0: one per CPU); `close()` stops them.
     """
 
     def __init__(
@@ -53,6 +60,7 @@ class RayCaster:
         exclude_body: int,
         cutoff: float,
         geomgroup: tuple[int, ...] | None = None,
+        threads: int = 1,
     ) -> None:
         if directions.ndim != 2 or directions.shape[1] != 3 or len(directions) == 0:
             raise SimError(f"ray directions must be an (N, 3) array, got shape {directions.shape}")
@@ -71,6 +79,10 @@ class RayCaster:
         self._geom_id = np.zeros(count, dtype=np.int32)
         self._dist = np.zeros(count, dtype=np.float64)
         self._normal = np.zeros(3 * count, dtype=np.float64)
+        workers = min(threads or os.cpu_count() or 1, max(1, count // _MIN_RAYS_PER_THREAD))
+        bounds = np.linspace(0, count, workers + 1).astype(int)
+        self._chunks = list(zip(bounds[:-1].tolist(), bounds[1:].tolist(), strict=True))
+        self._pool: ThreadPoolExecutor | None = None
 
     def __len__(self) -> int:
         return len(self.directions)
@@ -78,22 +90,40 @@ class RayCaster:
     def cast(self, model: mujoco.MjModel, data: mujoco.MjData, pose: Pose) -> RayHits:
         """Cast every ray from `pose` (sensor frame in world) and report the hits."""
         world_dirs = np.ascontiguousarray(self.directions @ pose.rotation.T)
-        mujoco.mj_multiRay(
-            model,
-            data,
-            np.ascontiguousarray(pose.position, dtype=np.float64),
-            world_dirs.ravel(),
-            self.geomgroup,
-            1,
-            self.exclude_body,
-            self._geom_id,
-            self._dist,
-            self._normal,
-            len(self.directions),
-            self.cutoff,
-        )
+        origin = np.ascontiguousarray(pose.position, dtype=np.float64)
+        flat_dirs = world_dirs.ravel()
+
+        def cast_chunk(bounds: tuple[int, int]) -> None:
+            start, stop = bounds
+            mujoco.mj_multiRay(
+                model,
+                data,
+                origin,
+                flat_dirs[3 * start : 3 * stop],
+                self.geomgroup,
+                1,
+                self.exclude_body,
+                self._geom_id[start:stop],
+                self._dist[start:stop],
+                self._normal[3 * start : 3 * stop],
+                stop - start,
+                self.cutoff,
+            )
+
+        if len(self._chunks) == 1:
+            cast_chunk(self._chunks[0])
+        else:
+            if self._pool is None:
+                self._pool = ThreadPoolExecutor(len(self._chunks), thread_name_prefix="raycast")
+            list(self._pool.map(cast_chunk, self._chunks))
         hit = self._geom_id >= 0
         distance = np.where(hit, self._dist, np.inf)
         normals = self._normal.reshape(-1, 3)
         cos_incidence = np.where(hit, np.abs(np.einsum("ij,ij->i", normals, world_dirs)), 0.0)
         return RayHits(distance, self._geom_id.copy(), cos_incidence)
+
+    def close(self) -> None:
+        """Stop the worker threads, if any were started."""
+        if self._pool is not None:
+            self._pool.shutdown()
+            self._pool = None
