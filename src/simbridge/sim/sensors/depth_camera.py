@@ -112,11 +112,9 @@ class DepthCamera(Sensor):
         ):
             depth = self.depth(model, data)
             if self.wanted(self.depth_topic):
-                out.append(self._image(self.depth_topic, now, "32FC1", depth.astype(np.float32), 4))
+                out.append(self._image(self.depth_topic, now, "32FC1", depth.astype(np.float32)))
             if self.wanted(self.raw_topic):
-                out.append(
-                    self._image(self.raw_topic, now, "16UC1", depth_to_millimetres(depth), 2)
-                )
+                out.append(self._image(self.raw_topic, now, "16UC1", depth_to_millimetres(depth)))
             if self.wanted(self.points_topic):
                 xyz = self.points(depth)
                 records = np.empty((cfg.height, cfg.width), dtype=CLOUD_DTYPE)
@@ -134,8 +132,10 @@ class DepthCamera(Sensor):
         return out
 
     def _image(
-        self, topic: str, now: float, encoding: str, pixels: NDArray[np.generic], size: int
+        self, topic: str, now: float, encoding: str, pixels: NDArray[np.generic]
     ) -> Publication:
+        """A little-endian single-channel Image of `pixels` (float32 or uint16)."""
+        little = np.ascontiguousarray(pixels, dtype=pixels.dtype.newbyteorder("<"))
         image = new_message(
             "sensor_msgs/Image",
             header=header(now, self.frame_id, self._next_seq(topic)),
@@ -143,11 +143,8 @@ class DepthCamera(Sensor):
             width=self.config.width,
             encoding=encoding,
             is_bigendian=0,
-            step=size * self.config.width,
-            data=np.frombuffer(
-                np.ascontiguousarray(pixels).astype(pixels.dtype.newbyteorder("<")).tobytes(),
-                dtype=np.uint8,
-            ),
+            step=little.dtype.itemsize * self.config.width,
+            data=little.reshape(-1).view(np.uint8),
         )
         return self._publication(topic, image)
 

@@ -64,13 +64,15 @@ def header(sim_time: float, frame_id: str, seq: int = 0) -> Any:
     )
 
 
-def _vector3(values: NDArray[np.float64]) -> Any:
+def vector3(values: NDArray[np.float64]) -> Any:
+    """geometry_msgs/Vector3 from a 3-vector."""
     return new_message(
         "geometry_msgs/Vector3", x=float(values[0]), y=float(values[1]), z=float(values[2])
     )
 
 
-def _quaternion(wxyz: NDArray[np.float64]) -> Any:
+def quaternion(wxyz: NDArray[np.float64]) -> Any:
+    """geometry_msgs/Quaternion from (w, x, y, z)."""
     return new_message(
         "geometry_msgs/Quaternion",
         x=float(wxyz[1]),
@@ -78,16 +80,6 @@ def _quaternion(wxyz: NDArray[np.float64]) -> Any:
         z=float(wxyz[3]),
         w=float(wxyz[0]),
     )
-
-
-def vector3(values: NDArray[np.float64]) -> Any:
-    """geometry_msgs/Vector3 from a 3-vector."""
-    return _vector3(values)
-
-
-def quaternion(wxyz: NDArray[np.float64]) -> Any:
-    """geometry_msgs/Quaternion from (w, x, y, z)."""
-    return _quaternion(wxyz)
 
 
 def pose_message(pose: Pose) -> Any:
@@ -99,7 +91,7 @@ def pose_message(pose: Pose) -> Any:
         z=float(pose.position[2]),
     )
     return new_message(
-        "geometry_msgs/Pose", position=point, orientation=_quaternion(pose.quat_wxyz())
+        "geometry_msgs/Pose", position=point, orientation=quaternion(pose.quat_wxyz())
     )
 
 
@@ -107,8 +99,8 @@ def transform_stamped(sim_time: float, parent: str, child: str, pose: Pose) -> A
     """geometry_msgs/TransformStamped placing `child` at `pose` in `parent`."""
     transform = new_message(
         "geometry_msgs/Transform",
-        translation=_vector3(pose.position),
-        rotation=_quaternion(pose.quat_wxyz()),
+        translation=vector3(pose.position),
+        rotation=quaternion(pose.quat_wxyz()),
     )
     return new_message(
         "geometry_msgs/TransformStamped",
