@@ -8,7 +8,6 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 import mujoco
-import numpy as np
 
 from simbridge.errors import SimError
 from simbridge.sim.control.drive import DriveMode, DriveSpec
@@ -56,6 +55,7 @@ class DriveBank:
         self._targets: dict[str, DriveTarget] = {}
         self._actuator: dict[str, int] = {}
         self._qpos: dict[str, int] = {}
+        self._range: dict[str, tuple[float, float] | None] = {}
         for name, spec in specs.items():
             try:
                 act = model.actuator(name).id
@@ -64,6 +64,8 @@ class DriveBank:
                 raise SimError(f"joint '{name}' has no drive actuator in the model") from None
             self._actuator[name] = act
             self._qpos[name] = int(jnt.qposadr[0])
+            low, high = (float(v) for v in jnt.range)
+            self._range[name] = (low, high) if model.jnt_limited[jnt.id] else None
             self.set_spec(name, spec)
             self._targets[name] = DriveTarget()
 
@@ -116,10 +118,9 @@ class DriveBank:
     def set_position(self, joint: str, position: float, velocity: float = 0.0) -> None:
         """Aim `joint` at `position` (clamped to its limits) moving at `velocity`."""
         self._check(joint)
-        jid = self.model.joint(joint).id
-        if self.model.jnt_limited[jid]:
-            low, high = self.model.jnt_range[jid]
-            position = float(np.clip(position, low, high))
+        limits = self._range[joint]
+        if limits is not None:
+            position = min(max(position, limits[0]), limits[1])
         self._targets[joint] = DriveTarget(position, velocity, self._targets[joint].effort)
         self._write(joint)
 

@@ -22,23 +22,28 @@ __all__ = [
 
 
 class StampMaker:
-    """Turns sim time in seconds into `builtin_interfaces/Time` messages."""
+    """Builds stamped messages from sim time, with the registry's message classes cached
+    (constructing dataclasses directly is several times faster than `registry.new`)."""
 
     def __init__(self, registry: MessageRegistry) -> None:
         self.registry = registry
+        self._classes: dict[str, Any] = {}
+
+    def cls(self, name: str) -> Any:
+        """The message class of `name` (cached)."""
+        found = self._classes.get(name)
+        if found is None:
+            found = self._classes[name] = self.registry.msg_class(name)
+        return found
 
     def time(self, seconds: float) -> Any:
         """A Time message for `seconds` (rounded to the nanosecond)."""
         total = round(seconds * 1e9)
-        return self.registry.new(
-            "builtin_interfaces/Time", sec=total // 10**9, nanosec=total % 10**9
-        )
+        return self.cls("time")(sec=total // 10**9, nanosec=total % 10**9)
 
     def header(self, seconds: float, frame_id: str = "") -> Any:
         """A std_msgs/Header stamped at `seconds`."""
-        header = self.registry.new("std_msgs/Header", frame_id=frame_id)
-        header.stamp = self.time(seconds)
-        return header
+        return self.cls("std_msgs/Header")(seq=0, stamp=self.time(seconds), frame_id=frame_id)
 
 
 def duration_seconds(duration: Any) -> float:
@@ -54,28 +59,39 @@ def joint_state_message(
     efforts: Mapping[str, float],
 ) -> Any:
     """sensor_msgs/JointState with every joint in `positions` order."""
-    msg = stamps.registry.new("sensor_msgs/JointState")
-    msg.header = stamps.header(now)
-    msg.name = list(positions)
-    msg.position = np.array([positions[n] for n in msg.name], dtype=np.float64)
-    msg.velocity = np.array([velocities[n] for n in msg.name], dtype=np.float64)
-    msg.effort = np.array([efforts[n] for n in msg.name], dtype=np.float64)
-    return msg
+    names = list(positions)
+    return stamps.cls("sensor_msgs/JointState")(
+        header=stamps.header(now),
+        name=names,
+        position=np.array([positions[n] for n in names], dtype=np.float64),
+        velocity=np.array([velocities[n] for n in names], dtype=np.float64),
+        effort=np.array([efforts[n] for n in names], dtype=np.float64),
+    )
 
 
 def tf_message(stamps: StampMaker, now: float, edges: Sequence[tuple[str, str, Transform]]) -> Any:
     """tf2_msgs/TFMessage with one TransformStamped per (parent, child, child-in-parent)."""
-    reg = stamps.registry
-    msg = reg.new("tf2_msgs/TFMessage")
+    vector, quaternion = stamps.cls("geometry_msgs/Vector3"), stamps.cls("geometry_msgs/Quaternion")
+    transform, stamped = (
+        stamps.cls("geometry_msgs/Transform"),
+        stamps.cls("geometry_msgs/TransformStamped"),
+    )
+    stamp = stamps.time(now)
+    header = stamps.cls("std_msgs/Header")
+    transforms = []
     for parent, child, tf in edges:
-        stamped = reg.new("geometry_msgs/TransformStamped", child_frame_id=child)
-        stamped.header = stamps.header(now, parent)
         x, y, z = tf.xyz
         qx, qy, qz, qw = tf.quat_xyzw
-        stamped.transform.translation = reg.new("geometry_msgs/Vector3", x=x, y=y, z=z)
-        stamped.transform.rotation = reg.new("geometry_msgs/Quaternion", x=qx, y=qy, z=qz, w=qw)
-        msg.transforms.append(stamped)
-    return msg
+        transforms.append(
+            stamped(
+                header=header(seq=0, stamp=stamp, frame_id=parent),
+                child_frame_id=child,
+                transform=transform(
+                    translation=vector(x=x, y=y, z=z), rotation=quaternion(x=qx, y=qy, z=qz, w=qw)
+                ),
+            )
+        )
+    return stamps.cls("tf2_msgs/TFMessage")(transforms=transforms)
 
 
 def trajectory_from_message(msg: Any) -> Trajectory | None:

@@ -95,6 +95,5 @@ class StatePublisher:
 
     def publish_clock(self) -> None:
         """The sim time, so ROS nodes with use_sim_time follow the simulation."""
-        msg = self.stamps.registry.new("rosgraph_msgs/Clock")
-        msg.clock = self.stamps.time(self.world.time)
+        msg = self.stamps.cls("rosgraph_msgs/Clock")(clock=self.stamps.time(self.world.time))
         self.connector.publish("/clock", msg)

@@ -66,6 +66,11 @@ class World:
         self.model: mujoco.MjModel = built.document.compile()
         self.data = mujoco.MjData(self.model)
         self.robots = {r.name: RobotHandle(r, self.model) for r in built.robots}
+        self._slot_table = {
+            n: (n, s.qpos, s.dof) for r in self.robots.values() for n, s in r.joints.items()
+        }
+        self._all_slots = list(self._slot_table.values())
+        self._body_ids: dict[str, int] = {}
         specs = {name: spec for r in built.robots for name, spec in r.drives.items()}
         self.drives = DriveBank(self.model, self.data, specs)
         self.follower = TrajectoryFollower(self.drives)
@@ -115,14 +120,14 @@ class World:
         return self.robots[name]
 
     def _slots(self, names: Sequence[str] | None) -> list[tuple[str, int, int]]:
-        table = {n: s for r in self.robots.values() for n, s in r.joints.items()}
         if names is None:
-            return [(n, s.qpos, s.dof) for n, s in table.items()]
+            return self._all_slots
+        table = self._slot_table
         out = []
         for name in names:
             if name not in table:
                 raise SimError(f"unknown joint '{name}' (joints: {', '.join(table) or 'none'})")
-            out.append((name, table[name].qpos, table[name].dof))
+            out.append(table[name])
         return out
 
     def joint_names(self) -> list[str]:
@@ -143,10 +148,12 @@ class World:
 
     def link_pose(self, name: str) -> Transform:
         """World pose of body `name` (a URDF link name with its robot's prefix, or an object)."""
-        try:
-            body = self.model.body(name).id
-        except KeyError:
-            raise SimError(f"unknown link or body '{name}'") from None
+        body = self._body_ids.get(name)
+        if body is None:
+            try:
+                body = self._body_ids[name] = self.model.body(name).id
+            except KeyError:
+                raise SimError(f"unknown link or body '{name}'") from None
         return Transform(self.data.xmat[body].reshape(3, 3).copy(), self.data.xpos[body].copy())
 
     def link_poses(self, robot: str | None = None) -> dict[str, Transform]:
