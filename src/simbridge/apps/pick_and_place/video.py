@@ -1,0 +1,118 @@
+"""Offscreen video of a run: frames from mujoco.Renderer, written as a GIF (Pillow) or MP4.
+
+MP4 needs an ffmpeg executable on PATH (frames are piped to it); GIF needs nothing more.
+"""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import numpy.typing as npt
+from PIL import Image
+
+from simbridge.errors import AppError
+from simbridge.sim import World
+from simbridge.sim.sensors import configure_gl
+
+__all__ = ["VIDEO_FORMATS", "VideoRecorder", "check_video_path"]
+
+VIDEO_FORMATS = (".gif", ".mp4")
+
+
+def check_video_path(path: str | Path) -> Path:
+    """Validate the output path before the run: known suffix, encoder available, folder exists."""
+    out = Path(path)
+    suffix = out.suffix.lower()
+    if suffix not in VIDEO_FORMATS:
+        raise AppError(
+            f"video {str(out)!r}: unknown format {suffix or '(none)'!r}; "
+            f"use one of {', '.join(VIDEO_FORMATS)}"
+        )
+    if suffix == ".mp4" and shutil.which("ffmpeg") is None:
+        raise AppError(
+            f"video {str(out)!r}: writing MP4 needs the ffmpeg executable, which is not on PATH; "
+            "install ffmpeg or ask for a .gif instead"
+        )
+    if not out.parent.is_dir():
+        raise AppError(f"video {str(out)!r}: folder {str(out.parent)!r} does not exist")
+    return out
+
+
+class VideoRecorder:
+    """Captures frames of a World at ``fps`` of simulated time from a fixed viewpoint."""
+
+    def __init__(
+        self,
+        world: World,
+        path: str | Path,
+        fps: float = 20.0,
+        width: int = 480,
+        height: int = 360,
+    ) -> None:
+        self.path = check_video_path(path)
+        if fps <= 0:
+            raise AppError(f"video fps must be > 0, got {fps}")
+        configure_gl()
+        self.world = world
+        self.fps = fps
+        model = world.model
+        model.vis.global_.offwidth = max(int(model.vis.global_.offwidth), width)
+        model.vis.global_.offheight = max(int(model.vis.global_.offheight), height)
+        self._renderer = mujoco.Renderer(model, height, width)
+        self._camera = mujoco.MjvCamera()
+        self._camera.type = mujoco.mjtCamera.mjCAMERA_FREE
+        self._camera.lookat[:] = (0.15, 0.0, 0.05)
+        self._camera.distance = 0.95
+        self._camera.azimuth = 200.0
+        self._camera.elevation = -32.0
+        self._frames: list[npt.NDArray[np.uint8]] = []
+        self._next = 0.0
+
+    @property
+    def frame_count(self) -> int:
+        """Frames captured so far."""
+        return len(self._frames)
+
+    def maybe_capture(self) -> None:
+        """Capture a frame when the world's time reached the next frame time."""
+        if self.world.time + 1e-9 >= self._next:
+            self._renderer.update_scene(self.world.data, self._camera)
+            self._frames.append(self._renderer.render().copy())
+            self._next += 1.0 / self.fps
+
+    def save(self) -> Path:
+        """Write the frames to the path and release the renderer."""
+        self._renderer.close()
+        if not self._frames:
+            raise AppError(f"video {str(self.path)!r}: no frames were captured")
+        if self.path.suffix.lower() == ".gif":
+            images = [Image.fromarray(f) for f in self._frames]
+            images[0].save(
+                self.path,
+                save_all=True,
+                append_images=images[1:],
+                duration=round(1000 / self.fps),
+                loop=0,
+            )
+        else:
+            self._write_mp4()
+        return self.path
+
+    def _write_mp4(self) -> None:
+        height, width = self._frames[0].shape[:2]
+        ffmpeg = shutil.which("ffmpeg")
+        if ffmpeg is None:
+            raise AppError("writing MP4 needs the ffmpeg executable, which is not on PATH")
+        command = [
+            ffmpeg, "-y", "-loglevel", "error", "-f", "rawvideo", "-pix_fmt", "rgb24",
+            "-s", f"{width}x{height}", "-r", f"{self.fps:g}", "-i", "-",
+            "-pix_fmt", "yuv420p", "-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2", str(self.path),
+        ]  # fmt: skip
+        frames = b"".join(f.tobytes() for f in self._frames)
+        done = subprocess.run(command, input=frames, capture_output=True, check=False)
+        if done.returncode != 0:
+            raise AppError(f"ffmpeg could not write {str(self.path)!r}: {done.stderr.decode()}")
