@@ -29,6 +29,7 @@ from simbridge.connector.framer import Framer
 from simbridge.connector.handles import MessageCallback, Publisher, Subscription
 from simbridge.connector.link import Link, open_link
 from simbridge.connector.options import ConnectorOptions
+from simbridge.connector.reader import FrameReader
 from simbridge.connector.stats import ConnectorStats, StatsCounters
 from simbridge.connector.writer import FrameWriter, OutTopic
 from simbridge.errors import ConnectorError
@@ -523,9 +524,10 @@ class Connector:
 
     def _read(self, link: Link) -> None:
         """Receive and handle frames until the link breaks, goes silent or the connector closes."""
-        proto = ProtocolConnection("client", max_payload=self.options.max_frame_size)
+        max_frame = self.options.max_frame_size
+        proto = ProtocolConnection("client", max_payload=max_frame)
+        reader = FrameReader(proto, max_frame, self.options.recv_size)
         sock = link.sock
-        recv_size = self.options.recv_size
         counters = self._counters
         poller = select.poll()
         poller.register(sock.fileno(), select.POLLIN | select.POLLERR | select.POLLHUP)
@@ -547,14 +549,13 @@ class Connector:
                     )
                     return
                 continue
-            data = sock.recv(recv_size)
-            if not data:
+            count, events = reader.receive(sock)
+            if not count:
                 if not self._closing.is_set():
                     _log.warning("endpoint %s:%d closed the connection", self.host, self.port)
                 return
             last_rx = now
-            counters.bytes_received += len(data)
-            events = proto.receive_data(data)
+            counters.bytes_received += count
             counters.frames_received += len(events)
             for event in events:
                 if not self._handle(event):

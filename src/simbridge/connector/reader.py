@@ -1,0 +1,129 @@
+"""The receive path: `recv_into` one reusable buffer, split it into frames, make events.
+
+Plain topic messages, the bulk of the traffic, become `MessageReceived` here with a
+single copy of their payload. Every other frame (keepalives, system commands and the
+service frame after a `__request`/`__response` header) is fed whole to the
+`ProtocolConnection`, which owns their meaning. Handing the decoder only complete
+frames also keeps it from re-growing its buffer chunk by chunk for large images.
+"""
+
+from __future__ import annotations
+
+import socket
+import struct
+
+from simbridge.protocol import (
+    MAX_DESTINATION_SIZE,
+    Event,
+    MessageReceived,
+    ProtocolConnection,
+    ProtocolViolation,
+)
+
+__all__ = ["FrameReader"]
+
+_unpack_u32 = struct.Struct("<I").unpack_from
+_UNDERSCORE = 0x5F
+_SERVICE_HEADERS = (b"__request", b"__response")
+
+
+class FrameReader:
+    """Turns bytes from one socket into protocol events (not thread-safe: one reader)."""
+
+    __slots__ = ("_buf", "_end", "_max_payload", "_names", "_proto", "_service_next", "_start")
+
+    def __init__(self, proto: ProtocolConnection, max_payload: int, chunk: int) -> None:
+        self._proto = proto
+        self._max_payload = max_payload
+        self._buf = bytearray(max(chunk, 16))
+        self._start = 0
+        self._end = 0
+        self._service_next = False
+        self._names: dict[bytes, str] = {}
+
+    @property
+    def buffered(self) -> int:
+        """Bytes received that do not yet form a whole frame."""
+        return self._end - self._start
+
+    def receive(self, sock: socket.socket) -> tuple[int, list[Event]]:
+        """One `recv_into`; returns the byte count (0 at end of stream) and the events."""
+        with memoryview(self._buf) as view:
+            count = sock.recv_into(view[self._end :])
+        if not count:
+            return 0, []
+        self._end += count
+        return count, self._parse()
+
+    def _parse(self) -> list[Event]:
+        events: list[Event] = []
+        buf = self._buf
+        pos, end = self._start, self._end
+        need = 8
+        with memoryview(buf) as view:
+            while end - pos >= 4:
+                dlen = _unpack_u32(buf, pos)[0]
+                if dlen > MAX_DESTINATION_SIZE:
+                    return self._fatal(
+                        events,
+                        f"destination length {dlen} exceeds the limit of "
+                        f"{MAX_DESTINATION_SIZE} bytes",
+                    )
+                if end - pos < 8 + dlen:
+                    need = 8 + dlen
+                    break
+                plen = _unpack_u32(buf, pos + 4 + dlen)[0]
+                if plen > self._max_payload:
+                    return self._fatal(
+                        events,
+                        f"payload length {plen} bytes exceeds the limit of "
+                        f"{self._max_payload} bytes",
+                    )
+                stop = pos + 8 + dlen + plen
+                if stop > end:
+                    need = stop - pos
+                    break
+                if (
+                    self._service_next
+                    or dlen == 0
+                    or (dlen > 1 and buf[pos + 4] == _UNDERSCORE == buf[pos + 5])
+                ):
+                    name = bytes(view[pos + 4 : pos + 4 + dlen]).rstrip(b"\x00")
+                    self._service_next = name in _SERVICE_HEADERS
+                    events += self._proto.receive_data(bytes(view[pos:stop]))
+                    if self._proto.closed:
+                        return self._fatal(events, "")
+                else:
+                    raw_name = bytes(view[pos + 4 : pos + 4 + dlen])
+                    topic = self._names.get(raw_name)
+                    if topic is None:
+                        try:
+                            topic = raw_name.decode().rstrip("\x00")
+                        except UnicodeDecodeError:
+                            return self._fatal(
+                                events, f"destination {raw_name[:60]!r} is not valid UTF-8"
+                            )
+                        if len(self._names) < 4096:
+                            self._names[raw_name] = topic
+                    events.append(MessageReceived(topic, bytes(view[pos + 8 + dlen : stop])))
+                pos = stop
+            left = end - pos
+            if left == 0:
+                pos = end = 0
+            elif need > len(buf) - pos:
+                if need > len(buf):
+                    grown = bytearray(need)
+                    grown[:left] = view[pos:end]
+                    self._buf = grown
+                else:
+                    view[:left] = view[pos:end]
+                pos, end = 0, left
+        self._start, self._end = pos, end
+        return events
+
+    def _fatal(self, events: list[Event], text: str) -> list[Event]:
+        """The stream lost its framing: report it (the caller must drop the connection)."""
+        if text:
+            events.append(ProtocolViolation(text, fatal=True))
+        self._start = self._end = 0
+        return events
