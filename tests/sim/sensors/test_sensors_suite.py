@@ -200,3 +200,26 @@ def test_gl_backend_probes_egl_and_prefers_it_only_on_a_gpu(monkeypatch):
     assert os.environ["MUJOCO_GL"] == expected
     assert is_software_renderer("llvmpipe (LLVM 15.0.6, 256 bits)")
     assert not is_software_renderer("NVIDIA H100 80GB HBM3/PCIe/SSE2")
+
+
+def test_the_documented_scene_example_builds():
+    import textwrap
+
+    import yaml
+
+    from simbridge.sim import sensors
+
+    doc = sensors.__doc__ or ""
+    example = textwrap.dedent(doc[doc.index("    sensors:") : doc.index("Every entry")])
+    model = mujoco.MjModel.from_xml_string(
+        """<mujoco><worldbody><body name="base_link"><freejoint/><geom size=".1"/>
+        <body name="laser_link"/><body name="camera_link"/></body></worldbody></mujoco>"""
+    )
+    suite = SensorSuite.from_config(model, yaml.safe_load(example)["sensors"])
+    try:
+        assert [type(s).__name__ for s in suite.sensors] == [
+            "Lidar2D", "Lidar3D", "Camera", "DepthCamera", "Imu", "Odometry",
+        ]  # fmt: skip
+        assert suite.outputs["camera/depth/points"] == "sensor_msgs/PointCloud2"
+    finally:
+        suite.close()

@@ -2,6 +2,21 @@
 
 Sensors work on a `mujoco.MjModel`/`MjData` pair and a mount (body + offset), run at
 their own rate in simulated time and do no work while none of their outputs is wanted.
+A scene's `sensors:` list maps onto `SensorSuite.from_config` / `attach_sensors`:
+
+    sensors:
+      - {type: lidar_2d, name: front_laser, body: laser_link, rate: 10, samples: 360,
+         range_min: 0.1, range_max: 12, noise_stddev: 0.01}
+      - {type: lidar_3d, name: velodyne, body: base_link, xyz: [0, 0, 0.4], channels: 16,
+         samples: 1800, rate: 10}
+      - {type: camera, name: front_cam, body: camera_link, width: 640, height: 480,
+         fovy: 1.047, rate: 10, compression: jpeg, jpeg_quality: 80}
+      - {type: depth_camera, name: depth, body: camera_link, topic: camera, range_max: 8}
+      - {type: imu, name: imu, body: base_link, rate: 100, accel_noise: 0.02}
+      - {type: odometry, name: odom, body: base_link, rate: 50}
+
+Every entry takes name, body, xyz, rpy (URDF style), rate (Hz), frame_id and topic; the
+per-type options are the fields of the matching *Config class.
 """
 
 from simbridge.sim.sensors.base import Sensor
