@@ -69,8 +69,8 @@ def load_urdf(
     file = Path(path)
     if not file.is_file():
         raise UrdfError(f"URDF file '{file}' does not exist")
-    roots = [*search_paths, *file.resolve().parents[:3]]
-    resolver = ResourceResolver.create(file.resolve().parent, roots)
+    here = file.resolve()
+    resolver = ResourceResolver.create(here.parent, search_paths, here.parents[:3])
     text = file.read_text()
     if is_xacro(file, text):
         text = expand_xacro(file, xacro_args, resolver)

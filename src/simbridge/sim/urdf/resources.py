@@ -23,18 +23,24 @@ class ResourceResolver:
 
     base_dir: Path | None = None
     search_paths: tuple[Path, ...] = ()
+    nearby: tuple[Path, ...] = ()
+    """Folders checked only for a package folder directly in them (not searched below)."""
 
     @staticmethod
-    def create(base_dir: Path | None, search_paths: Sequence[str | Path] = ()) -> ResourceResolver:
+    def create(
+        base_dir: Path | None,
+        search_paths: Sequence[str | Path] = (),
+        nearby: Sequence[Path] = (),
+    ) -> ResourceResolver:
         """A resolver over `search_paths` followed by every ROS_PACKAGE_PATH entry."""
         paths = [Path(p) for p in search_paths]
         env = os.environ.get("ROS_PACKAGE_PATH", "")
         paths.extend(Path(p) for p in env.split(os.pathsep) if p)
-        return ResourceResolver(base_dir, tuple(paths))
+        return ResourceResolver(base_dir, tuple(paths), tuple(nearby))
 
     def package_dir(self, package: str) -> Path | None:
         """The folder of ROS package `package`, or None when no search path holds it."""
-        for root in self.search_paths:
+        for root in (*self.search_paths, *self.nearby):
             if root.name == package and root.is_dir():
                 return root
             direct = root / package
