@@ -293,3 +293,29 @@ def test_extensions_edit_the_model_before_compiling(tmp_path: Path) -> None:
 
     with pytest.raises(SimError, match="no body named 'nope'"):
         World.from_scene(tmp_path / "scene.yaml", extensions=[misplaced])
+
+
+def test_root_link_named_world_is_the_world_body(tmp_path: Path) -> None:
+    from simbridge.sim.urdf import MjcfOptions, Transform, robot_to_mjcf
+    from tests.sim.urdf_samples import joint, link, robot
+
+    urdf = robot(
+        link("world", ""),
+        link("base"),
+        joint("anchor", "fixed", "world", "base", '<origin xyz="0 0 0.3" rpy="0 0 0.5"/>'),
+    )
+    base = Transform.from_xyz_rpy((1.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+    doc, _ = robot_to_mjcf(parse_urdf(urdf), MjcfOptions(base=base))
+    model = doc.compile()
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    assert model.body("world").id == 0
+    np.testing.assert_allclose(data.xpos[model.body("base").id], [1.0, 0.0, 0.3])
+    expected = forward_kinematics(parse_urdf(urdf), base=base)["base"]
+    np.testing.assert_allclose(data.xmat[model.body("base").id].reshape(3, 3), expected.rotation)
+
+
+def test_request_steps_needs_a_paused_world(tmp_path: Path) -> None:
+    world = arm_world(tmp_path)
+    with pytest.raises(SimError, match="paused world"):
+        world.request_steps(3)

@@ -224,6 +224,8 @@ class World:
         """While paused, let `run` advance exactly `count` more steps (thread-safe)."""
         if count < 0:
             raise SimError(f"step count must be >= 0, got {count}")
+        if not self._paused:
+            raise SimError("request_steps needs a paused world (call pause() first)")
         with self._lock:
             self._pending_steps += count
 
