@@ -162,3 +162,20 @@ def test_bad_start_is_rejected(mover: MoverPlanner) -> None:
 def test_option_validation() -> None:
     with pytest.raises(PlanningError, match=r"velocity_scale must be in \(0, 1\]"):
         MoverOptions(velocity_scale=1.5)
+    with pytest.raises(PlanningError, match="grasp_symmetry must be >= 1"):
+        MoverOptions(grasp_symmetry=0)
+
+
+def test_turned_grasp_when_joint_6_runs_out(mover: MoverPlanner) -> None:
+    """Yaw 180 deg needs joint_6 beyond +-2.57 rad; the two-finger grasp turned by 180 deg works."""
+    pick = Pose([0.25, 0.0, 0.125], top_down_orientation(math.pi))
+    place = Pose([0.2, 0.15, 0.125], top_down_orientation(0.0))
+    strict = MoverPlanner(mover.kinematics, MoverOptions(grasp_symmetry=1))
+    with pytest.raises(PlanningError, match=r"pre-grasp \(pick_pose\).*unreachable"):
+        strict.plan(np.zeros(6), pick, place)
+    plan = mover.plan(np.zeros(6), pick, place)
+    reached = mover.kinematics.forward(plan.pre_grasp.end)
+    np.testing.assert_allclose(reached.position, pick.position, atol=1e-3)
+    # same approach axis (down), fingers swapped: tool y flipped
+    np.testing.assert_allclose(reached.rotation[:, 0], pick.rotation[:, 0], atol=1e-3)
+    np.testing.assert_allclose(reached.rotation[:, 1], -pick.rotation[:, 1], atol=1e-3)

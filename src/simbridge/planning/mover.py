@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import itertools
+import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
@@ -29,6 +30,11 @@ class MoverOptions:
     ``grasp_drop`` is the tutorial's fixed 5 cm between pick_pose and the grasp; the limit scales
     multiply the arm's velocity/acceleration limits; ``cartesian_tolerance`` bounds how far (m)
     the tool may stray from the straight line while descending and lifting.
+    ``grasp_symmetry`` is how many turns about the approach axis give the same grasp (2 for a
+    two-finger gripper, 4 for a cube held by one): when a pose is out of reach, the planner
+    tries the turned ones too (e.g. the tool turned 180 degrees when joint_6 runs out).
+    ``approach_retries`` is how many other arm configurations above the object are tried when
+    the straight descent is impossible from the first.
     """
 
     grasp_drop: float = 0.05
@@ -37,11 +43,15 @@ class MoverOptions:
     sample_period: float = 0.05
     cartesian_tolerance: float = 0.002
     free_yaw: bool = False
+    grasp_symmetry: int = 2
+    approach_retries: int = 4
     ik: IKOptions = field(default_factory=IKOptions)
     path: PathOptions = field(default_factory=PathOptions)
     seed: int = 0
 
     def __post_init__(self) -> None:
+        if self.grasp_symmetry < 1:
+            raise PlanningError(f"grasp_symmetry must be >= 1, got {self.grasp_symmetry}")
         for name in ("velocity_scale", "acceleration_scale"):
             value = getattr(self, name)
             if not 0 < value <= 1:
@@ -105,8 +115,35 @@ class MoverPlanner:
     def solve_ik(
         self, pose: Pose, seed_q: FloatArray, name: str, rng: np.random.Generator
     ) -> FloatArray:
-        """Collision-free joint values for a tool pose, preferring those near ``seed_q``."""
-        return self.ik.solve(pose, seed_q, name=name, approach_only=self.options.free_yaw, rng=rng)
+        """Collision-free joint values for a tool pose (or an equivalent turned grasp)."""
+        first_error: PlanningError | None = None
+        for turned in self._equivalent_poses(pose):
+            try:
+                return self.ik.solve(
+                    turned, seed_q, name=name, approach_only=self.options.free_yaw, rng=rng
+                )
+            except PlanningError as exc:
+                first_error = first_error or exc
+        assert first_error is not None
+        if self.options.grasp_symmetry > 1 and not self.options.free_yaw:
+            raise PlanningError(
+                f"{first_error} (also tried the {self.options.grasp_symmetry - 1} equivalent "
+                "turned grasp(s))"
+            ) from first_error
+        raise first_error
+
+    def _equivalent_poses(self, pose: Pose) -> list[Pose]:
+        """The pose, then the pose turned about the tool's approach (x) axis by the symmetry."""
+        if self.options.free_yaw:
+            return [pose]
+        count = self.options.grasp_symmetry
+        turns = []
+        for k in range(count):
+            angle = 2.0 * math.pi * k / count
+            c, s = math.cos(angle), math.sin(angle)
+            about_x = np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
+            turns.append(Pose.from_matrix(pose.position, pose.rotation @ about_x))
+        return turns
 
     def free_motion(
         self, start: FloatArray, pose: Pose, name: str, rng: np.random.Generator
@@ -158,6 +195,40 @@ class MoverPlanner:
             worst = max(worst, float(np.linalg.norm(p - (pa + u * line))))
         return worst
 
+    def _approach(
+        self, start: FloatArray, pick_pose: Pose, rng: np.random.Generator
+    ) -> tuple[FloatArray, FloatArray]:
+        """Pre-grasp then straight-down grasp waypoints.
+
+        When the descent fails from the pre-grasp solution nearest ``start`` (an arm branch
+        that cannot go lower, or joint_6 running out), other IK branches and the equivalent
+        turned grasps are tried.
+        """
+        kin = self.kinematics
+        name = "pre-grasp (pick_pose)"
+        first_error: PlanningError | None = None
+        for turned in self._equivalent_poses(pick_pose):
+            seed = start
+            for _ in range(1 + self.options.approach_retries):
+                try:
+                    pre_goal = self.ik.solve(
+                        turned, seed, name=name, approach_only=self.options.free_yaw, rng=rng
+                    )
+                    above = kin.forward(pre_goal)
+                    drop = np.array([0.0, 0.0, self.options.grasp_drop])
+                    grasp_goal = Pose(above.position - drop, above.orientation)
+                    grasp = self.cartesian_motion(pre_goal, grasp_goal, "grasp")
+                except PlanningError as exc:
+                    first_error = first_error or exc
+                    if str(exc).startswith(name):
+                        break  # IK (with its restarts) found no valid pre-grasp at all
+                    seed = rng.uniform(kin.lower, kin.upper)
+                    continue
+                seed_path = int(rng.integers(2**31))
+                return self.paths.plan(start, pre_goal, name=name, seed=seed_path), grasp
+        assert first_error is not None
+        raise first_error
+
     def timed(self, waypoints: FloatArray) -> JointTrajectory:
         """Time-parameterise waypoints within the scaled velocity and acceleration limits."""
         kin, opts = self.kinematics, self.options
@@ -180,12 +251,7 @@ class MoverPlanner:
             raise PlanningError(f"expected {kin.dof} start joint values, got {start.size}")
         self.paths.check_state(start, "start configuration")
         rng = np.random.default_rng(self.options.seed)
-        pre_grasp = self.free_motion(start, pick_pose, "pre-grasp (pick_pose)", rng)
-        above = kin.forward(pre_grasp[-1])
-        grasp_goal = Pose(
-            above.position - np.array([0.0, 0.0, self.options.grasp_drop]), above.orientation
-        )
-        grasp = self.cartesian_motion(pre_grasp[-1], grasp_goal, "grasp")
+        pre_grasp, grasp = self._approach(start, pick_pose, rng)
         pick_up = grasp[::-1].copy()
         kin.hold(True)
         try:
