@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 from enum import Enum
+from typing import Any
 
 from simbridge.errors import SimError
 
@@ -61,6 +62,6 @@ class DriveSpec:
             return 0.0, self.damping
         return 0.0, 0.0
 
-    def with_changes(self, **changes: object) -> DriveSpec:
+    def with_changes(self, **changes: Any) -> DriveSpec:
         """A copy with some fields replaced (validated again)."""
-        return replace(self, **changes)  # type: ignore[arg-type]
+        return replace(self, **changes)

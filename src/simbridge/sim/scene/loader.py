@@ -57,6 +57,11 @@ class _Section:
             return default
         return conv(self.data[name], self.key(name))
 
+    def optional(self, name: str, conv: Callable[[Any, str], T]) -> T | None:
+        if name not in self.data or self.data[name] is None:
+            return None
+        return conv(self.data[name], self.key(name))
+
     def sub(self, name: str) -> _Section:
         return _Section(self.data.get(name), self.key(name))
 
@@ -168,7 +173,7 @@ def _robot(section: _Section, base_dir: Path) -> RobotSpec:
     xacro_args = section.sub("xacro_args")
     spec = RobotSpec(
         urdf=section.get("urdf", _path(base_dir), Path()),
-        name=section.get("name", _str, None),  # type: ignore[arg-type]
+        name=section.optional("name", _str),
         prefix=section.get("prefix", lambda v, w: str(v), ""),
         base=_pose(section.sub("base")),
         fixed_base=section.get("fixed_base", _bool, True),
@@ -231,7 +236,8 @@ def _object(section: _Section, base_dir: Path) -> ObjectSpec:
     if isinstance(friction_raw, int | float):
         friction_raw = [friction_raw, 0.005, 0.0001]
     fx, fy, fz = _vector(3)(friction_raw, section.key("friction"))
-    r, g, b, a = section.get("rgba", _vector(4), (0.6, 0.6, 0.6, 1.0))  # type: ignore[arg-type]
+    grey: tuple[float, ...] = (0.6, 0.6, 0.6, 1.0)
+    r, g, b, a = section.get("rgba", _vector(4), grey)
     dynamic = section.get("dynamic", _bool, False)
     if dynamic and shape == "plane":
         raise SimError(f"scene {section.where}: a plane cannot be dynamic")
@@ -241,10 +247,10 @@ def _object(section: _Section, base_dir: Path) -> ObjectSpec:
         size=size,
         pose=_pose(section.sub("pose")),
         dynamic=dynamic,
-        mass=section.get("mass", _positive, None),  # type: ignore[arg-type]
+        mass=section.optional("mass", _positive),
         friction=(fx, fy, fz),
         rgba=(r, g, b, a),
-        mesh=section.get("mesh", _path(base_dir), None),  # type: ignore[arg-type]
+        mesh=section.optional("mesh", _path(base_dir)),
         mesh_scale=section.get("scale", _vec3, (1.0, 1.0, 1.0)),
     )
     if shape == "mesh" and spec.mesh is None:

@@ -6,6 +6,7 @@ import math
 from collections.abc import Mapping, Sequence
 
 import numpy as np
+from numpy.typing import NDArray
 
 from simbridge.errors import UrdfError
 from simbridge.sim.urdf.model import Joint, JointType, Robot
@@ -13,11 +14,12 @@ from simbridge.sim.urdf.transforms import Transform, axis_angle_matrix, quat_wxy
 
 __all__ = ["JointValue", "forward_kinematics", "joint_motion", "plane_basis"]
 
+Vector = NDArray[np.float64]
 JointValue = float | Sequence[float]
 """A scalar for 1-DoF joints; (x, y, theta) for planar; (x, y, z, qx, qy, qz, qw) for floating."""
 
 
-def plane_basis(normal: tuple[float, float, float]) -> tuple[np.ndarray, np.ndarray]:  # type: ignore[type-arg]
+def plane_basis(normal: tuple[float, float, float]) -> tuple[Vector, Vector]:
     """Two unit vectors u, v spanning the plane with normal `normal`, with u x v = normal."""
     n = np.array(normal, dtype=np.float64)
     helper = np.array([1.0, 0.0, 0.0]) if abs(n[0]) < 0.9 else np.array([0.0, 1.0, 0.0])

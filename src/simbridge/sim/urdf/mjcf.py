@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import warnings
 import xml.etree.ElementTree as ET
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -218,10 +219,10 @@ class _Builder:
         }
         created: list[str] = []
 
-        def add(jname: str, jtype: str, axis: object = None, **extra: str) -> None:
+        def add(jname: str, jtype: str, axis: Iterable[float] | None = None, **extra: str) -> None:
             attrs = {"name": jname, "type": jtype, **common, **extra}
             if axis is not None:
-                attrs["axis"] = fmt(axis)  # type: ignore[arg-type]
+                attrs["axis"] = fmt(axis)
             ET.SubElement(body, "joint", attrs)
             created.append(jname)
 

@@ -194,11 +194,13 @@ class _Parser:
             if not link:
                 raise UrdfError(f"{where}: missing <{tag} link='...'>")
             ends[tag] = link
-        axis = _vec3(elem.find("axis"), "xyz", where, (1.0, 0.0, 0.0))
+        axis_elem = elem.find("axis")
+        axis = _vec3(axis_elem, "xyz", where, (1.0, 0.0, 0.0))
         norm = math.sqrt(sum(a * a for a in axis))
         if jtype not in (JointType.FIXED, JointType.FLOATING):
             if norm < 1e-12:
-                raise UrdfError(f"{where}: <axis xyz='{elem.find('axis').get('xyz')}'> is zero")  # type: ignore[union-attr]
+                text = axis_elem.get("xyz") if axis_elem is not None else ""
+                raise UrdfError(f"{where}: <axis xyz='{text}'> is zero")
             axis = (axis[0] / norm, axis[1] / norm, axis[2] / norm)
         limit: JointLimit | None = None
         limit_elem = elem.find("limit")
