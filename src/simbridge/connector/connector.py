@@ -23,13 +23,13 @@ from typing import TYPE_CHECKING, Any
 
 from simbridge.connector.calls import PendingCall, ServiceHandler, ServiceImpl, resolve_future
 from simbridge.connector.codec import PayloadCodec, is_raw
-from simbridge.connector.dispatcher import Dispatcher
+from simbridge.connector.dispatcher import Dispatcher, Task
 from simbridge.connector.fifo import BoundedFifo
 from simbridge.connector.framer import Framer
 from simbridge.connector.handles import MessageCallback, Publisher, Subscription
 from simbridge.connector.link import Link, open_link
 from simbridge.connector.options import ConnectorOptions
-from simbridge.connector.reader import FrameReader
+from simbridge.connector.reader import FrameReader, Received
 from simbridge.connector.stats import ConnectorStats, StatsCounters
 from simbridge.connector.writer import FrameWriter, OutTopic
 from simbridge.errors import ConnectorError
@@ -549,29 +549,48 @@ class Connector:
                     )
                     return
                 continue
-            count, events = reader.receive(sock)
+            count, items = reader.receive(sock)
             if not count:
                 if not self._closing.is_set():
                     _log.warning("endpoint %s:%d closed the connection", self.host, self.port)
                 return
             last_rx = now
             counters.bytes_received += count
-            counters.frames_received += len(events)
-            for event in events:
-                if not self._handle(event):
-                    return
+            counters.frames_received += len(items)
+            if not self._deliver(items):
+                return
+
+    def _deliver(self, items: list[Received]) -> bool:
+        """Queue messages for their callbacks and act on events, in arrival order."""
+        batch: list[tuple[Subscription, bytes | Task, int]] = []
+        subscriptions = self._subscriptions
+        for item in items:
+            if isinstance(item, tuple):
+                topic, payload = item
+                subs = subscriptions.get(topic)
+                if subs is None:
+                    _log.debug("message on %r, which is not subscribed; ignored", topic)
+                    continue
+                for sub in subs:
+                    batch.append((sub, payload, sub.queue_size))
+                continue
+            if batch:
+                self._queue_messages(batch)
+                batch = []
+            if not self._handle(item):
+                return False
+        if batch:
+            self._queue_messages(batch)
+        return True
+
+    def _queue_messages(self, batch: list[tuple[Subscription, bytes | Task, int]]) -> None:
+        for sub in self._dispatcher.fifo.put_many(batch):
+            self._counters.subscribe_dropped(sub.topic)
 
     def _handle(self, event: Event) -> bool:
         """Act on one event; False when the connection must be dropped."""
         if isinstance(event, MessageReceived):
-            subs = self._subscriptions.get(event.topic)
-            if subs is None:
-                _log.debug("message on %r, which is not subscribed; ignored", event.topic)
-                return True
-            put = self._dispatcher.fifo.put
-            for sub in subs:
-                if put(sub, functools.partial(sub.deliver, event.payload), sub.queue_size):
-                    self._counters.subscribe_dropped(event.topic)
+            self._deliver([(event.topic, event.payload)])
         elif isinstance(event, ServiceResponseReceived):
             with self._lock:
                 call = self._calls.pop(event.srv_id, None)

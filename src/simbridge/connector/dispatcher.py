@@ -9,24 +9,36 @@ from __future__ import annotations
 import logging
 import threading
 from collections.abc import Callable
-from typing import Any
+from typing import Protocol
 
 from simbridge.connector.fifo import BoundedFifo
 from simbridge.connector.stats import StatsCounters
 
-__all__ = ["Dispatcher", "Task"]
+__all__ = ["Dispatcher", "Receiver", "Task"]
 
 _log = logging.getLogger("simbridge.connector")
 
 Task = Callable[[], None]
+
+
+class Receiver(Protocol):
+    """Takes received payloads one at a time (a subscription)."""
+
+    topic: str
+
+    def deliver(self, payload: bytes) -> None:
+        """Handle one payload."""
+
+
 _BATCH = 256
 
 
 class Dispatcher:
-    """Runs queued tasks in order on one thread; keyed tasks are bounded per key."""
+    """Runs queued work in order on one thread: payloads for receivers (bounded per
+    receiver, oldest dropped) and plain tasks."""
 
     def __init__(self, counters: StatsCounters) -> None:
-        self.fifo: BoundedFifo[Any, Task] = BoundedFifo()
+        self.fifo: BoundedFifo[Receiver, bytes | Task] = BoundedFifo()
         self._counters = counters
         self._stop = False
         self._thread = threading.Thread(
@@ -62,11 +74,15 @@ class Dispatcher:
                 batch = fifo.take(_BATCH, 1 << 62)
                 if not batch:
                     break
-                for _key, task in batch:
+                for receiver, item in batch:
                     if self._stop:
                         return
                     try:
-                        task()
+                        if isinstance(item, bytes):
+                            if receiver is not None:
+                                receiver.deliver(item)
+                        else:
+                            item()
                     except Exception:
                         self._counters.callback_failed()
                         _log.exception("callback raised; the connector keeps running")

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import threading
 from collections import deque
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
 from typing import Generic, TypeVar
 
 __all__ = ["BoundedFifo"]
@@ -59,6 +59,28 @@ class BoundedFifo(Generic[K, T]):
             self._order.append(slot)
             self._count += 1
         if not self.ready.is_set():
+            self.ready.set()
+        return dropped
+
+    def put_many(self, entries: Sequence[tuple[K, T, int]]) -> list[K]:
+        """`put` for `(key, item, bound)` entries under one lock; returns the keys that dropped."""
+        dropped: list[K] = []
+        with self._lock:
+            by_key = self._by_key
+            order = self._order
+            for key, item, bound in entries:
+                slot = _Slot(key, item, 0)
+                queue = by_key.get(key)
+                if queue is None:
+                    queue = by_key[key] = deque()
+                if len(queue) >= bound:
+                    queue.popleft().live = False
+                    self._count -= 1
+                    dropped.append(key)
+                queue.append(slot)
+                order.append(slot)
+            self._count += len(entries)
+        if entries and not self.ready.is_set():
             self.ready.set()
         return dropped
 
