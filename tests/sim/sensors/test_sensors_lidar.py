@@ -8,6 +8,8 @@ import threading
 import mujoco
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from simbridge.errors import SimError
 from simbridge.sim.sensors import Lidar2D, Lidar2DConfig, Lidar3D, Lidar3DConfig
@@ -199,3 +201,35 @@ def test_threaded_casting_gives_identical_points(world):
     np.testing.assert_array_equal(threaded.points, serial.points)
     np.testing.assert_array_equal(threaded.ring, serial.ring)
     assert not [t for t in threading.enumerate() if t.name.startswith("raycast")]
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    distance=st.floats(0.5, 10.0),
+    yaw=st.floats(-math.pi, math.pi),
+    height=st.floats(-0.3, 0.3),
+)
+def test_any_wall_distance_and_mount_yaw(distance, yaw, height):
+    """A wall spanning y in [-1, 1] at x = distance, seen by a lidar yawed by `yaw`."""
+    model = mujoco.MjModel.from_xml_string(
+        f"""<mujoco><worldbody>
+        <geom type="box" pos="{distance + 0.05} 0 1" size="0.05 1 1"/>
+        <body name="robot" pos="0 0 1"><geom type="sphere" size="0.1"/></body>
+        </worldbody></mujoco>"""
+    )
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    config = Lidar2DConfig(
+        name="scan", body="robot", xyz=(0.0, 0.0, height), rpy=(0.0, 0.0, yaw), range_max=50.0
+    )
+    lidar = Lidar2D(model, config)
+    ranges = lidar.scan(model, data).ranges
+    world_angles = lidar.angles + yaw
+    cos = np.cos(world_angles)
+    with np.errstate(divide="ignore"):
+        expected = distance / cos
+    lateral = expected * np.sin(world_angles)
+    hits = (cos > 0) & (np.abs(lateral) < 1 - 1e-3)
+    misses = (cos <= 0) | (np.abs(lateral) > 1 + 1e-3)
+    np.testing.assert_allclose(ranges[hits], expected[hits], atol=1e-3, rtol=0)
+    assert np.all(np.isposinf(ranges[misses]))
