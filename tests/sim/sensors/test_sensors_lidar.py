@@ -233,3 +233,36 @@ def test_any_wall_distance_and_mount_yaw(distance, yaw, height):
     misses = (cos <= 0) | (np.abs(lateral) > 1 + 1e-3)
     np.testing.assert_allclose(ranges[hits], expected[hits], atol=1e-3, rtol=0)
     assert np.all(np.isposinf(ranges[misses]))
+
+
+def test_ignored_robot_bodies_are_seen_through():
+    model = mujoco.MjModel.from_xml_string(
+        f"""<mujoco><worldbody>
+        <geom name="wall" type="box" pos="{WALL_X + 0.05} 0 1" size="0.05 5 1"/>
+        <body name="robot" pos="0 0 1">
+          <geom type="sphere" size="0.1"/>
+          <body name="mast" pos="0.5 0 0"><geom type="box" size="0.05 0.3 0.5"/></body>
+          <body name="arm" pos="0.8 0 0"><geom type="box" size="0.05 0.3 0.5"/></body>
+        </body>
+        </worldbody></mujoco>"""
+    )
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    base = {"name": "scan", "body": "robot", "samples": 91,
+            "angle_min": -0.4, "angle_max": 0.4}  # fmt: skip
+    blocked = Lidar2D(model, Lidar2DConfig.from_config(base)).scan(model, data).ranges
+    clear_config = Lidar2DConfig.from_config({**base, "ignore_bodies": ["mast", "arm"]})
+    lidar = Lidar2D(model, clear_config)
+    clear = lidar.scan(model, data).ranges
+    through_mast = np.abs(0.45 * np.tan(lidar.angles)) < 0.29
+    np.testing.assert_allclose(blocked[through_mast], 0.45 / np.cos(lidar.angles[through_mast]),
+                               atol=1e-3)  # fmt: skip
+    np.testing.assert_allclose(clear, WALL_X / np.cos(lidar.angles), atol=1e-3)
+    with pytest.raises(SimError, match="'plinth' is not in the model"):
+        Lidar2D(model, Lidar2DConfig.from_config({**base, "ignore_bodies": ["plinth"]}))
+    threaded = Lidar3D(
+        model, Lidar3DConfig(name="v", body="robot", ignore_bodies=("mast", "arm"), samples=360)
+    )
+    points = threaded.scan(model, data).points
+    threaded.close()
+    np.testing.assert_allclose(points[:, 0], WALL_X, atol=1e-3)

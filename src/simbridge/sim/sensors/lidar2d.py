@@ -12,7 +12,7 @@ from numpy.typing import NDArray
 from simbridge.errors import SimError
 from simbridge.sim.sensors.base import Sensor
 from simbridge.sim.sensors.config import SensorConfig
-from simbridge.sim.sensors.raycast import RayCaster
+from simbridge.sim.sensors.raycast import RayCaster, body_ids
 from simbridge.sim.sensors.rosmsg import Publication, header, new_message
 
 __all__ = ["LaserScanResult", "Lidar2D", "Lidar2DConfig", "apply_range_limits"]
@@ -23,6 +23,8 @@ class Lidar2DConfig(SensorConfig):
     """A planar scan in the mount's x-y plane, counter-clockwise from angle_min to angle_max.
 
     Default topic `scan`; default frame the mount body. Noise is Gaussian on range (m).
+    Beams see through the mount body and `ignore_bodies` (e.g. the robot's other links);
+    `geomgroup` (6 flags) defaults to the groups holding collision geoms.
     """
 
     angle_min: float = -math.pi
@@ -34,6 +36,7 @@ class Lidar2DConfig(SensorConfig):
     intensities: bool = False
     seed: int = 0
     geomgroup: tuple[int, ...] | None = None
+    ignore_bodies: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -86,6 +89,7 @@ class Lidar2D(Sensor):
             exclude_body=frame.body_id,
             cutoff=config.range_max * 1.01,
             geomgroup=config.geomgroup,
+            ignore_bodies=body_ids(model, config.ignore_bodies),
         )
         self._rng = np.random.default_rng(config.seed)
 

@@ -12,7 +12,7 @@ from numpy.typing import NDArray
 from simbridge.errors import SimError
 from simbridge.sim.sensors.base import Sensor
 from simbridge.sim.sensors.config import SensorConfig
-from simbridge.sim.sensors.raycast import RayCaster
+from simbridge.sim.sensors.raycast import RayCaster, body_ids
 from simbridge.sim.sensors.rosmsg import Publication, header, point_cloud2
 
 __all__ = ["POINT_DTYPE", "Lidar3D", "Lidar3DConfig", "PointScan"]
@@ -33,6 +33,7 @@ class Lidar3DConfig(SensorConfig):
     """`channels` beams from vertical_min to vertical_max (rad), each swept over `samples`
     azimuths from angle_min to angle_max. Ring 0 is the lowest beam. Default topic `points`.
     `threads`: ray-casting worker threads (0: one per CPU, 1: cast on the calling thread).
+    `ignore_bodies` and `geomgroup` work as for Lidar2DConfig.
     """
 
     channels: int = 16
@@ -46,6 +47,7 @@ class Lidar3DConfig(SensorConfig):
     noise_stddev: float = 0.0
     seed: int = 0
     geomgroup: tuple[int, ...] | None = None
+    ignore_bodies: tuple[str, ...] = ()
     threads: int = 1
 
 
@@ -95,6 +97,7 @@ class Lidar3D(Sensor):
             exclude_body=frame.body_id,
             cutoff=config.range_max * 1.01,
             geomgroup=config.geomgroup,
+            ignore_bodies=body_ids(model, config.ignore_bodies),
             threads=config.threads,
         )
         self._rng = np.random.default_rng(config.seed)

@@ -13,12 +13,26 @@ from numpy.typing import NDArray
 from simbridge.errors import SimError
 from simbridge.sim.sensors.frames import Pose
 
-__all__ = ["RayCaster", "RayHits", "collision_geom_groups"]
+__all__ = ["RayCaster", "RayHits", "body_ids", "collision_geom_groups"]
 
 NUM_GEOM_GROUPS = 6
 
 # Below this many rays per worker, thread hand-off costs more than it saves.
 _MIN_RAYS_PER_THREAD = 4096
+# A ray passes through at most this many ignored geoms before it counts as blocked.
+_MAX_PASS_THROUGH = 16
+
+
+def body_ids(model: mujoco.MjModel, names: tuple[str, ...]) -> frozenset[int]:
+    """Ids of the named bodies; SimError naming any unknown one."""
+    ids = []
+    for name in names:
+        body = int(mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, name))
+        if body < 0:
+            known = [model.body(i).name for i in range(model.nbody)]
+            raise SimError(f"ray caster: body {name!r} is not in the model; bodies: {known}")
+        ids.append(body)
+    return frozenset(ids)
 
 
 def collision_geom_groups(model: mujoco.MjModel) -> NDArray[np.uint8]:
@@ -46,8 +60,9 @@ class RayHits:
 class RayCaster:
     """Casts a fixed fan of unit rays, given in the sensor frame, from the sensor origin.
 
-    Geoms of `exclude_body` (the body the sensor is mounted on) are ignored, as are
-    geoms outside `geomgroup` and, as in MuJoCo, fully transparent geoms. MuJoCo releases
+    Geoms of `exclude_body` (the body the sensor is mounted on) and of `ignore_bodies`
+    (say, the rest of the robot) are seen through, as are geoms outside `geomgroup` and,
+    as in MuJoCo, fully transparent geoms. MuJoCo releases
     the GIL while casting, so large fans are split over up to `threads` worker threads
     (0: one per CPU); `close()` stops them.
     """
@@ -60,6 +75,7 @@ class RayCaster:
         exclude_body: int,
         cutoff: float,
         geomgroup: tuple[int, ...] | None = None,
+        ignore_bodies: frozenset[int] = frozenset(),
         threads: int = 1,
     ) -> None:
         if directions.ndim != 2 or directions.shape[1] != 3 or len(directions) == 0:
@@ -75,6 +91,10 @@ class RayCaster:
             if geomgroup is None
             else np.array([1 if flag else 0 for flag in geomgroup], dtype=np.uint8)
         )
+        self._ignored = np.zeros(model.nbody, dtype=bool)
+        self._ignored[list(ignore_bodies)] = True
+        if ignore_bodies and self.exclude_body > 0:
+            self._ignored[self.exclude_body] = True
         count = len(self.directions)
         self._geom_id = np.zeros(count, dtype=np.int32)
         self._dist = np.zeros(count, dtype=np.float64)
@@ -116,6 +136,8 @@ class RayCaster:
             if self._pool is None:
                 self._pool = ThreadPoolExecutor(len(self._chunks), thread_name_prefix="raycast")
             list(self._pool.map(cast_chunk, self._chunks))
+        if self._ignored.any():
+            self._pass_through(model, data, origin, world_dirs)
         hit = self._geom_id >= 0
         distance = np.where(hit, self._dist, np.inf)
         normals = self._normal.reshape(-1, 3)
@@ -127,3 +149,36 @@ class RayCaster:
         if self._pool is not None:
             self._pool.shutdown()
             self._pool = None
+
+    def _pass_through(
+        self,
+        model: mujoco.MjModel,
+        data: mujoco.MjData,
+        origin: NDArray[np.float64],
+        world_dirs: NDArray[np.float64],
+    ) -> None:
+        """Continue every ray that hit an ignored body from its hit point, one by one."""
+        body_of = model.geom_bodyid
+        hit = self._geom_id >= 0
+        blocked = np.flatnonzero(hit & self._ignored[body_of[np.where(hit, self._geom_id, 0)]])
+        geom = np.zeros(1, dtype=np.int32)
+        normal = np.zeros(3)
+        for ray in blocked:
+            direction = world_dirs[ray]
+            travelled = float(self._dist[ray])
+            body = int(body_of[self._geom_id[ray]])
+            self._geom_id[ray] = -1
+            for _ in range(_MAX_PASS_THROUGH):
+                start = origin + direction * travelled
+                step = mujoco.mj_ray(
+                    model, data, start, direction, self.geomgroup, 1, body, geom, normal
+                )
+                if step < 0:
+                    break
+                travelled += step
+                body = int(body_of[geom[0]])
+                if not self._ignored[body]:
+                    self._geom_id[ray] = geom[0]
+                    self._dist[ray] = travelled
+                    self._normal[3 * ray : 3 * ray + 3] = normal
+                    break
