@@ -181,3 +181,20 @@ def test_odometry_messages_and_tf():
     assert (transform.header.frame_id, transform.child_frame_id) == ("odom", "base_link")
     assert transform.transform.translation.x == pytest.approx(1.5, abs=1e-9)
     assert odom.static_frame(model) is None
+
+
+def test_odometry_of_an_offset_mount_sees_the_lever_arm(imu_world):
+    model, data = imu_world
+    omega, radius = 2.0, 0.4
+    odom = Odometry(
+        model,
+        OdometryConfig(
+            name="odom", body="turntable", xyz=(radius, 0.0, 0.0), rpy=(0.0, 0.0, math.pi / 2)
+        ),
+    )
+    data.qvel[model.joint("spin").dofadr[0]] = omega
+    mujoco.mj_forward(model, data)
+    reading = odom.read(model, data)
+    # The mount is yawed +90 deg: its x axis is the rim's direction of travel.
+    np.testing.assert_allclose(reading.linear, [omega * radius, 0.0, 0.0], atol=1e-12)
+    np.testing.assert_allclose(reading.angular, [0.0, 0.0, omega], atol=1e-12)
