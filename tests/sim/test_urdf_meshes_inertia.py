@@ -292,3 +292,52 @@ def test_materials_colour_visual_geoms(tmp_path: Path) -> None:
     np.testing.assert_allclose(model.geom("a/visual/0").rgba, [1, 0, 0, 1])
     np.testing.assert_allclose(model.geom("a/visual/1").rgba, [0, 0, 1, 0.5])
     assert parse_urdf(urdf).materials["red"].rgba == (1.0, 0.0, 0.0, 1.0)
+
+
+def test_flat_collision_mesh_becomes_a_thin_box(tmp_path: Path) -> None:
+    quad = trimesh.Trimesh(
+        vertices=np.array([[0, 0, 0], [0.4, 0, 0], [0.4, 0.2, 0], [0, 0.2, 0]], dtype=float),
+        faces=[[0, 1, 2], [0, 2, 3]],
+    )
+    quad.export(str(tmp_path / "quad.stl"))
+    geom = '<geometry><mesh filename="quad.stl"/></geometry>'
+    urdf = robot(
+        link("base"),
+        link(
+            "pad",
+            inertial() + f"<visual>{geom}</visual>"
+            f'<collision><origin xyz="0 0 1"/>{geom}</collision>',
+        ),
+        joint("j", "revolute", "base", "pad", LIMIT),
+    )
+    model, warns = _compile(urdf, tmp_path)
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    box = model.geom("pad/collision/0")
+    assert box.type[0] == mujoco.mjtGeom.mjGEOM_BOX
+    np.testing.assert_allclose(box.size, [0.2, 0.1, 0.0005])
+    np.testing.assert_allclose(data.geom_xpos[box.id], [0.2, 0.1, 1.0], atol=1e-12)
+    assert model.geom("pad/visual/0").type[0] == mujoco.mjtGeom.mjGEOM_MESH
+    assert warns == ["pad/collision/0: mesh 'quad.stl' is flat; colliding with a thin box instead"]
+
+
+def test_open_and_flat_meshes_still_give_inertia(tmp_path: Path) -> None:
+    box = trimesh.creation.box(extents=(0.1, 0.1, 0.1))
+    open_box = trimesh.Trimesh(box.vertices, box.faces[:-2])  # one side missing: no volume
+    open_box.export(str(tmp_path / "open.stl"))
+    trimesh.Trimesh(
+        vertices=np.array([[0, 0, 0], [0.4, 0, 0], [0.4, 0.2, 0], [0, 0.2, 0]], dtype=float),
+        faces=[[0, 1, 2], [0, 2, 3]],
+    ).export(str(tmp_path / "quad.stl"))
+    urdf = robot(
+        link("base"),
+        link("a", '<collision><geometry><mesh filename="open.stl"/></geometry></collision>'),
+        link("b", '<collision><geometry><mesh filename="quad.stl"/></geometry></collision>'),
+        joint("ja", "revolute", "base", "a", LIMIT),
+        joint("jb", "revolute", "base", "b", LIMIT),
+    )
+    model, warns = _compile(urdf, tmp_path)
+    assert model.body("a").mass[0] == pytest.approx(1.0)  # convex hull: the full 10 cm cube
+    assert model.body("b").mass[0] == pytest.approx(1000 * 0.4 * 0.2 * 0.001)  # 1 mm plate
+    np.testing.assert_allclose(model.body("b").ipos, [0.2, 0.1, 0.0], atol=1e-12)
+    assert len(warns) == 3  # two computed inertials, one flat collision mesh

@@ -61,6 +61,11 @@ def _primitive(
     assert isinstance(geom, Mesh)
     if geom.path is None:
         return 0.0, zero, np.zeros((3, 3))
+    flat = meshes.flat_box(geom.path, geom.scale)
+    if flat is not None:  # collides as a thin box, so weighs as one
+        centre, size = flat
+        mass, _, inertia = _primitive(Collision(Box(size)), density, meshes)
+        return mass, np.array(centre), inertia
     mesh = meshes.load(geom.path, geom.scale)
     if not mesh.is_volume:
         mesh = mesh.convex_hull

@@ -42,6 +42,20 @@ class MeshCache:
         mesh.apply_transform(np.diag([*scale, 1.0]))
         return mesh
 
+    def flat_box(
+        self, path: Path, scale: Vec3, thickness: float = 0.001
+    ) -> tuple[Vec3, Vec3] | None:
+        """(centre, size) of a thin box replacing a mesh whose vertices all lie in one plane
+        (MuJoCo cannot build the convex hull it collides with); None for solid meshes."""
+        mesh = self.load(path, scale)
+        spread = mesh.vertices - mesh.vertices.mean(axis=0)
+        if np.linalg.matrix_rank(spread, tol=1e-9 * max(1.0, float(np.abs(spread).max()))) == 3:
+            return None
+        low, high = mesh.bounds
+        cx, cy, cz = ((low + high) / 2).tolist()
+        sx, sy, sz = np.maximum(high - low, thickness).tolist()
+        return (cx, cy, cz), (sx, sy, sz)
+
     def mujoco_file(self, path: Path) -> Path:
         """A file with the same geometry that MuJoCo's mesh loader accepts."""
         if path.suffix.lower() in _NATIVE:

@@ -129,6 +129,21 @@ class _Builder:
             attrs.update(type="mesh", mesh=self.mesh_asset(name, geometry))
         return ET.SubElement(body, "geom", attrs)
 
+    def collision_shape(
+        self, name: str, geometry: Geometry, pose: Transform
+    ) -> tuple[Geometry, Transform]:
+        """The geometry to collide with: flat meshes become thin boxes (with a warning)."""
+        if not isinstance(geometry, Mesh) or geometry.path is None:
+            return geometry, pose
+        flat = self.meshes.flat_box(geometry.path, geometry.scale)
+        if flat is None:
+            return geometry, pose
+        centre, size = flat
+        warning = f"{name}: mesh '{geometry.filename}' is flat; colliding with a thin box instead"
+        self.warnings.append(warning)
+        warnings.warn(warning, UrdfWarning, stacklevel=2)
+        return Box(size), pose @ Transform(np.eye(3), np.array(centre))
+
     def mesh_asset(self, name: str, mesh: Mesh) -> str:
         if mesh.path is None:
             raise UrdfError(f"{name}: mesh '{mesh.filename}' was not found (see search paths)")
@@ -201,8 +216,9 @@ class _Builder:
             )
         bits = ("1", "1") if self.opt.self_collision else ("2", "1")
         for i, col in enumerate(link.collisions):
-            pose = offset @ col.origin.transform
-            geom = self.geom(body, f"{p}{link_name}/collision/{i}", col.geometry, pose)
+            name = f"{p}{link_name}/collision/{i}"
+            geometry, pose = self.collision_shape(name, col.geometry, offset @ col.origin.transform)
+            geom = self.geom(body, name, geometry, pose)
             geom.attrib.update(
                 contype=bits[0],
                 conaffinity=bits[1],
