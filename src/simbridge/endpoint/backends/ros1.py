@@ -38,7 +38,7 @@ from simbridge.endpoint.backends.ros1_types import Ros1Types
 from simbridge.errors import EndpointError, MessageError, ServiceError
 from simbridge.messages import MessageRegistry, default_registry
 
-__all__ = ["Ros1Backend", "Ros1Options"]
+__all__ = ["Ros1Backend", "Ros1Options", "Ros1Publisher"]
 
 _log = logging.getLogger(__name__)
 
@@ -124,7 +124,7 @@ class Ros1Backend(Backend):
         self._started()
         cls = raw_message_class(self._types.message(msg_type))
         try:
-            publisher = _Ros1Publisher(topic, cls, max(queue_size, 0), latch, self._live)
+            publisher = Ros1Publisher(topic, cls, max(queue_size, 0), latch, self._live)
         except rospy.ROSException as exc:
             raise EndpointError(f"cannot advertise {topic!r} as {msg_type}: {exc}") from exc
         _log.info("publishing %s [%s] for the sim (latch=%s)", topic, msg_type, latch)
@@ -216,7 +216,7 @@ class _Registration(abc.ABC):
         """Undo the registration in rospy."""
 
 
-class _Ros1Publisher(_Registration, BackendPublisher):
+class Ros1Publisher(_Registration, BackendPublisher):
     """A rospy Publisher of raw bytes."""
 
     def __init__(
@@ -239,6 +239,11 @@ class _Ros1Publisher(_Registration, BackendPublisher):
             self._publisher.publish(self._cls(payload))
         except rospy.ROSException as exc:
             raise EndpointError(f"cannot publish on {self._topic!r}: {exc}") from exc
+
+    def subscriber_count(self) -> int:
+        """How many subscribers are connected now (messages before the first one are lost)."""
+        count: int = self._publisher.get_num_connections()
+        return count
 
     def _unregister(self) -> None:
         self._publisher.unregister()

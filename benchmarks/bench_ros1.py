@@ -1,0 +1,322 @@
+"""Throughput of the ROS 1 backend in both directions against the rospy ceiling.
+
+One private roscore per run. Ceiling: a rospy publisher node -> a rospy
+subscriber node (both Debian's rospy with the real message classes). Through
+the backend: Ros1Backend.publish -> the same rospy subscriber node (sim->ros),
+and the same rospy publisher node -> Ros1Backend.subscribe callback on the
+event loop (ros->sim). Publishers queue without limit, so loss must be zero.
+Payloads: geometry_msgs/Twist (48 B) and a 640x480 rgb8 sensor_msgs/Image.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import json
+import os
+import shutil
+import signal
+import socket
+import struct
+import subprocess
+import sys
+import tempfile
+import textwrap
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+__all__ = ["run"]
+
+SYSTEM_PYTHON = "/usr/bin/python3"
+IDLE_END = 3.0
+"""Seconds without a message after which a receiver stops counting."""
+
+
+@dataclass(frozen=True, slots=True)
+class Payload:
+    """One benchmark payload: its type, serialized bytes and how many to send."""
+
+    label: str
+    msg_type: str
+    data: bytes
+    count: int
+
+
+def _ros_string(text: str) -> bytes:
+    raw = text.encode()
+    return struct.pack("<I", len(raw)) + raw
+
+
+def _image(width: int, height: int) -> bytes:
+    """sensor_msgs/Image rgb8: Header(seq, stamp, frame_id), height, width, encoding,
+    is_bigendian, step, data."""
+    header = struct.pack("<III", 0, 0, 0) + _ros_string("camera")
+    pixels = bytes(range(256)) * (width * height * 3 // 256)
+    body = struct.pack("<II", height, width) + _ros_string("rgb8") + b"\x00"
+    body += struct.pack("<I", width * 3) + struct.pack("<I", len(pixels)) + pixels
+    return header + body
+
+
+SCALE = float(os.environ.get("SIMBRIDGE_BENCH_SCALE", "1"))
+"""Multiplies the message counts (smaller for a quick look)."""
+
+PAYLOADS = (
+    Payload(
+        "Twist 48 B",
+        "geometry_msgs/Twist",
+        struct.pack("<6d", 1, 2, 3, 4, 5, 6),
+        max(int(20000 * SCALE), 10),
+    ),
+    Payload("Image 640x480 rgb8", "sensor_msgs/Image", _image(640, 480), max(int(300 * SCALE), 5)),
+)
+
+_NODE_SCRIPT = textwrap.dedent(
+    """
+    import json, sys, time
+    import rospy
+    from geometry_msgs.msg import Twist
+    from sensor_msgs.msg import Image
+
+    role, topic, msg_type, count = sys.argv[1], sys.argv[2], sys.argv[3], int(sys.argv[4])
+    cls = Twist if msg_type == "geometry_msgs/Twist" else Image
+    rospy.init_node("bench_" + role, anonymous=True)
+    if role == "pub":
+        if msg_type == "geometry_msgs/Twist":
+            msg = Twist()
+            msg.linear.x, msg.linear.y, msg.linear.z = 1, 2, 3
+            msg.angular.x, msg.angular.y, msg.angular.z = 4, 5, 6
+        else:
+            pixels = bytes(range(256)) * (640 * 480 * 3 // 256)
+            msg = Image(height=480, width=640, encoding="rgb8", step=1920, data=pixels)
+            msg.header.frame_id = "camera"
+        pub = rospy.Publisher(topic, cls, queue_size=0)
+        while pub.get_num_connections() == 0:
+            time.sleep(0.01)
+        print("READY", flush=True)
+        sys.stdin.readline()
+        for _ in range(count):
+            pub.publish(msg)
+        sys.stdin.readline()
+    else:
+        times = []
+        sub = rospy.Subscriber(topic, cls, lambda m: times.append(time.perf_counter()))
+        deadline = time.time() + 30
+        while sub.get_num_connections() == 0 and time.time() < deadline:
+            time.sleep(0.01)
+        print("READY", flush=True)
+        deadline = time.time() + 60
+        while not times and time.time() < deadline:
+            time.sleep(0.01)
+        while len(times) < count:
+            before = len(times)
+            time.sleep(%(idle)s)
+            if len(times) == before:
+                break
+        print(json.dumps({"times": [times[0], times[-1]] if times else [], "count": len(times)}))
+    """
+)
+
+
+@contextlib.contextmanager
+def _roscore() -> Iterator[dict[str, str]]:
+    """A private roscore; yields the environment ROS processes need to use it."""
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        port = sock.getsockname()[1]
+    home = Path(tempfile.mkdtemp(prefix="simbridge-bench-"))
+    env = dict(os.environ, ROS_MASTER_URI=f"http://127.0.0.1:{port}/", ROS_HOSTNAME="127.0.0.1")
+    env.update(ROS_HOME=str(home), ROS_LOG_DIR=str(home / "log"), PYTHONUNBUFFERED="1")
+    core = subprocess.Popen(
+        ["roscore", "-p", str(port)],
+        env=env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        start_new_session=True,
+    )
+    try:
+        probe = subprocess.run(
+            ["rostopic", "list"], env=env, capture_output=True, timeout=30, check=False
+        )
+        deadline = time.monotonic() + 30
+        while b"/rosout" not in probe.stdout and time.monotonic() < deadline:
+            time.sleep(0.2)
+            probe = subprocess.run(
+                ["rostopic", "list"], env=env, capture_output=True, timeout=30, check=False
+            )
+        yield env
+    finally:
+        os.killpg(core.pid, signal.SIGINT)
+        try:
+            core.wait(5)
+        except subprocess.TimeoutExpired:
+            os.killpg(core.pid, signal.SIGKILL)
+            core.wait()
+        shutil.rmtree(home, ignore_errors=True)
+
+
+class _Node:
+    """A helper rospy node (publisher or subscriber) in the system interpreter."""
+
+    def __init__(self, env: dict[str, str], script: Path, role: str, topic: str, p: Payload):
+        args = [SYSTEM_PYTHON, str(script), role, topic, p.msg_type, str(p.count)]
+        self._proc = subprocess.Popen(
+            args,
+            env=env,
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            text=True,
+            start_new_session=True,
+        )
+
+    def wait_ready(self) -> None:
+        assert self._proc.stdout is not None
+        line = self._proc.stdout.readline()
+        if line.strip() != "READY":
+            raise RuntimeError(f"bench node failed to start: {line!r}")
+
+    def send(self) -> None:
+        assert self._proc.stdin is not None
+        self._proc.stdin.write("\n")
+        self._proc.stdin.flush()
+
+    def result(self) -> dict[str, Any]:
+        assert self._proc.stdout is not None
+        line = self._proc.stdout.readline()
+        data: dict[str, Any] = json.loads(line)
+        return data
+
+    def stop(self) -> None:
+        if self._proc.poll() is None:
+            with contextlib.suppress(BrokenPipeError, OSError):
+                self.send()
+            try:
+                self._proc.wait(5)
+            except subprocess.TimeoutExpired:
+                os.killpg(self._proc.pid, signal.SIGKILL)
+                self._proc.wait()
+
+
+def _row(direction: str, p: Payload, received: int, span: float) -> dict[str, Any]:
+    rate = (received - 1) / span if received > 1 and span > 0 else 0.0
+    return {
+        "direction": direction,
+        "payload": p.label,
+        "sent": p.count,
+        "received": received,
+        "msg_per_s": rate,
+        "mb_per_s": rate * len(p.data) / 1e6,
+        "loss": 1 - received / p.count,
+    }
+
+
+def _ceiling(env: dict[str, str], script: Path, p: Payload, topic: str) -> dict[str, Any]:
+    sub = _Node(env, script, "sub", topic, p)
+    pub = _Node(env, script, "pub", topic, p)
+    try:
+        pub.wait_ready()
+        sub.wait_ready()
+        pub.send()
+        result = sub.result()
+    finally:
+        pub.stop()
+        sub.stop()
+    span = result["times"][1] - result["times"][0] if result["times"] else 0.0
+    return _row("rospy -> rospy (ceiling)", p, result["count"], span)
+
+
+async def _sim_to_ros(env: dict[str, str], script: Path, p: Payload, topic: str) -> dict[str, Any]:
+    from simbridge.endpoint.backends.ros1 import Ros1Backend, Ros1Publisher
+
+    backend = Ros1Backend()
+    await backend.start()
+    sub = _Node(env, script, "sub", topic, p)
+    try:
+        publisher = backend.advertise(topic, p.msg_type, queue_size=0, latch=False)
+        assert isinstance(publisher, Ros1Publisher)
+        await asyncio.to_thread(sub.wait_ready)
+        while publisher.subscriber_count() == 0:
+            await asyncio.sleep(0.01)
+        for _ in range(p.count):
+            publisher.publish(p.data)
+        result = await asyncio.to_thread(sub.result)
+        publisher.close()
+    finally:
+        sub.stop()
+        await backend.close()
+    span = result["times"][1] - result["times"][0] if result["times"] else 0.0
+    return _row("sim -> ros (Ros1Backend.publish)", p, result["count"], span)
+
+
+async def _ros_to_sim(env: dict[str, str], script: Path, p: Payload, topic: str) -> dict[str, Any]:
+    from simbridge.endpoint.backends.ros1 import Ros1Backend
+
+    backend = Ros1Backend()
+    await backend.start()
+    times: list[float] = []
+    sizes: set[int] = set()
+
+    def on_message(payload: bytes) -> None:
+        times.append(time.perf_counter())
+        sizes.add(len(payload))
+
+    subscription = backend.subscribe(topic, p.msg_type, on_message)
+    pub = _Node(env, script, "pub", topic, p)
+    try:
+        await asyncio.to_thread(pub.wait_ready)
+        pub.send()
+        while len(times) < p.count:
+            before = len(times)
+            await asyncio.sleep(IDLE_END)
+            if len(times) == before:
+                break
+    finally:
+        pub.stop()
+        subscription.close()
+        await backend.close()
+    if sizes and sizes != {len(p.data)}:
+        raise RuntimeError(f"payload sizes {sizes} differ from the {len(p.data)} sent")
+    span = times[-1] - times[0] if times else 0.0
+    return _row("ros -> sim (Ros1Backend.subscribe)", p, len(times), span)
+
+
+def run() -> list[dict[str, Any]]:
+    """Every direction and payload; each backend row carries its share of the ceiling."""
+    rows: list[dict[str, Any]] = []
+    with _roscore() as env, tempfile.TemporaryDirectory() as tmp:
+        os.environ.update({k: v for k, v in env.items() if k.startswith("ROS_")})
+        script = Path(tmp, "bench_node.py")
+        script.write_text(_NODE_SCRIPT % {"idle": IDLE_END})
+        for i, p in enumerate(PAYLOADS):
+            ceiling = _ceiling(env, script, p, f"/bench/ceiling{i}")
+            rows.append(ceiling)
+            for row in (
+                asyncio.run(_sim_to_ros(env, script, p, f"/bench/sim_to_ros{i}")),
+                asyncio.run(_ros_to_sim(env, script, p, f"/bench/ros_to_sim{i}")),
+            ):
+                row["of_ceiling"] = row["msg_per_s"] / ceiling["msg_per_s"]
+                rows.append(row)
+    return rows
+
+
+def _table(rows: list[dict[str, Any]]) -> str:
+    head = f"{'direction':36} {'payload':20} {'msg/s':>9} {'MB/s':>8} {'loss':>6} {'ceiling':>8}"
+    lines = [head, "-" * len(head)]
+    for r in rows:
+        share = f"{r['of_ceiling']:.0%}" if "of_ceiling" in r else "-"
+        lines.append(
+            f"{r['direction']:36} {r['payload']:20} {r['msg_per_s']:9.0f} "
+            f"{r['mb_per_s']:8.1f} {r['loss']:6.1%} {share:>8}"
+        )
+    return "\n".join(lines)
+
+
+if __name__ == "__main__":
+    rows = []
+    for row in run():
+        print(row, file=sys.stderr, flush=True)
+        rows.append(row)
+    print(_table(rows))
+    sys.exit(0)
