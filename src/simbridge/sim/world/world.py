@@ -204,8 +204,7 @@ class World:
 
     def post(self, fn: Callable[[], None]) -> None:
         """Run `fn()` on the simulation thread before the next step (thread-safe)."""
-        with self._lock:
-            self._posted.append(fn)
+        self._posted.append(fn)
 
     def pause(self) -> None:
         """Stop advancing time in `run` (thread-safe)."""
@@ -242,12 +241,8 @@ class World:
         if self._reset_requested:
             self._reset_requested = False
             self.reset()
-        while True:
-            with self._lock:
-                if not self._posted:
-                    return
-                fn = self._posted.popleft()
-            fn()
+        while self._posted:  # deque appends and pops are atomic; this is the only consumer
+            self._posted.popleft()()
 
     # ---- stepping --------------------------------------------------------------------------
 
