@@ -72,6 +72,8 @@ class FakeClientConn:
                 except OSError:
                     return
         self.closed = True
+        with contextlib.suppress(OSError):  # answer the client's FIN like a server would
+            self.sock.shutdown(socket.SHUT_RDWR)
 
     def _answer(self, event: Event) -> None:
         ep = self.endpoint

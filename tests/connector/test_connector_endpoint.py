@@ -226,3 +226,16 @@ def test_dead_endpoint_detected_within_dead_timeout(make_connector):
         assert time.monotonic() - t0 < 0.6 + 0.5
         frozen.set()
         assert sim.wait_connected(3.0)
+
+
+def test_messages_published_right_before_close_are_delivered(endpoint):
+    got: queue.Queue[Any] = queue.Queue()
+    assert isinstance(endpoint.backend, LocalBus)
+    with Node(endpoint.backend, "/listener") as node:
+        node.subscribe("/last_words", "std_msgs/Int32", lambda m: got.put(m.data))
+        with Connector(port=endpoint.port, options=FAST) as sim:
+            pub = sim.register_publisher("/last_words", "std_msgs/Int32")
+            for n in range(300):
+                pub.publish(REG.new("std_msgs/Int32", data=n))
+        received = [got.get(timeout=5) for _ in range(300)]
+    assert received == list(range(300))

@@ -351,8 +351,10 @@ def test_unsubscribe_one_of_two_callbacks_then_all(endpoint: FakeEndpoint, make_
     assert a == []
     conn.unsubscribe("/in")
     conn.unregister_publisher("/never-registered")  # no-op, no frame
-    conn.register_publisher("/p", "std_msgs/String")
+    pub = conn.register_publisher("/p", "std_msgs/String")
     conn.unregister_publisher("/p")
+    with pytest.raises(ConnectorError, match="'/p' was unregistered"):
+        pub.publish(b"late")
     conn.implement_service("/s", "std_srvs/Empty", lambda r: r, raw=True)
     conn.unimplement_service("/s")
     assert endpoint.wait_for(lambda: len(commands(endpoint.events())) == 6)

@@ -113,6 +113,7 @@ class Connector:
         self._generation = 0
         self._connected = threading.Event()
         self._closing = threading.Event()
+        self._close_deadline = 0.0
         self._manager: threading.Thread | None = None
         self._peer_keepalive: float | None = None
         self.handshake: Handshake | None = None
@@ -150,15 +151,22 @@ class Connector:
         """
         if self._closing.is_set():
             return
+        grace = self.options.close_flush_timeout
         if self._connected.is_set() and not self._dispatcher.on_thread:
-            self.flush(self.options.close_flush_timeout)
+            self.flush(grace)
+        self._close_deadline = time.monotonic() + grace
         self._closing.set()
         with self._lock:
             link = self._link
         if link is not None:
-            link.fail()
+            # FIN after the queued data; the reader drains until the endpoint closes too,
+            # so the kernel never answers unread input with a reset that loses our data
+            link.half_close()
         manager = self._manager
         if manager is not None and manager is not threading.current_thread():
+            manager.join(timeout=grace + 1.0)
+            if link is not None:
+                link.fail()
             manager.join(timeout=5.0)
         self._writer.stop()
         self._dispatcher.stop()
@@ -209,7 +217,11 @@ class Connector:
     def register_publisher(
         self, topic: str, msg_type: str, queue_size: int = 10, latch: bool = False
     ) -> Publisher:
-        """Advertise `topic`; returns the Publisher (registering again replaces it)."""
+        """Advertise `topic`; returns the Publisher.
+
+        Registering again replaces the registration; earlier Publisher objects of the
+        topic keep working and share its outgoing queue.
+        """
         _check_name(topic, "topic")
         _check_name(msg_type, "message type")
         if queue_size < 0:
@@ -237,7 +249,9 @@ class Connector:
     def unregister_publisher(self, topic: str) -> None:
         """Stop publishing on `topic` (messages already queued are still written first)."""
         with self._lock:
-            if self._publishers.pop(topic, None) is not None:
+            pub = self._publishers.pop(topic, None)
+            if pub is not None:
+                pub.closed = True
                 self._send_command(RemovePublisher(topic))
 
     def publish(self, topic: str, msg: object) -> None:
@@ -532,9 +546,11 @@ class Connector:
         poller = select.poll()
         poller.register(sock.fileno(), select.POLLIN | select.POLLERR | select.POLLHUP)
         last_rx = last_check = time.monotonic()
-        while not self._closing.is_set() and not link.broken.is_set():
+        while not link.broken.is_set():
             ready = poller.poll(_POLL_S * 1000)
             now = time.monotonic()
+            if self._closing.is_set() and now >= self._close_deadline:
+                return
             if now - last_check >= _POLL_S:
                 last_check = now
                 self._expire(now)

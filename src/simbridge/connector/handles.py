@@ -9,6 +9,7 @@ from simbridge.connector.codec import PayloadCodec
 from simbridge.connector.fifo import BoundedFifo
 from simbridge.connector.stats import StatsCounters
 from simbridge.connector.writer import OutTopic
+from simbridge.errors import ConnectorError
 
 __all__ = ["MessageCallback", "Publisher", "Subscription"]
 
@@ -19,7 +20,17 @@ MessageCallback = Callable[[Any], None]
 class Publisher:
     """A topic this connector publishes on. `publish` is thread-safe and never blocks."""
 
-    __slots__ = ("_codec", "_counters", "_fifo", "_last", "_out", "latch", "msg_type", "queue_size")
+    __slots__ = (
+        "_codec",
+        "_counters",
+        "_fifo",
+        "_last",
+        "_out",
+        "closed",
+        "latch",
+        "msg_type",
+        "queue_size",
+    )
 
     def __init__(
         self,
@@ -41,6 +52,8 @@ class Publisher:
         self._codec = codec
         self._counters = counters
         self._last: bytes | None = None
+        self.closed = False
+        """Set by `Connector.unregister_publisher`; publishing then raises ConnectorError."""
 
     @property
     def topic(self) -> str:
@@ -63,6 +76,8 @@ class Publisher:
         When the topic already has its bound of unsent messages, the oldest is dropped
         and counted in `Connector.stats().publish_drops`.
         """
+        if self.closed:
+            raise ConnectorError(f"the publisher on {self.topic!r} was unregistered")
         payload = self._codec.encode(msg, self.msg_type)
         if self.latch:
             self._last = payload

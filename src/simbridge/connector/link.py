@@ -26,6 +26,11 @@ class Link:
         with contextlib.suppress(OSError):
             self.sock.shutdown(socket.SHUT_RDWR)
 
+    def half_close(self) -> None:
+        """Send FIN once everything written so far is out; reading goes on."""
+        with contextlib.suppress(OSError):
+            self.sock.shutdown(socket.SHUT_WR)
+
     def close(self) -> None:
         """Shut down, wait for a send in progress to give up, then close the socket."""
         self.fail()
