@@ -107,3 +107,33 @@ def test_fuzz_decoder_never_raises_unexpected(data: bytes) -> None:
     except ProtocolError:
         return
     assert sum(8 + len(f.destination.encode()) + len(f.payload) for f in frames) <= len(data)
+
+
+def _receive_into(decoder: FrameDecoder, data: bytes, chunk: int) -> list[Frame]:
+    frames: list[Frame] = []
+    pos = 0
+    while pos < len(data):
+        target = decoder.get_buffer()
+        n = min(len(target), chunk, len(data) - pos)
+        target[:n] = data[pos : pos + n]
+        frames += decoder.buffer_updated(n)
+        pos += n
+    return frames
+
+
+@pytest.mark.parametrize("chunk", [1, 1000, 65536, 1 << 20])
+def test_zero_copy_path_with_large_and_small_frames(chunk: int) -> None:
+    big = bytes(range(256)) * 4000  # 1,024,000 bytes: gets a buffer of its own
+    frames_in = [("/img", big), ("/a", b"x"), ("/img", big[:70_000]), ("", b"")]
+    data = b"".join(encode_frame(d, p) for d, p in frames_in)
+    out = _receive_into(FrameDecoder(), data, chunk)
+    assert [(f.destination, f.payload) for f in out] == frames_in
+
+
+def test_frames_before_a_bad_prefix_are_still_delivered() -> None:
+    decoder = FrameDecoder(max_payload=100)
+    data = encode_frame("/ok", b"1") + b"\x01\x00\x00\x00t" + struct.pack("<I", 1000)
+    assert decoder.feed(data) == [Frame("/ok", b"1")]
+    assert isinstance(decoder.error, FrameTooLargeError)
+    with pytest.raises(FrameTooLargeError):
+        decoder.feed(b"")

@@ -54,6 +54,9 @@ __all__ = ["ClientSession"]
 log = logging.getLogger("simbridge.endpoint")
 _pack_u32 = struct.Struct("<I").pack
 
+_WRITE_ALONE = 64 * 1024
+"""Chunks at least this big are written without joining them to their neighbours."""
+
 FIRST_SRV_ID = 1001
 """Ids of endpoint-initiated service requests start here, as in the original endpoint."""
 
@@ -70,7 +73,7 @@ class _Outbox:
         self.queue: deque[bytes] = deque(maxlen=max(1, size))
 
 
-class ClientSession(asyncio.Protocol):
+class ClientSession(asyncio.BufferedProtocol):
     """Protocol state, registrations and bounded output of one TCP client."""
 
     def __init__(self, server: EndpointServer) -> None:
@@ -88,6 +91,7 @@ class ClientSession(asyncio.Protocol):
         self._srv_ids = itertools.count(FIRST_SRV_ID)
         self._tasks: set[asyncio.Task[None]] = set()
         self._out: list[bytes] = []
+        self._discard = bytearray(4096)
         self._out_size = 0
         self._flush_scheduled = False
         self._paused = False
@@ -133,12 +137,17 @@ class ClientSession(asyncio.Protocol):
         self._paused = False
         self._drain_backlog()
 
-    def data_received(self, data: bytes) -> None:
+    def get_buffer(self, sizehint: int) -> memoryview:
+        if self.proto.closed:
+            return memoryview(self._discard)
+        return self.proto.get_buffer()
+
+    def buffer_updated(self, nbytes: int) -> None:
         self.last_recv = time.monotonic()
         stats = self.stats
-        stats.bytes_in += len(data)
+        stats.bytes_in += nbytes
         publishers = self.publishers
-        for event in self.proto.receive_data(data):
+        for event in self.proto.buffer_updated(nbytes):
             stats.frames_in += 1
             if type(event) is MessageReceived:
                 entry = publishers.get(event.topic)
@@ -169,10 +178,20 @@ class ClientSession(asyncio.Protocol):
         transport = self.transport
         if not out or transport is None or transport.is_closing():
             return
-        size = sum(map(len, out))
-        self.stats.bytes_out += size
         self.last_sent = time.monotonic()
-        transport.write(b"".join(out) if len(out) > 1 else out[0])
+        small: list[bytes] = []
+        for chunk in out:
+            self.stats.bytes_out += len(chunk)
+            if len(chunk) < _WRITE_ALONE:
+                small.append(chunk)
+                continue
+            # Large payloads go out as they are: joining would copy them again.
+            if small:
+                transport.write(b"".join(small))
+                small = []
+            transport.write(chunk)
+        if small:
+            transport.write(b"".join(small) if len(small) > 1 else small[0])
 
     def _send_control(self, frame: bytes) -> None:
         """Send a frame that must not be dropped (handshake, service frames, errors)."""

@@ -20,8 +20,8 @@ from simbridge.protocol.commands import (
 from simbridge.protocol.framing import (
     DEFAULT_MAX_FRAME_SIZE,
     KEEPALIVE,
+    Frame,
     FrameDecoder,
-    FrameTooLargeError,
     encode_frame,
 )
 
@@ -110,7 +110,7 @@ class ProtocolConnection:
         self._pending: ServiceRequestHeader | ServiceResponseHeader | None = None
         self.closed = False
 
-    def receive_data(self, data: bytes) -> list[Event]:
+    def receive_data(self, data: bytes | bytearray | memoryview) -> list[Event]:
         """Feed received bytes; returns the events they complete, in order.
 
         A fatal ProtocolViolation is the last event; afterwards the connection is closed.
@@ -119,12 +119,25 @@ class ProtocolConnection:
             return []
         try:
             frames = self._decoder.feed(data)
-        except FrameTooLargeError as exc:
-            self.closed = True
-            return [ProtocolViolation(str(exc), fatal=True)]
-        except ProtocolError as exc:
-            self.closed = True
-            return [ProtocolViolation(str(exc), fatal=True)]
+        except ProtocolError:
+            frames = []
+        return self._events(frames)
+
+    def get_buffer(self) -> memoryview:
+        """Memory to receive into (zero-copy path, see FrameDecoder.get_buffer)."""
+        return self._decoder.get_buffer()
+
+    def buffer_updated(self, nbytes: int) -> list[Event]:
+        """`nbytes` arrived in the last `get_buffer()`; returns the events they complete."""
+        if self.closed:
+            return []
+        try:
+            frames = self._decoder.buffer_updated(nbytes)
+        except ProtocolError:
+            frames = []
+        return self._events(frames)
+
+    def _events(self, frames: list[Frame]) -> list[Event]:
         events: list[Event] = []
         append = events.append
         for frame in frames:
@@ -163,6 +176,10 @@ class ProtocolConnection:
                 self._pending = command
             else:
                 append(CommandReceived(command))
+        error = self._decoder.error
+        if error is not None:
+            self.closed = True
+            append(ProtocolViolation(str(error), fatal=True))
         return events
 
     @staticmethod

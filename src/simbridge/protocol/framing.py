@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import struct
 from dataclasses import dataclass
-from typing import NoReturn
 
 from simbridge.errors import ProtocolError
 
@@ -68,74 +67,150 @@ def encode_frame(destination: str, payload: bytes = b"") -> bytes:
 
 
 class FrameDecoder:
-    """Incremental frame parser: feed it bytes as they arrive, get whole frames back.
+    """Incremental frame parser: give it bytes as they arrive, get whole frames back.
 
-    Raises FrameTooLargeError (before buffering the body) when a length prefix is over
-    the bound, and ProtocolError for a destination that is not UTF-8; after either the
-    decoder refuses further input, since the byte stream has lost its framing.
+    Two ways in: `feed(data)`, or the zero-copy pair `get_buffer()` / `buffer_updated(n)`
+    (asyncio.BufferedProtocol style) where the socket reads straight into the decoder's
+    memory. A large payload is read into its own buffer of exactly its size.
+
+    A length prefix over the bound (FrameTooLargeError, raised before the body is
+    buffered) or a destination that is not UTF-8 (ProtocolError) breaks the stream:
+    `error` is set, frames completed before it are still returned, and every later call
+    raises it. A call that completed no frame raises at once.
     """
 
-    __slots__ = ("_broken", "_buf", "_max_dest", "_max_payload", "_pos")
+    __slots__ = (
+        "_big",
+        "_big_dest",
+        "_big_filled",
+        "_broken",
+        "_buf",
+        "_end",
+        "_max_dest",
+        "_max_payload",
+        "_start",
+    )
+
+    SCRATCH = 256 * 1024
+    """Size of the buffer small frames are parsed from."""
+    LARGE = 64 * 1024
+    """Payloads at least this big get a buffer of their own."""
 
     def __init__(
         self,
         max_payload: int = DEFAULT_MAX_FRAME_SIZE,
         max_destination: int = MAX_DESTINATION_SIZE,
     ) -> None:
-        self._buf = bytearray()
-        self._pos = 0
+        self._buf = bytearray(self.SCRATCH)
+        self._start = 0
+        self._end = 0
+        self._big: bytearray | None = None
+        self._big_dest = ""
+        self._big_filled = 0
         self._max_payload = max_payload
         self._max_dest = max_destination
         self._broken: ProtocolError | None = None
 
     @property
+    def error(self) -> ProtocolError | None:
+        """Why the stream is unusable, once it is."""
+        return self._broken
+
+    @property
     def buffered(self) -> int:
         """Bytes received but not yet returned as frames."""
-        return len(self._buf) - self._pos
+        return self._end - self._start + self._big_filled
 
-    def feed(self, data: bytes) -> list[Frame]:
+    def get_buffer(self) -> memoryview:
+        """Writable memory for the next received bytes (never empty)."""
+        if self._big is not None:
+            return memoryview(self._big)[self._big_filled :]
+        if self._end == len(self._buf):
+            pending = self._end - self._start
+            if pending * 2 > len(self._buf):
+                self._buf.extend(bytes(len(self._buf)))
+            self._buf[:pending] = self._buf[self._start : self._end]
+            self._start, self._end = 0, pending
+        return memoryview(self._buf)[self._end :]
+
+    def buffer_updated(self, nbytes: int) -> list[Frame]:
+        """`nbytes` were written into the last `get_buffer()`; return completed frames."""
+        if self._broken is not None:
+            raise self._broken
+        big = self._big
+        if big is not None:
+            self._big_filled += nbytes
+            if self._big_filled < len(big):
+                return []
+            frame = Frame(self._big_dest, bytes(big))
+            self._big, self._big_filled = None, 0
+            return [frame]
+        self._end += nbytes
+        frames = self._parse()
+        if self._broken is not None and not frames:
+            raise self._broken
+        return frames
+
+    def feed(self, data: bytes | bytearray | memoryview) -> list[Frame]:
         """Add received bytes; return every frame they complete, in order."""
         if self._broken is not None:
             raise self._broken
-        buf = self._buf
-        if self._pos:
-            del buf[: self._pos]
-            self._pos = 0
-        buf += data
         frames: list[Frame] = []
-        pos = 0
-        end = len(buf)
-        while end - pos >= 4:
-            dlen = _unpack_u32(buf, pos)[0]
-            if dlen > self._max_dest:
-                self._fail(
-                    FrameTooLargeError(
+        view = memoryview(data)
+        while view and self._broken is None:
+            target = self.get_buffer()
+            n = min(len(target), len(view))
+            target[:n] = view[:n]
+            target.release()
+            frames += self.buffer_updated(n)
+            view = view[n:]
+        if self._broken is not None and not frames:
+            raise self._broken
+        return frames
+
+    def _parse(self) -> list[Frame]:
+        buf = self._buf
+        frames: list[Frame] = []
+        pos, end = self._start, self._end
+        with memoryview(buf) as view:
+            while end - pos >= 4:
+                dlen = _unpack_u32(buf, pos)[0]
+                if dlen > self._max_dest:
+                    self._broken = FrameTooLargeError(
                         f"destination length {dlen} exceeds the limit of {self._max_dest} bytes"
                     )
-                )
-            if end - pos < 8 + dlen:
-                break
-            plen = _unpack_u32(buf, pos + 4 + dlen)[0]
-            if plen > self._max_payload:
-                self._fail(
-                    FrameTooLargeError(
+                    break
+                if end - pos < 8 + dlen:
+                    break
+                plen = _unpack_u32(buf, pos + 4 + dlen)[0]
+                if plen > self._max_payload:
+                    self._broken = FrameTooLargeError(
                         f"payload length {plen} bytes exceeds the limit of "
                         f"{self._max_payload} bytes (--max-frame-mb)"
                     )
-                )
-            stop = pos + 8 + dlen + plen
-            if stop > end:
-                break
-            raw_dest = bytes(buf[pos + 4 : pos + 4 + dlen])
-            try:
-                dest = raw_dest.decode().rstrip("\x00")
-            except UnicodeDecodeError:
-                self._fail(ProtocolError(f"destination {raw_dest[:60]!r} is not valid UTF-8"))
-            frames.append(Frame(dest, bytes(buf[pos + 8 + dlen : stop])))
-            pos = stop
-        self._pos = pos
+                    break
+                body = pos + 8 + dlen
+                stop = body + plen
+                if stop > end and plen < self.LARGE:
+                    break
+                raw_dest = bytes(view[pos + 4 : pos + 4 + dlen])
+                try:
+                    dest = raw_dest.decode().rstrip("\x00")
+                except UnicodeDecodeError:
+                    self._broken = ProtocolError(
+                        f"destination {raw_dest[:60]!r} is not valid UTF-8"
+                    )
+                    break
+                if stop > end:
+                    big = bytearray(plen)
+                    big[: end - body] = view[body:end]
+                    self._big, self._big_dest, self._big_filled = big, dest, end - body
+                    pos = end
+                    break
+                frames.append(Frame(dest, bytes(view[body:stop])))
+                pos = stop
+        if pos == end:
+            self._start = self._end = 0
+        else:
+            self._start = pos
         return frames
-
-    def _fail(self, error: ProtocolError) -> NoReturn:
-        self._broken = error
-        raise error

@@ -1,0 +1,1 @@
+"""simbridge benchmarks: each module exposes run() -> list[dict] and prints a table."""

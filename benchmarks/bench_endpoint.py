@@ -1,0 +1,182 @@
+"""Throughput and latency through the endpoint with the local backend, end to end.
+
+The endpoint runs in its own process (as it would in use); a publishing connector and
+a subscribing connector run in this one. Figures: small messages/s, 640x480 rgb8 image
+MB/s, round-trip latency p50/p99, and loss.
+"""
+
+from __future__ import annotations
+
+import os
+import statistics
+import subprocess
+import sys
+import threading
+import time
+from typing import Any
+
+import numpy as np
+
+from simbridge.connector import Connector, ConnectorOptions
+from simbridge.messages import default_registry
+
+BIG_QUEUE = 1_000_000
+OPTS = ConnectorOptions(publish_queue_size=BIG_QUEUE, subscribe_queue_size=BIG_QUEUE)
+
+
+def _start_endpoint() -> tuple[subprocess.Popen[str], int]:
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "simbridge.cli",
+            "--log-level",
+            "WARNING",
+            "endpoint",
+            "--port",
+            "0",
+        ],
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+    assert proc.stdout is not None
+    line = proc.stdout.readline()
+    port = int(line.split("127.0.0.1:")[1].split()[0])
+    return proc, port
+
+
+def _wait_topic(conn: Connector, topic: str) -> None:
+    deadline = time.monotonic() + 5
+    while topic not in conn.topic_list() and time.monotonic() < deadline:
+        time.sleep(0.02)
+
+
+def _throughput(port: int, topic: str, msg_type: str, payload: bytes, count: int) -> dict[str, Any]:
+    done = threading.Event()
+    received = [0]
+
+    def on_msg(data: bytes) -> None:
+        received[0] += 1
+        if received[0] == count:
+            done.set()
+
+    with (
+        Connector("127.0.0.1", port, OPTS).connect() as sub,
+        Connector("127.0.0.1", port, OPTS).connect() as pub_conn,
+    ):
+        sub.subscribe(topic, msg_type, on_msg, raw=True, queue_size=BIG_QUEUE)
+        pub = pub_conn.register_publisher(topic, msg_type, queue_size=BIG_QUEUE)
+        _wait_topic(sub, topic)
+        time.sleep(0.2)
+        start = time.perf_counter()
+        for _ in range(count):
+            pub.publish(payload)
+        done.wait(120)
+        elapsed = time.perf_counter() - start
+        dropped = sum(pub_conn.stats().publish_drops.values()) + sum(
+            sub.stats().subscribe_drops.values()
+        )
+        ep_stats = sub.endpoint_stats()
+    return {
+        "received": received[0],
+        "sent": count,
+        "seconds": elapsed,
+        "msg_per_s": received[0] / elapsed,
+        "mb_per_s": received[0] * len(payload) / elapsed / 1e6,
+        "lost": count - received[0],
+        "connector_drops": dropped,
+        "endpoint_drops": ep_stats["server"]["dropped_total"],
+    }
+
+
+def _latency(port: int, rounds: int) -> dict[str, float]:
+    reg = default_registry()
+    payload = reg.encode(reg.new("std_msgs/Header"))
+    got = threading.Event()
+    samples: list[float] = []
+    with (
+        Connector("127.0.0.1", port, OPTS).connect() as a,
+        Connector("127.0.0.1", port, OPTS).connect() as b,
+    ):
+        pong = b.register_publisher("/pong", "std_msgs/Header")
+        b.subscribe("/ping", "std_msgs/Header", pong.publish, raw=True)
+        a.subscribe("/pong", "std_msgs/Header", lambda data: got.set(), raw=True)
+        ping = a.register_publisher("/ping", "std_msgs/Header")
+        _wait_topic(a, "/ping")
+        _wait_topic(a, "/pong")
+        time.sleep(0.2)
+        for _ in range(rounds):
+            got.clear()
+            t0 = time.perf_counter()
+            ping.publish(payload)
+            if got.wait(2):
+                samples.append((time.perf_counter() - t0) * 1e6)
+    samples.sort()
+    return {
+        "p50_us": statistics.median(samples),
+        "p99_us": samples[int(len(samples) * 0.99) - 1],
+    }
+
+
+def run(
+    small_count: int = 200_000, image_count: int = 1_000, rounds: int = 2_000
+) -> list[dict[str, Any]]:
+    """Measure everything; returns one row per figure."""
+    reg = default_registry()
+    twist = reg.new("geometry_msgs/Twist")
+    twist.linear.x = 0.5
+    small = reg.encode(twist)
+    image = reg.new("sensor_msgs/Image", height=480, width=640, encoding="rgb8", step=640 * 3)
+    image.data = np.frombuffer(os.urandom(640 * 480 * 3), dtype=np.uint8)
+    image_bytes = reg.encode(image)
+    proc, port = _start_endpoint()
+    try:
+        s = _throughput(port, "/cmd_vel", "geometry_msgs/Twist", small, small_count)
+        i = _throughput(port, "/camera/image_raw", "sensor_msgs/Image", image_bytes, image_count)
+        lat = _latency(port, rounds)
+    finally:
+        proc.terminate()
+        proc.wait(10)
+    return [
+        {
+            "figure": "small msgs (Twist, 48 B) end to end",
+            "value": s["msg_per_s"],
+            "unit": "msg/s",
+            "target": ">= 50,000",
+            "lost": s["lost"],
+        },
+        {
+            "figure": "640x480 rgb8 Image end to end",
+            "value": i["mb_per_s"],
+            "unit": "MB/s",
+            "target": ">= 1,000",
+            "lost": i["lost"],
+        },
+        {
+            "figure": "640x480 rgb8 Image end to end",
+            "value": i["msg_per_s"],
+            "unit": "frames/s",
+            "target": "",
+            "lost": i["lost"],
+        },
+        {
+            "figure": "round trip ping/pong, p50",
+            "value": lat["p50_us"],
+            "unit": "us",
+            "target": "",
+            "lost": 0,
+        },
+        {
+            "figure": "round trip ping/pong, p99",
+            "value": lat["p99_us"],
+            "unit": "us",
+            "target": "",
+            "lost": 0,
+        },
+    ]
+
+
+if __name__ == "__main__":
+    from benchmarks.table import format_table
+
+    print(format_table(run(), markdown="--markdown" in sys.argv))
