@@ -204,6 +204,13 @@ def _cmd_msg(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_demo(args: argparse.Namespace) -> int:
+    from simbridge.apps.bridge_demo import run_bridge_demo
+
+    delivered = run_bridge_demo()
+    return 0 if delivered else 1
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The full argument parser."""
     parser = argparse.ArgumentParser(prog="simbridge", description=__doc__)
@@ -284,6 +291,16 @@ def build_parser() -> argparse.ArgumentParser:
     for p in (m_show, m_md5, m_list):
         p.add_argument("--msg-path", action="append", default=[], metavar="DIR")
         p.set_defaults(func=_cmd_msg)
+
+    demo = sub.add_parser("demo", help="run a demo end to end on the embedded backend")
+    demo.add_argument(
+        "name",
+        nargs="?",
+        default="bridge",
+        choices=["bridge"],
+        help="bridge: two connectors exchange Twist messages and a service call",
+    )
+    demo.set_defaults(func=_cmd_demo)
     return parser
 
 
@@ -291,7 +308,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the `simbridge` console script."""
     parser = build_parser()
     args = parser.parse_args(argv)
-    quiet_tool = args.command in ("topic", "service", "msg", "urdf")
+    quiet_tool = args.command in ("topic", "service", "msg", "urdf", "demo")
     level_name = args.log_level or ("WARNING" if quiet_tool else "INFO")
     logging.basicConfig(
         level=getattr(logging, str(level_name).upper(), logging.INFO),
