@@ -31,7 +31,8 @@ from typing import Any
 __all__ = ["run"]
 
 SYSTEM_PYTHON = "/usr/bin/python3"
-IDLE_END = 3.0
+REPEATS = int(os.environ.get("SIMBRIDGE_BENCH_REPEATS", "3"))
+IDLE_END = 1.5
 """Seconds without a message after which a receiver stops counting."""
 
 
@@ -282,23 +283,36 @@ async def _ros_to_sim(env: dict[str, str], script: Path, p: Payload, topic: str)
     return _row("ros -> sim (Ros1Backend.subscribe)", p, len(times), span)
 
 
-def run() -> list[dict[str, Any]]:
-    """Every direction and payload; each backend row carries its share of the ceiling."""
+def run(repeats: int = REPEATS) -> list[dict[str, Any]]:
+    """Every direction and payload, best of `repeats` interleaved rounds (the machine may be
+    shared); each backend row carries its share of the ceiling and the worst loss seen."""
     rows: list[dict[str, Any]] = []
     with _roscore() as env, tempfile.TemporaryDirectory() as tmp:
         os.environ.update({k: v for k, v in env.items() if k.startswith("ROS_")})
         script = Path(tmp, "bench_node.py")
         script.write_text(_NODE_SCRIPT % {"idle": IDLE_END})
         for i, p in enumerate(PAYLOADS):
-            ceiling = _ceiling(env, script, p, f"/bench/ceiling{i}")
-            rows.append(ceiling)
-            for row in (
-                asyncio.run(_sim_to_ros(env, script, p, f"/bench/sim_to_ros{i}")),
-                asyncio.run(_ros_to_sim(env, script, p, f"/bench/ros_to_sim{i}")),
-            ):
-                row["of_ceiling"] = row["msg_per_s"] / ceiling["msg_per_s"]
-                rows.append(row)
+            rounds: list[list[dict[str, Any]]] = []
+            for r in range(repeats):
+                topic = f"/bench/p{i}r{r}"
+                rounds.append(
+                    [
+                        _ceiling(env, script, p, topic + "/ceiling"),
+                        asyncio.run(_sim_to_ros(env, script, p, topic + "/sim_to_ros")),
+                        asyncio.run(_ros_to_sim(env, script, p, topic + "/ros_to_sim")),
+                    ]
+                )
+            best = [_best([rnd[k] for rnd in rounds]) for k in range(3)]
+            for row in best[1:]:
+                row["of_ceiling"] = row["msg_per_s"] / best[0]["msg_per_s"]
+            rows.extend(best)
     return rows
+
+
+def _best(rows: list[dict[str, Any]]) -> dict[str, Any]:
+    best = dict(max(rows, key=lambda r: r["msg_per_s"]))
+    best["loss"] = max(r["loss"] for r in rows)
+    return best
 
 
 def _table(rows: list[dict[str, Any]]) -> str:
