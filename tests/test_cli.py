@@ -138,3 +138,56 @@ def test_service_call_without_provider_fails_fast(
 def test_bad_endpoint_address() -> None:
     with pytest.raises(SystemExit):
         main(["topic", "list", "--endpoint", "nowhere"])
+
+
+ARM_URDF = """<robot name="two_link">
+  <link name="base"/>
+  <link name="upper"><inertial><mass value="1"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <link name="tip"/>
+  <joint name="shoulder" type="revolute">
+    <parent link="base"/><child link="upper"/>
+    <origin xyz="0 0 0.5"/><axis xyz="0 1 0"/>
+    <limit lower="-2" upper="2" effort="10" velocity="1"/>
+  </joint>
+  <joint name="wrist" type="fixed">
+    <parent link="upper"/><child link="tip"/><origin xyz="0.3 0 0"/>
+  </joint>
+</robot>"""
+
+
+def test_urdf_fk_json_matches_hand_computed(tmp_path, capsys: pytest.CaptureFixture[str]) -> None:
+    import json
+    import math
+
+    path = tmp_path / "arm.urdf"
+    path.write_text(ARM_URDF)
+    assert main(["urdf", "fk", str(path), "--set", "shoulder=0.5", "--json"]) == 0
+    poses = json.loads(capsys.readouterr().out)
+    # Rotation of 0.5 rad about +y: the tip at (0.3, 0, 0) goes to (0.3 cos, 0, -0.3 sin).
+    assert poses["tip"]["xyz"] == pytest.approx(
+        [0.3 * math.cos(0.5), 0, 0.5 - 0.3 * math.sin(0.5)], abs=1e-6
+    )
+    assert poses["tip"]["quat_xyzw"] == pytest.approx(
+        [0, math.sin(0.25), 0, math.cos(0.25)], abs=1e-6
+    )
+    assert poses["base"]["xyz"] == [0, 0, 0]
+
+
+def test_urdf_check_and_error(tmp_path, capsys: pytest.CaptureFixture[str]) -> None:
+    good = tmp_path / "arm.urdf"
+    good.write_text(ARM_URDF)
+    assert main(["urdf", "check", str(good)]) == 0
+    assert "shoulder" in capsys.readouterr().out
+    bad = tmp_path / "bad.urdf"
+    bad.write_text(ARM_URDF.replace('<parent link="upper"/>', '<parent link="nowhere"/>'))
+    assert main(["urdf", "check", str(bad)]) == 2
+    assert "nowhere" in capsys.readouterr().err
+
+
+def test_sim_runs_a_scene_for_a_duration(tmp_path, capsys: pytest.CaptureFixture[str]) -> None:
+    urdf = tmp_path / "arm.urdf"
+    urdf.write_text(ARM_URDF)
+    scene = tmp_path / "scene.yaml"
+    scene.write_text(f"robots:\n  - name: arm\n    urdf: {urdf}\n")
+    assert main(["sim", str(scene), "--duration", "0.5"]) == 0
+    assert "simulated 0.5" in capsys.readouterr().out
