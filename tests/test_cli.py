@@ -142,7 +142,8 @@ def test_bad_endpoint_address() -> None:
 
 ARM_URDF = """<robot name="two_link">
   <link name="base"/>
-  <link name="upper"><inertial><mass value="1"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <link name="upper"><inertial><mass value="1"/>
+    <inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial></link>
   <link name="tip"/>
   <joint name="shoulder" type="revolute">
     <parent link="base"/><child link="upper"/>
