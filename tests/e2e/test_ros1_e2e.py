@@ -1,0 +1,246 @@
+"""End to end: connector -> `simbridge endpoint --backend ros1` (a subprocess) -> real ROS tools.
+
+The module has its own roscore; the endpoint runs as `python -m simbridge.cli endpoint`
+so it is a separate ROS node that can be killed and restarted.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import re
+import signal
+import struct
+import subprocess
+import sys
+import textwrap
+import threading
+import time
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
+import pytest
+import rosgraph
+from tests.ros1support import SYSTEM_PYTHON, RosMaster, free_port, require_ros, terminate
+
+from simbridge.connector import Connector, ConnectorOptions
+from simbridge.errors import ServiceError
+
+pytestmark = [pytest.mark.ros1, pytest.mark.timeout(180)]
+
+FAST = ConnectorOptions(
+    keepalive_interval=0.2,
+    dead_timeout=1.0,
+    connect_timeout=1.0,
+    reconnect_initial=0.1,
+    reconnect_max=0.5,
+    service_timeout=10.0,
+    request_timeout=5.0,
+)
+
+
+def ros_string(text: str) -> bytes:
+    """std_msgs/String by hand: uint32 LE length + UTF-8 bytes."""
+    raw = text.encode()
+    return struct.pack("<I", len(raw)) + raw
+
+
+def wait_until(predicate: Callable[[], bool], timeout: float, what: str) -> None:
+    deadline = time.monotonic() + timeout
+    while not predicate():
+        if time.monotonic() > deadline:
+            raise AssertionError(f"timed out waiting for {what}")
+        time.sleep(0.05)
+
+
+class Endpoint:
+    """`simbridge endpoint --backend ros1` in its own process group."""
+
+    def __init__(self, master: RosMaster, port: int) -> None:
+        self.port = port
+        command = [sys.executable, "-m", "simbridge.cli", "endpoint", "--backend", "ros1"]
+        self.process = subprocess.Popen(
+            [*command, "--port", str(port), "--idle-timeout", "0"],
+            env=master.env,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT,
+            stdin=subprocess.DEVNULL,
+            text=True,
+            start_new_session=True,
+        )
+        assert self.process.stdout is not None
+        lines: list[str] = []
+        deadline = time.monotonic() + 30
+        while time.monotonic() < deadline:
+            line = self.process.stdout.readline()
+            if not line:
+                break
+            lines.append(line)
+            if re.search(r"listening on \S+:\d+", line):
+                break
+        else:
+            line = ""
+        if not re.search(r"listening on \S+:\d+", line):
+            self.stop()
+            raise AssertionError("the endpoint did not start:\n" + "".join(lines))
+        self._drain = threading.Thread(target=self.process.stdout.read, daemon=True)
+        self._drain.start()
+
+    def kill(self) -> None:
+        """Crash it: SIGKILL, no chance to unregister."""
+        self.process.send_signal(signal.SIGKILL)
+        self.process.wait(10)
+
+    def stop(self) -> None:
+        terminate(self.process)
+
+
+@pytest.fixture(scope="module")
+def master() -> Iterator[RosMaster]:
+    require_ros()
+    with RosMaster() as master:
+        yield master
+
+
+@pytest.fixture(scope="module")
+def endpoint(master: RosMaster) -> Iterator[Endpoint]:
+    ep = Endpoint(master, free_port())
+    yield ep
+    ep.stop()
+
+
+@pytest.fixture
+def connector(endpoint: Endpoint) -> Iterator[Connector]:
+    conn = Connector("127.0.0.1", endpoint.port, FAST).connect(wait=10)
+    yield conn
+    conn.close()
+
+
+def registered(master: RosMaster, name: str, kind: int) -> bool:
+    """Whether `name` has a provider in the master: kind 0 publishers, 1 subscribers, 2 services."""
+    state = rosgraph.Master("/e2e_test", master_uri=master.uri).getSystemState()
+    return any(entry == name for entry, _ in state[kind])
+
+
+def echo_once(master: RosMaster, topic: str, publish: Callable[[], None]) -> str:
+    """Run `rostopic echo -n 1 topic`, calling `publish` until it has printed a message."""
+    with master.running(["rostopic", "echo", "-n", "1", topic]) as echo:
+        deadline = time.monotonic() + 30
+        while echo.poll() is None and time.monotonic() < deadline:
+            publish()
+            time.sleep(0.1)
+        out, err = echo.communicate(timeout=5)
+    assert echo.returncode == 0, err
+    return out
+
+
+def test_connector_publication_reaches_rostopic_echo(
+    master: RosMaster, connector: Connector
+) -> None:
+    publisher = connector.register_publisher("/e2e/chatter", "std_msgs/String")
+    out = echo_once(master, "/e2e/chatter", lambda: publisher.publish(ros_string("from sim")))
+    assert out.splitlines()[0] == 'data: "from sim"'
+
+
+def test_rostopic_pub_reaches_connector_subscriber(master: RosMaster, connector: Connector) -> None:
+    received: list[bytes] = []
+    connector.subscribe("/e2e/cmd_vel", "geometry_msgs/Twist", received.append, raw=True)
+    wait_until(lambda: registered(master, "/e2e/cmd_vel", 1), 10, "the endpoint's subscription")
+    twist = "{linear: {x: 0.5}, angular: {z: -1.25}}"
+    with master.running(
+        ["rostopic", "pub", "-r", "10", "/e2e/cmd_vel", "geometry_msgs/Twist", twist]
+    ):
+        wait_until(lambda: bool(received), 30, "a Twist at the connector")
+    assert received[0] == struct.pack("<6d", 0.5, 0, 0, 0, 0, -1.25)
+
+
+def test_rosservice_call_reaches_sim_service(master: RosMaster, connector: Connector) -> None:
+    requests: list[bytes] = []
+
+    def toggle(request: bytes) -> bytes:
+        requests.append(request)
+        return b"\x01" + ros_string("sim says on")
+
+    connector.implement_service("/e2e/toggle", "std_srvs/SetBool", toggle, raw=True)
+    wait_until(lambda: registered(master, "/e2e/toggle", 2), 10, "the sim service in the master")
+    result = master.run(["rosservice", "call", "/e2e/toggle", "data: true"])
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.split() == ["success:", "True", "message:", '"sim', "says", 'on"']
+    assert requests == [b"\x01"]
+
+
+def test_rospy_service_is_called_from_connector(
+    master: RosMaster, connector: Connector, tmp_path: Path
+) -> None:
+    script = tmp_path / "negate_node.py"
+    script.write_text(
+        textwrap.dedent(
+            """
+            import rospy
+            from std_srvs.srv import SetBool, SetBoolResponse
+
+            def handle(req):
+                return SetBoolResponse(success=not req.data, message="rospy got %s" % req.data)
+
+            rospy.init_node("e2e_negate_server")
+            rospy.Service("/e2e/negate", SetBool, handle)
+            rospy.spin()
+            """
+        )
+    )
+    with master.running([SYSTEM_PYTHON, str(script)]) as node:
+        wait_until(
+            lambda: node.poll() is not None or registered(master, "/e2e/negate", 2),
+            30,
+            "rospy service",
+        )
+        assert node.poll() is None, node.communicate()[1]
+        connector.register_ros_service("/e2e/negate", "std_srvs/SetBool")
+        response = connector.call("/e2e/negate", b"\x01", timeout=10)
+    assert response == b"\x00" + ros_string("rospy got True")
+
+
+def test_missing_ros_service_fails_fast(connector: Connector) -> None:
+    connector.register_ros_service("/e2e/nobody", "std_srvs/Trigger")
+    start = time.monotonic()
+    with pytest.raises(ServiceError):
+        connector.call("/e2e/nobody", b"", timeout=10)
+    assert time.monotonic() - start < 5
+
+
+def test_latched_topic_reaches_late_subscriber(master: RosMaster, connector: Connector) -> None:
+    publisher = connector.register_publisher("/e2e/map_name", "std_msgs/String", latch=True)
+    publisher.publish(ros_string("warehouse"))
+    assert connector.flush(5)
+    wait_until(lambda: registered(master, "/e2e/map_name", 0), 10, "the latched publisher")
+    time.sleep(0.5)  # the endpoint hands the frame to rospy after reading it
+    result = master.run(["rostopic", "echo", "-n", "1", "/e2e/map_name"])
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.splitlines()[0] == 'data: "warehouse"'
+
+
+def test_restarted_endpoint_gets_data_flowing_again(master: RosMaster) -> None:
+    port = free_port()
+    first = Endpoint(master, port)
+    conn = Connector("127.0.0.1", port, FAST).connect(wait=10)
+    second: Endpoint | None = None
+    try:
+        publisher = conn.register_publisher("/e2e/heartbeat", "std_msgs/String")
+        before = echo_once(master, "/e2e/heartbeat", lambda: publisher.publish(ros_string("one")))
+        assert before.splitlines()[0] == 'data: "one"'
+
+        first.kill()
+        wait_until(lambda: not conn.connected, 10, "the connector to notice the crash")
+        second = Endpoint(master, port)
+        assert conn.wait_connected(15)
+
+        def publish() -> None:
+            with contextlib.suppress(Exception):
+                publisher.publish(ros_string("two"))
+
+        after = echo_once(master, "/e2e/heartbeat", publish)
+        assert after.splitlines()[0] == 'data: "two"'
+    finally:
+        conn.close()
+        first.stop()
+        if second is not None:
+            second.stop()
