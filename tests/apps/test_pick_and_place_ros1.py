@@ -17,12 +17,14 @@ from typing import IO, Any
 
 import numpy as np
 import pytest
+import yaml
 
 from simbridge.apps.pick_and_place import PLANNER_SERVICE, SERVICE_TYPE, PickAndPlaceTask
 from simbridge.apps.pick_and_place.conversion import pose_to_msg
 from simbridge.apps.pick_and_place.ros1_graph import master_answers
 from simbridge.messages import default_registry
 from simbridge.planning import Pose, top_down_orientation
+from tests.apps.ros1_messages import generate_python_messages
 from tests.ros1support import RosMaster, free_port, require_ros, shared_master
 
 pytestmark = [
@@ -100,18 +102,62 @@ def lines_of(stream: IO[str]) -> queue.Queue[str]:
     return lines
 
 
+@pytest.fixture(scope="module")
+def tool_env(master: RosMaster, tmp_path_factory: pytest.TempPathFactory) -> dict[str, str]:
+    """The master's environment plus genpy modules for niryo_moveit, as catkin would build."""
+    root = tmp_path_factory.mktemp("catkin_ws")
+    extra = generate_python_messages(REG, [SERVICE_TYPE], root)
+    env = dict(master.env)
+    for key, value in extra.items():
+        env[key] = os.pathsep.join(v for v in (value, env.get(key, "")) if v)
+    return env
+
+
+def ros_tool(env: dict[str, str], *args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        list(args), env=env, capture_output=True, text=True, timeout=60, check=False
+    )
+
+
 def test_rosservice_cli_sees_the_planner_node(
-    master: RosMaster, planner_node: subprocess.Popen[str]
+    tool_env: dict[str, str], planner_node: subprocess.Popen[str]
 ) -> None:
-    kind = master.run(["rosservice", "type", PLANNER_SERVICE])
+    kind = ros_tool(tool_env, "rosservice", "type", PLANNER_SERVICE)
     assert kind.returncode == 0, kind.stderr
     assert kind.stdout.strip() == SERVICE_TYPE
-    # info prints node and type, then fails to list the args: niryo_moveit has no Python module
-    info = master.run(["rosservice", "info", PLANNER_SERVICE])
+    info = ros_tool(tool_env, "rosservice", "info", PLANNER_SERVICE)
+    assert info.returncode == 0, info.stderr
     assert "Node: /niryo_moveit_planner" in info.stdout
     assert f"Type: {SERVICE_TYPE}" in info.stdout
-    listed = master.run(["rosservice", "list"])
-    assert PLANNER_SERVICE in listed.stdout.split()
+    assert "Args: joints_input pick_pose place_pose" in info.stdout
+
+
+def test_rosservice_call_plans(
+    tool_env: dict[str, str], planner_node: subprocess.Popen[str]
+) -> None:
+    task = PickAndPlaceTask()
+
+    def pose(p: Pose) -> dict[str, Any]:
+        x, y, z = (float(v) for v in p.position)
+        qx, qy, qz, qw = (float(v) for v in p.orientation)
+        return {"position": {"x": x, "y": y, "z": z},
+                "orientation": {"x": qx, "y": qy, "z": qz, "w": qw}}  # fmt: skip
+
+    request = {
+        "joints_input": {"joints": [0.0] * 6},
+        "pick_pose": pose(task.pick_pose(GRASP_OFFSET)),
+        "place_pose": pose(task.place_pose(GRASP_OFFSET)),
+    }
+    call = ros_tool(tool_env, "rosservice", "call", PLANNER_SERVICE, json.dumps(request))
+    assert call.returncode == 0, call.stderr
+    response = yaml.safe_load(call.stdout)
+    assert len(response["trajectories"]) == 4
+    points = response["trajectories"][3]["joint_trajectory"]["points"]
+    last = points[-1]["time_from_start"]
+    assert last["secs"] + last["nsecs"] * 1e-9 > 0.5
+    assert response["trajectories"][0]["joint_trajectory"]["joint_names"] == [
+        f"joint_{i}" for i in range(1, 7)
+    ]
 
 
 def test_rospy_client_gets_four_trajectories(
