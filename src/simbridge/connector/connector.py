@@ -543,6 +543,7 @@ class Connector:
         reader = FrameReader(proto, max_frame, self.options.recv_size)
         sock = link.sock
         counters = self._counters
+        dead = self.options.dead_timeout
         poller = select.poll()
         poller.register(sock.fileno(), select.POLLIN | select.POLLERR | select.POLLHUP)
         last_rx = last_check = time.monotonic()
@@ -556,7 +557,8 @@ class Connector:
                 self._expire(now)
             if not ready:
                 keepalive = self._peer_keepalive
-                if keepalive is not None and now - last_rx > self.options.dead_timeout:
+                # an endpoint announcing a slow keepalive gets two of its periods
+                if keepalive is not None and now - last_rx > max(dead, 2 * keepalive):
                     _log.warning(
                         "endpoint %s:%d silent for %.1f s; dropping the connection",
                         self.host,

@@ -19,7 +19,8 @@ class ConnectorOptions:
     keepalive_interval: float = 1.0
     """Send a keepalive when nothing else was sent for this long."""
     dead_timeout: float = 2.0
-    """Drop the connection when an endpoint that promised keepalives was silent this long."""
+    """Drop the connection when an endpoint that announced keepalives (handshake metadata
+    `keepalive`) was silent this long, or for two of its announced periods if longer."""
     connect_timeout: float = 2.0
     """Give up one TCP connection attempt after this long."""
     reconnect_initial: float = 1.0
