@@ -71,8 +71,8 @@ def test_limits_and_consistency(
     assert np.all(np.diff(traj.times) <= period + 1e-9)
     assert np.all(np.abs(traj.velocities) <= v * (1 + 1e-9))
     assert np.all(np.abs(traj.accelerations) <= a * (1 + 1e-9))
-    np.testing.assert_allclose(traj.start, waypoints[0])
-    np.testing.assert_allclose(traj.end, waypoints[-1])
+    np.testing.assert_allclose(traj.start, waypoints[0], atol=1e-12)
+    np.testing.assert_allclose(traj.end, waypoints[-1], atol=1e-12)
     # every waypoint is visited
     for waypoint in waypoints:
         assert np.min(np.max(np.abs(traj.positions - waypoint), axis=1)) < 1e-9

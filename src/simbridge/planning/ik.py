@@ -22,14 +22,14 @@ class IKOptions:
     wins (the seed's own solution is taken at once when valid).
     """
 
-    position_tolerance: float = 2e-4
-    orientation_tolerance: float = math.radians(0.2)
+    position_tolerance: float = 5e-4
+    orientation_tolerance: float = math.radians(0.5)
     max_iterations: int = 100
-    stall_iterations: int = 10
+    stall_iterations: int = 8
     restarts: int = 40
     candidates: int = 3
-    damping: float = 0.02
-    max_step: float = 0.4
+    damping: float = 0.005
+    max_step: float = 0.8
     orientation_weight: float = 0.3
     check_collisions: bool = True
     seed: int = 0
@@ -71,55 +71,101 @@ class IKSolver:
         rot_err = rotation_error(rot, goal_rot)
         return goal_pos - pos, rot_err, float(np.linalg.norm(rot_err))
 
+    def _evaluate(
+        self, q: FloatArray, goal_pos: FloatArray, goal_rot: FloatArray, approach_only: bool
+    ) -> tuple[_Attempt, FloatArray]:
+        """Errors at ``q`` (kinematics left at ``q``) and the weighted 6-vector to reduce."""
+        self.kinematics.set_configuration(q)
+        pos_err, rot_err, angle = self._errors(goal_pos, goal_rot, approach_only)
+        weighted = np.concatenate([pos_err, self.options.orientation_weight * rot_err])
+        return _Attempt(q, float(np.linalg.norm(pos_err)), angle), weighted
+
+    def _score(self, attempt: _Attempt) -> float:
+        return attempt.position_error + self.options.orientation_weight * attempt.angle_error
+
+    def _step(self, jac: FloatArray, err: FloatArray, q: FloatArray, lam2: float) -> FloatArray:
+        """Damped least-squares step; joints pinned at a limit and pushed outward drop out."""
+        kin, opts = self.kinematics, self.options
+        step = jac.T @ np.linalg.solve(jac @ jac.T + lam2 * np.eye(6), err)
+        pinned = ((q <= kin.lower) & (step < 0)) | ((q >= kin.upper) & (step > 0))
+        if np.any(pinned):
+            jac = jac.copy()
+            jac[:, pinned] = 0.0
+            step = jac.T @ np.linalg.solve(jac @ jac.T + lam2 * np.eye(6), err)
+        largest = float(np.max(np.abs(step)))
+        if largest > opts.max_step:
+            step *= opts.max_step / largest
+        return np.asarray(step)
+
     def _descend(
         self, q0: FloatArray, goal_pos: FloatArray, goal_rot: FloatArray, approach_only: bool
     ) -> _Attempt:
+        """Levenberg-Marquardt from ``q0``: accepted steps relax the damping, rejected raise it."""
         opts, kin = self.options, self.kinematics
-        q = np.clip(q0, kin.lower, kin.upper)
-        w = opts.orientation_weight
+        current, err = self._evaluate(
+            np.clip(q0, kin.lower, kin.upper), goal_pos, goal_rot, approach_only
+        )
         lam2 = opts.damping**2
-        best = _Attempt(q.copy(), math.inf, math.inf)
-        best_score, stalled = math.inf, 0
+        stalled = 0
+        jac = self._jacobian(approach_only)
         for _ in range(opts.max_iterations):
-            kin.set_configuration(q)
-            pos_err, rot_err, angle = self._errors(goal_pos, goal_rot, approach_only)
-            pos_norm = float(np.linalg.norm(pos_err))
-            score = pos_norm + w * angle
-            if score < best_score:
-                stalled = 0 if score < 0.98 * best_score else stalled + 1
-                best, best_score = _Attempt(q.copy(), pos_norm, angle), score
+            if self._converged(current) or stalled >= opts.stall_iterations or lam2 > 1e4:
+                break
+            step = self._step(jac, err, current.q, lam2)
+            q_new = np.minimum(np.maximum(current.q + step, kin.lower), kin.upper)
+            candidate, err_new = self._evaluate(q_new, goal_pos, goal_rot, approach_only)
+            if self._score(candidate) < self._score(current):
+                gained = self._score(candidate) < 0.98 * self._score(current)
+                stalled = 0 if gained else stalled + 1
+                current, err = candidate, err_new
+                jac = self._jacobian(approach_only)
+                lam2 = max(lam2 * 0.3, 1e-12)
             else:
                 stalled += 1
-            if pos_norm < opts.position_tolerance and angle < opts.orientation_tolerance:
-                break
-            if stalled >= opts.stall_iterations:
-                break
-            jac = kin.jacobian()
-            if approach_only:
-                _, rot = kin.tool_world()
-                axis = rot[:, 0]
-                jac[3:] = (np.eye(3) - np.outer(axis, axis)) @ jac[3:]
-            jac[3:] *= w
-            err = np.concatenate([pos_err, w * rot_err])
-            # Levenberg-Marquardt style: damping fades as the error shrinks
-            damping = lam2 * min(1.0, score / 0.02) + 1e-8
-            step = jac.T @ np.linalg.solve(jac @ jac.T + damping * np.eye(6), err)
-            # joints pinned at a limit and pushed outward drop out; the rest re-solve
-            pinned = ((q <= kin.lower) & (step < 0)) | ((q >= kin.upper) & (step > 0))
-            if np.any(pinned):
-                jac[:, pinned] = 0.0
-                step = jac.T @ np.linalg.solve(jac @ jac.T + damping * np.eye(6), err)
-            largest = float(np.max(np.abs(step)))
-            if largest > opts.max_step:
-                step *= opts.max_step / largest
-            q = np.minimum(np.maximum(q + step, kin.lower), kin.upper)
-        return best
+                lam2 *= 5.0
+                kin.set_configuration(current.q)
+        return current
+
+    def _jacobian(self, approach_only: bool) -> FloatArray:
+        """Weighted tool Jacobian at the kinematics' current configuration."""
+        kin = self.kinematics
+        jac = kin.jacobian()
+        if approach_only:
+            _, rot = kin.tool_world()
+            axis = rot[:, 0]
+            jac[3:] = (np.eye(3) - np.outer(axis, axis)) @ jac[3:]
+        jac[3:] *= self.options.orientation_weight
+        return jac
 
     def _converged(self, attempt: _Attempt) -> bool:
         return (
             attempt.position_error < self.options.position_tolerance
             and attempt.angle_error < self.options.orientation_tolerance
         )
+
+    def _base_headings(self, goal_pos: FloatArray) -> list[float]:
+        """First-joint angles facing the goal (and facing away), when that joint is a base yaw.
+
+        For a vertical first axis the goal's azimuth about it fixes the first joint up to a
+        half turn, so restarts seeded there land in the right basin far more often.
+        """
+        kin = self.kinematics
+        kin.set_configuration(np.zeros(kin.dof))
+        joint = kin.joint_ids[0]
+        axis, anchor = kin.data.xaxis[joint].copy(), kin.data.xanchor[joint].copy()
+        if not kin.revolute[0] or abs(abs(float(axis[2])) - 1.0) > 1e-6:
+            return []
+        sign = float(np.sign(axis[2]))
+        tool_at_zero, _ = kin.tool_world()
+        reach = tool_at_zero - anchor
+        if math.hypot(reach[0], reach[1]) < 1e-6:  # tool on the axis at zero: no heading
+            return []
+        offset = goal_pos - anchor
+        base = math.remainder(
+            sign * (math.atan2(offset[1], offset[0]) - math.atan2(reach[1], reach[0])), 2 * math.pi
+        )
+        angles = [base + turn for turn in (0.0, math.pi, -math.pi)]
+        return [a for a in angles if kin.lower[0] <= a <= kin.upper[0]]
 
     def solve(
         self,
@@ -141,8 +187,11 @@ class IKSolver:
         solutions: list[FloatArray] = []
         closest = _Attempt(seed, math.inf, math.inf)
         colliding: list[str] = []
+        headings = self._base_headings(goal_pos)
         for attempt_index in range(opts.restarts + 1):
             start = seed if attempt_index == 0 else rng.uniform(kin.lower, kin.upper)
+            if attempt_index % 2 == 1 and headings:  # every other restart faces the goal
+                start[0] = headings[(attempt_index // 2) % len(headings)]
             attempt = self._descend(start, goal_pos, goal_rot, approach_only)
             if attempt.position_error < closest.position_error:
                 closest = attempt

@@ -109,7 +109,7 @@ def time_parameterize(
     )
     elapsed = 0.0
     for a, b in itertools.pairwise(points):
-        if np.all(np.abs(b - a) <= 1e-12):
+        if np.all(np.abs(b - a) <= 1e-12):  # negligible move: stand still
             continue
         segment = _Segment.fit(a, b, vmax, amax)
         steps = max(1, math.ceil(segment.duration / sample_period - 1e-9))
