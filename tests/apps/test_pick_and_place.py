@@ -4,11 +4,14 @@ from __future__ import annotations
 
 import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 
 from simbridge.apps.pick_and_place import (
+    SCENE_PATH,
     PickAndPlaceResult,
     PickAndPlaceTask,
     build_world,
@@ -110,3 +113,22 @@ def test_json_summary_is_the_last_line(capsys: pytest.CaptureFixture[str]) -> No
 def test_bad_video_path_fails_before_running(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["--video", "run.avi"]) == 2
     assert "'.avi'" in capsys.readouterr().err
+
+
+def test_blocked_pick_ends_with_the_planners_reason(tmp_path: Path) -> None:
+    scene = yaml.safe_load(SCENE_PATH.read_text())
+    robot = scene["robots"][0]
+    robot["urdf"] = str((SCENE_PATH.parent / robot["urdf"]).resolve())
+    # a shelf just above the default cube: the planner must refuse the pre-grasp pose
+    shelf = {"name": "shelf", "type": "box", "size": [0.3, 0.3, 0.02]}
+    scene["objects"].append({**shelf, "pose": {"xyz": [0.22, 0.12, 0.09]}})
+    path = tmp_path / "blocked.yaml"
+    path.write_text(yaml.safe_dump(scene))
+    result = run_pick_and_place("local", scene=path, progress=None)
+    assert not result.success
+    assert result.trajectories == 0
+    assert result.error is not None
+    assert "pick_pose" in result.error
+    assert "shelf" in result.error
+    assert [p.name for p in result.phases] == ["settle", "plan"]
+    assert result.cube_final == pytest.approx(result.cube_start, abs=1e-3)
