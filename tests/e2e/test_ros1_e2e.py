@@ -68,7 +68,8 @@ class Endpoint:
             start_new_session=True,
         )
         assert self.process.stdout is not None
-        lines: list[str] = []
+        self.startup_lines: list[str] = []
+        lines = self.startup_lines
         deadline = time.monotonic() + 30
         while time.monotonic() < deadline:
             line = self.process.stdout.readline()
@@ -131,6 +132,11 @@ def echo_once(master: RosMaster, topic: str, publish: Callable[[], None]) -> str
         out, err = echo.communicate(timeout=5)
     assert echo.returncode == 0, err
     return out
+
+
+def test_endpoint_keeps_its_console_logging_after_joining(endpoint: Endpoint) -> None:
+    """rospy's logging config replaces root handlers; the CLI's console must survive it."""
+    assert any("joined ROS master" in line for line in endpoint.startup_lines)
 
 
 def test_connector_publication_reaches_rostopic_echo(

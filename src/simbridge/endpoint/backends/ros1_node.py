@@ -7,6 +7,7 @@ name or master is an error rather than a silent reuse.
 
 from __future__ import annotations
 
+import logging
 import socket
 import sys
 import threading
@@ -65,10 +66,18 @@ def join_graph(name: str, args: Sequence[str], connect_timeout: float) -> NodeId
         if rospy.core.is_shutdown_requested():
             raise EndpointError("rospy was shut down in this process; start a new process")
         _wait_for_master(master_uri, connect_timeout)
+        root = logging.getLogger()
+        handlers, level = list(root.handlers), root.level
         try:
             rospy.init_node(base, argv=argv, anonymous=False, disable_signals=True)
         except (rospy.ROSException, ValueError) as exc:
             raise EndpointError(f"cannot join ROS master {master_uri} as {base!r}: {exc}") from exc
+        finally:
+            # rospy's logging config replaces the root handlers with its log file: keep the
+            # application's handlers (console) and level, and add rospy's file beside them.
+            added = [h for h in root.handlers if h not in handlers]
+            root.handlers = [*handlers, *added]
+            root.setLevel(level)
         _joined = wanted
         return wanted
 
