@@ -217,8 +217,12 @@ class ClientSession(asyncio.BufferedProtocol):
             return
         if not self._paused:
             self.stats.frames_out += 1
-            self._write(outbox.prefix + _pack_u32(len(payload)))
-            self._write(payload)
+            size = len(payload)
+            if size < _WRITE_ALONE:
+                self._write(outbox.prefix + _pack_u32(size) + payload)
+            else:
+                self._write(outbox.prefix + _pack_u32(size))
+                self._write(payload)
             return
         queue = outbox.queue
         if len(queue) == queue.maxlen:

@@ -45,9 +45,9 @@ class KeepaliveReceived:
     """The peer sent an empty keepalive frame."""
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class MessageReceived:
-    """A serialized message for (or from) `topic`."""
+    """A serialized message for (or from) `topic` (not frozen: built per message)."""
 
     topic: str
     payload: bytes

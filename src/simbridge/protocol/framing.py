@@ -32,9 +32,12 @@ KEEPALIVE = b"\x00" * 8
 """An empty destination with an empty payload: the keepalive frame."""
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class Frame:
-    """One decoded frame; `destination` has trailing NULs (ROS 2 clients) removed."""
+    """One decoded frame; `destination` has trailing NULs (ROS 2 clients) removed.
+
+    Not frozen: one is built per received frame, and frozen dataclasses are slower to build.
+    """
 
     destination: str
     payload: bytes
@@ -85,6 +88,7 @@ class FrameDecoder:
         "_big_filled",
         "_broken",
         "_buf",
+        "_dests",
         "_end",
         "_max_dest",
         "_max_payload",
@@ -110,6 +114,7 @@ class FrameDecoder:
         self._max_payload = max_payload
         self._max_dest = max_destination
         self._broken: ProtocolError | None = None
+        self._dests: dict[bytes, str] = {}
 
     @property
     def error(self) -> ProtocolError | None:
@@ -194,13 +199,17 @@ class FrameDecoder:
                 if stop > end and plen < self.LARGE:
                     break
                 raw_dest = bytes(view[pos + 4 : pos + 4 + dlen])
-                try:
-                    dest = raw_dest.decode().rstrip("\x00")
-                except UnicodeDecodeError:
-                    self._broken = ProtocolError(
-                        f"destination {raw_dest[:60]!r} is not valid UTF-8"
-                    )
-                    break
+                dest = self._dests.get(raw_dest)
+                if dest is None:
+                    try:
+                        dest = raw_dest.decode().rstrip("\x00")
+                    except UnicodeDecodeError:
+                        self._broken = ProtocolError(
+                            f"destination {raw_dest[:60]!r} is not valid UTF-8"
+                        )
+                        break
+                    if len(self._dests) < 1024:
+                        self._dests[raw_dest] = dest
                 if stop > end:
                     big = bytearray(plen)
                     big[: end - body] = view[body:end]

@@ -31,6 +31,8 @@ log = logging.getLogger("simbridge.endpoint.local")
 class _Topic:
     msg_type: str
     callbacks: dict[int, MessageCallback] = field(default_factory=dict)
+    fanout: tuple[MessageCallback, ...] = ()
+    """Snapshot of `callbacks` for the publish hot path."""
     publishers: int = 0
     latched: dict[int, bytes] = field(default_factory=dict)
     published: int = 0
@@ -60,7 +62,7 @@ class _Publisher(BackendPublisher):
         state.published += 1
         if self._latch:
             state.latched[self._id] = payload
-        for callback in tuple(state.callbacks.values()):
+        for callback in state.fanout:
             try:
                 callback(payload)
             except Exception:
@@ -83,6 +85,7 @@ class _Subscription(BackendSubscription):
     def close(self) -> None:
         state = self._bus._topics.get(self._topic)
         if state is not None and state.callbacks.pop(self._id, None) is not None:
+            state.fanout = tuple(state.callbacks.values())
             self._bus._gc(self._topic)
 
 
@@ -142,6 +145,7 @@ class LocalBus(Backend):
         state = self._state(topic, msg_type)
         sub_id = next(self._ids)
         state.callbacks[sub_id] = callback
+        state.fanout = tuple(state.callbacks.values())
         for payload in tuple(state.latched.values()):
             callback(payload)
         return _Subscription(self, topic, sub_id)

@@ -91,12 +91,18 @@ class Ros1Backend(Backend):
         return self._identity
 
     async def start(self) -> None:
-        """Join the master (in a worker thread: rospy blocks until registered)."""
-        self._loop = asyncio.get_running_loop()
+        """Join the master (in a worker thread: rospy blocks until registered).
+
+        Starting again while started does nothing, so a caller may start the backend
+        early (say, to read `read_drop_in_params()`) and hand it to the server after.
+        """
+        if self._loop is not None:
+            return
         opts = self._options
         self._identity = await asyncio.to_thread(
             join_graph, opts.node_name, opts.ros_args, opts.connect_timeout
         )
+        self._loop = asyncio.get_running_loop()
         self._executor = ThreadPoolExecutor(
             max_workers=opts.service_threads, thread_name_prefix="simbridge-ros1-call"
         )
