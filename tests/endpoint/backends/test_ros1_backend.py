@@ -5,6 +5,7 @@ from __future__ import annotations
 import asyncio
 import logging
 import struct
+import sys
 import textwrap
 import time
 from collections.abc import Awaitable, Callable
@@ -343,3 +344,50 @@ def service_registered(name: str) -> bool:
     except rosgraph.MasterError:
         return False
     return True
+
+
+def test_start_twice_is_one_start(master: RosMaster) -> None:
+    async def scenario(backend: Ros1Backend) -> int:
+        forwarders = len(logging.getLogger("simbridge").handlers)
+        await backend.start()
+        return len(logging.getLogger("simbridge").handlers) - forwarders
+
+    assert with_backend(scenario) == 0
+
+
+def test_ros_args_rename_node_and_set_drop_in_params(master: RosMaster, tmp_path: Path) -> None:
+    """roslaunch-style `__name:=` and `_tcp_port:=` args (a fresh process: one node each)."""
+    script = tmp_path / "drop_in.py"
+    script.write_text(
+        textwrap.dedent(
+            """
+            import asyncio, rospy
+            from simbridge.endpoint.backends.ros1 import Ros1Backend, Ros1Options
+            from simbridge.endpoint.backends.ros1_node import read_drop_in_params
+
+            async def main():
+                args = ("__name:=bridge_7", "_tcp_ip:=0.0.0.0", "_tcp_port:=10555")
+                backend = Ros1Backend(Ros1Options(ros_args=args))
+                await backend.start()
+                print(rospy.get_name(), *read_drop_in_params())
+                await backend.close()
+
+            asyncio.run(main())
+            """
+        )
+    )
+    result = master.run([sys.executable, str(script)], timeout=60)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.split() == ["/bridge_7", "0.0.0.0", "10555"]
+
+
+def test_drop_in_params_reject_bad_values(master: RosMaster) -> None:
+    async def scenario(backend: Ros1Backend) -> None:
+        rosgraph.Master("/sb_test").setParam("/simbridge_endpoint/tcp_port", "ten")
+        try:
+            with pytest.raises(EndpointError, match=r"~tcp_port must be an integer.*'ten'"):
+                read_drop_in_params()
+        finally:
+            rosgraph.Master("/sb_test").deleteParam("/simbridge_endpoint/tcp_port")
+
+    with_backend(scenario)
