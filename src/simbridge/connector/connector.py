@@ -32,7 +32,7 @@ from simbridge.connector.options import ConnectorOptions
 from simbridge.connector.reader import FrameReader, Received
 from simbridge.connector.stats import ConnectorStats, StatsCounters
 from simbridge.connector.writer import FrameWriter, OutTopic
-from simbridge.errors import ConnectorError
+from simbridge.errors import ConnectorError, ServiceError
 from simbridge.protocol import (
     KEEPALIVE,
     Command,
@@ -398,7 +398,11 @@ class Connector:
 
     def call(self, service: str, request: object, timeout: float | None = None) -> Any:
         """Call a ROS service and wait for the response (raises ServiceError)."""
-        return self.call_service(service, request, timeout).result()
+        limit = self.options.service_timeout if timeout is None else timeout
+        try:
+            return self.call_service(service, request, limit).result(limit + 5.0)
+        except FutureTimeoutError:
+            raise ServiceError(f"{service} did not answer within {limit} s") from None
 
     async def call_async(self, service: str, request: object, timeout: float | None = None) -> Any:
         """Call a ROS service from asyncio code."""
@@ -452,6 +456,8 @@ class Connector:
             except OSError as exc:
                 if not self._closing.is_set():
                     _log.warning("connection to %s:%d lost: %s", self.host, self.port, exc)
+            except Exception:
+                _log.exception("connector failure; dropping the connection and reconnecting")
             finally:
                 self._teardown(link)
             if not self._closing.is_set():
