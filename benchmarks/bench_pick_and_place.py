@@ -31,7 +31,7 @@ def _row(seed: int, result: PickAndPlaceResult, wall: float) -> dict[str, Any]:
     walls = {p.name: p.wall_s for p in result.phases}
     row: dict[str, Any] = {
         "seed": seed,
-        "success": result.success,
+        "success": "yes" if result.success else "no",
         "cube_error_cm": round(result.cube_error_m * 100, 2),
         "sim_s": round(result.sim_time, 2),
         "run_wall_s": round(wall, 3),
@@ -50,7 +50,7 @@ def run(seeds: tuple[int, ...] = SEEDS) -> list[dict[str, Any]]:
         rows.append(_row(seed, result, time.perf_counter() - began))
     summary: dict[str, Any] = {
         "seed": "mean",
-        "success": f"{sum(r['success'] for r in rows)}/{len(rows)}",
+        "success": f"{sum(r['success'] == 'yes' for r in rows)}/{len(rows)}",
         "cube_error_cm": round(statistics.mean(r["cube_error_cm"] for r in rows), 2),
         "sim_s": round(statistics.mean(r["sim_s"] for r in rows), 2),
         "run_wall_s": round(statistics.mean(r["run_wall_s"] for r in rows), 3),

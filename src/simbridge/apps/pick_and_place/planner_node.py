@@ -29,6 +29,7 @@ from simbridge.planning import MoverPlanner
 from simbridge.sim import load_scene
 
 __all__ = [
+    "LOG_ERROR",
     "LOG_TOPIC",
     "NODE_NAME",
     "PLANNER_SERVICE",
@@ -43,7 +44,8 @@ PLANNER_SERVICE = "/niryo_moveit"
 SERVICE_TYPE = "niryo_moveit/MoverService"
 NODE_NAME = "niryo_moveit_planner"
 LOG_TOPIC = "/rosout"
-_LOG_ERROR = 8  # rosgraph_msgs/Log.ERROR
+LOG_ERROR = 8
+"""rosgraph_msgs/Log.ERROR, the level of the reasons the planner publishes."""
 
 log = logging.getLogger("simbridge.apps.pick_and_place.planner")
 
@@ -134,7 +136,7 @@ class LocalPlannerNode:
         secs = int(now)
         msg = self.registry.new(
             "rosgraph_msgs/Log",
-            level=_LOG_ERROR,
+            level=LOG_ERROR,
             name=f"/{NODE_NAME}",
             msg=text,
             file=__file__,

@@ -19,6 +19,7 @@ import numpy as np
 
 from simbridge.apps.pick_and_place.conversion import pose_to_msg, sim_trajectory
 from simbridge.apps.pick_and_place.planner_node import (
+    LOG_ERROR,
     LOG_TOPIC,
     NODE_NAME,
     PLANNER_SERVICE,
@@ -44,7 +45,6 @@ ARM_JOINTS = tuple(f"joint_{i}" for i in range(1, 7))
 GRIPPER_JOINT = "left_finger_joint"
 STAGES = ("pre_grasp", "grasp", "pick_up", "place")
 """The four trajectories of a MoverService response, in order."""
-_LOG_ERROR = 8
 
 
 @dataclass(frozen=True)
@@ -72,7 +72,7 @@ class _PlannerErrors:
         self._event = threading.Event()
 
     def __call__(self, msg: Any) -> None:
-        if msg.level >= _LOG_ERROR and msg.name.lstrip("/") == NODE_NAME:
+        if msg.level >= LOG_ERROR and msg.name.lstrip("/") == NODE_NAME:
             self.messages.append(str(msg.msg))
             self._event.set()
 
