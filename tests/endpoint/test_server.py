@@ -304,3 +304,30 @@ def test_twenty_concurrent_clients(endpoint: EndpointThread) -> None:
         assert len(got) == 20
     for c in clients:
         c.close()
+
+
+def test_subscriber_counts_reported_when_asked(endpoint: EndpointThread) -> None:
+    from simbridge.protocol import SubscriberCount
+
+    pub = _client(endpoint)
+    handshake = pub.expect(is_cmd(Handshake)).command
+    assert "subscribers" in handshake.metadata["extensions"]
+    pub.send(Publish("/scan", "sensor_msgs/LaserScan", report_subscribers=True).encode())
+    assert pub.expect(is_cmd(SubscriberCount)).command == SubscriberCount("/scan", 0)
+    sub = _client(endpoint)
+    sub.send(Subscribe("/scan", "sensor_msgs/LaserScan").encode())
+    assert pub.expect(is_cmd(SubscriberCount)).command == SubscriberCount("/scan", 1)
+    sub.close()  # disconnecting drops the subscription
+    assert pub.expect(is_cmd(SubscriberCount)).command == SubscriberCount("/scan", 0)
+    # A publisher that did not ask gets no counts.
+    quiet = _client(endpoint)
+    quiet.send(Publish("/other", "std_msgs/String").encode())
+    sub2 = _client(endpoint)
+    sub2.send(Subscribe("/other", "std_msgs/String").encode())
+    sync(sub2)
+    quiet.poll(0.3)
+    assert not [
+        e
+        for e in quiet.events
+        if isinstance(e, CommandReceived) and isinstance(e.command, SubscriberCount)
+    ]

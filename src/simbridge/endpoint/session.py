@@ -20,6 +20,7 @@ from simbridge.endpoint.backends.base import (
 from simbridge.endpoint.stats import SessionStats
 from simbridge.errors import ServiceError, SimbridgeError
 from simbridge.protocol import (
+    EXTENSIONS,
     KEEPALIVE,
     CommandReceived,
     ErrorMessage,
@@ -39,6 +40,7 @@ from simbridge.protocol import (
     StatsReply,
     StatsRequest,
     Subscribe,
+    SubscriberCount,
     TopicListReply,
     TopicListRequest,
     UnityService,
@@ -121,6 +123,7 @@ class ClientSession(asyncio.BufferedProtocol):
         meta = {
             "protocol": self.server.backend.protocol,
             "keepalive": self.options.keepalive_interval,
+            "extensions": list(EXTENSIONS),
         }
         self._send_control(Handshake(metadata=meta).encode())
 
@@ -324,6 +327,13 @@ class ClientSession(asyncio.BufferedProtocol):
             )
             self.publishers[command.topic] = (msg_type, publisher)
             self._unregistered_seen.pop(command.topic, None)
+            if command.report_subscribers:
+                topic = command.topic
+                send = self._send_control
+                if not publisher.watch_subscribers(
+                    lambda count: send(SubscriberCount(topic, count).encode())
+                ):
+                    send(SubscriberCount(topic, -1).encode())
         elif isinstance(command, Subscribe):
             msg_type = types.message(command.message_name)
             self._drop_subscription(command.topic)

@@ -7,6 +7,7 @@ build outgoing frames with its static methods or a command's `encode()`.
 from __future__ import annotations
 
 from simbridge.protocol.commands import (
+    EXTENSIONS,
     PROTOCOL_VERSION,
     ClientCommand,
     Command,
@@ -25,6 +26,7 @@ from simbridge.protocol.commands import (
     StatsReply,
     StatsRequest,
     Subscribe,
+    SubscriberCount,
     TopicListReply,
     TopicListRequest,
     UnityService,
@@ -55,6 +57,7 @@ from simbridge.protocol.framing import (
 
 __all__ = [
     "DEFAULT_MAX_FRAME_SIZE",
+    "EXTENSIONS",
     "KEEPALIVE",
     "MAX_DESTINATION_SIZE",
     "PROTOCOL_VERSION",
@@ -87,6 +90,7 @@ __all__ = [
     "StatsReply",
     "StatsRequest",
     "Subscribe",
+    "SubscriberCount",
     "TopicListReply",
     "TopicListRequest",
     "UnityService",

@@ -14,6 +14,7 @@ from simbridge.errors import ProtocolError
 from simbridge.protocol.framing import encode_frame
 
 __all__ = [
+    "EXTENSIONS",
     "PROTOCOL_VERSION",
     "ClientCommand",
     "Command",
@@ -33,6 +34,7 @@ __all__ = [
     "StatsReply",
     "StatsRequest",
     "Subscribe",
+    "SubscriberCount",
     "TopicListReply",
     "TopicListRequest",
     "UnityService",
@@ -41,6 +43,8 @@ __all__ = [
 ]
 
 PROTOCOL_VERSION = "v0.7.0"
+EXTENSIONS = ("keepalive", "error_srv_id", "stats", "subscribers")
+"""simbridge additions an endpoint announces in its handshake metadata (`extensions`)."""
 DEFAULT_SUBSCRIBE_QUEUE = 100
 """Per-client send queue bound for a subscription that names none (simbridge extension)."""
 
@@ -154,14 +158,19 @@ class Publish(Command):
     message_name: str
     queue_size: int = 10
     latch: bool = False
+    report_subscribers: bool = False
+    """simbridge extension: ask for `__subscribers` counts (only sent when true)."""
 
     def to_json(self) -> dict[str, Any]:
-        return {
+        obj: dict[str, Any] = {
             "topic": self.topic,
             "message_name": self.message_name,
             "queue_size": self.queue_size,
             "latch": self.latch,
         }
+        if self.report_subscribers:
+            obj["report_subscribers"] = True
+        return obj
 
     @classmethod
     def from_json(cls, obj: dict[str, Any]) -> Command:
@@ -173,6 +182,7 @@ class Publish(Command):
             _get_str(cls.NAME, obj, "message_name", topic=True),
             queue,
             _get_bool(cls.NAME, obj, "latch", False),
+            _get_bool(cls.NAME, obj, "report_subscribers", False),
         )
 
 
@@ -370,6 +380,22 @@ class ErrorMessage(_Text):
 
 
 @dataclass(frozen=True, slots=True)
+class SubscriberCount(Command):
+    """simbridge extension: how many subscribers a topic the client publishes has now."""
+
+    NAME: ClassVar[str] = "__subscribers"
+    topic: str
+    count: int
+
+    def to_json(self) -> dict[str, Any]:
+        return {"topic": self.topic, "count": self.count}
+
+    @classmethod
+    def from_json(cls, obj: dict[str, Any]) -> Command:
+        return cls(_get_str(cls.NAME, obj, "topic", topic=True), _get_int(cls.NAME, obj, "count"))
+
+
+@dataclass(frozen=True, slots=True)
 class StatsRequest(Command):
     """simbridge extension: ask the endpoint for this connection's counters."""
 
@@ -421,6 +447,7 @@ EndpointCommand = (
     | ServiceResponseHeader
     | TopicListReply
     | StatsReply
+    | SubscriberCount
 )
 
 _FROM_CLIENT: dict[str, type[Command]] = {
@@ -451,6 +478,7 @@ _FROM_ENDPOINT: dict[str, type[Command]] = {
         ServiceResponseHeader,
         TopicListReply,
         StatsReply,
+        SubscriberCount,
     )
 }
 

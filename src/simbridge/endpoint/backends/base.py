@@ -48,6 +48,13 @@ class BackendPublisher(abc.ABC):
     def close(self) -> None:
         """Unadvertise; further publishes are an error."""
 
+    def watch_subscribers(self, callback: Callable[[int], None]) -> bool:
+        """Call `callback(count)` now and whenever the topic's subscriber count changes.
+
+        Returns False when the backend cannot tell (the default).
+        """
+        return False
+
 
 class BackendSubscription(abc.ABC):
     """A live subscription; close it to stop the callbacks."""

@@ -9,6 +9,7 @@ from __future__ import annotations
 import asyncio
 import itertools
 import logging
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from simbridge.endpoint.backends.base import (
@@ -33,6 +34,16 @@ class _Topic:
     callbacks: dict[int, MessageCallback] = field(default_factory=dict)
     fanout: tuple[MessageCallback, ...] = ()
     """Snapshot of `callbacks` for the publish hot path."""
+    watchers: dict[int, Callable[[int], None]] = field(default_factory=dict)
+
+    def subscribers_changed(self) -> None:
+        self.fanout = tuple(self.callbacks.values())
+        for watcher in tuple(self.watchers.values()):
+            try:
+                watcher(len(self.callbacks))
+            except Exception:
+                log.exception("subscriber-count watcher failed")
+
     publishers: int = 0
     latched: dict[int, bytes] = field(default_factory=dict)
     published: int = 0
@@ -68,9 +79,18 @@ class _Publisher(BackendPublisher):
             except Exception:
                 log.exception("subscriber callback on %s failed", self._topic)
 
+    def watch_subscribers(self, callback: Callable[[int], None]) -> bool:
+        state = self._state
+        if state is None:
+            return False
+        state.watchers[self._id] = callback
+        callback(len(state.callbacks))
+        return True
+
     def close(self) -> None:
         state, self._state = self._state, None
         if state is not None:
+            state.watchers.pop(self._id, None)
             state.publishers -= 1
             state.latched.pop(self._id, None)
             self._bus._gc(self._topic)
@@ -85,7 +105,7 @@ class _Subscription(BackendSubscription):
     def close(self) -> None:
         state = self._bus._topics.get(self._topic)
         if state is not None and state.callbacks.pop(self._id, None) is not None:
-            state.fanout = tuple(state.callbacks.values())
+            state.subscribers_changed()
             self._bus._gc(self._topic)
 
 
@@ -145,7 +165,7 @@ class LocalBus(Backend):
         state = self._state(topic, msg_type)
         sub_id = next(self._ids)
         state.callbacks[sub_id] = callback
-        state.fanout = tuple(state.callbacks.values())
+        state.subscribers_changed()
         for payload in tuple(state.latched.values()):
             callback(payload)
         return _Subscription(self, topic, sub_id)
