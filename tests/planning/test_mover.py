@@ -17,8 +17,7 @@ from simbridge.planning import (
     Pose,
     top_down_orientation,
 )
-
-from .conftest import TABLE
+from tests.planning.conftest import TABLE
 
 CUBE_HALF = 0.025  # 5 cm cube resting on the table (z = 0)
 PICK_OFFSET = 0.1  # the tutorial's pickPoseOffset above the object

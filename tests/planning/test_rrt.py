@@ -20,8 +20,7 @@ from simbridge.planning import (
     niryo_one_arm,
     top_down_orientation,
 )
-
-from .conftest import TABLE
+from tests.planning.conftest import TABLE
 
 WALL = BoxObstacle("wall", center=(0.25, 0.0, 0.15), half_extents=(0.03, 0.06, 0.15))
 
