@@ -1,20 +1,17 @@
 """The planner node: serves niryo_moveit/MoverService on /niryo_moveit with MoverPlanner.
 
 On the local backend it is an in-process `Node` on the endpoint's LocalBus; with ROS 1
-it is a real rospy node, run as its own process:
-`python -m simbridge.apps.pick_and_place.planner_node [--scene PATH] [name:=value ...]`.
+it is a real rospy node, run as its own process (see ros1_planner).
 A request that cannot be planned gets the tutorial's answer, an empty trajectory list,
 and the reason goes to /rosout (rosgraph_msgs/Log, level ERROR) where the caller reads it.
 """
 
 from __future__ import annotations
 
-import argparse
 import logging
-import sys
 import threading
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -36,7 +33,6 @@ __all__ = [
     "SERVICE_TYPE",
     "LocalPlannerNode",
     "MoverServiceHandler",
-    "main",
     "planner_for_scene",
 ]
 
@@ -156,57 +152,3 @@ class LocalPlannerNode:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
-
-
-def _serve_ros1(scene_path: Path, args: Sequence[str], connect_timeout: float) -> None:
-    """Join the ROS master as /niryo_moveit_planner and serve until interrupted."""
-    import rospy  # noqa: PLC0415 - ROS 1 is optional
-
-    from simbridge.endpoint.backends.ros1_node import join_graph  # noqa: PLC0415
-    from simbridge.endpoint.backends.ros1_raw import RawMessage, raw_service_class  # noqa: PLC0415
-    from simbridge.endpoint.backends.ros1_types import Ros1Types  # noqa: PLC0415
-
-    registry = default_registry()
-    handler = MoverServiceHandler(planner_for_scene(scene_path), registry, rospy.logerr)
-    service_class = raw_service_class(Ros1Types(registry).service(SERVICE_TYPE))
-
-    def on_request(request: RawMessage) -> RawMessage:
-        return service_class._response_class(handler.serialized(request.payload))
-
-    join_graph(NODE_NAME, args, connect_timeout)
-    server = rospy.Service(PLANNER_SERVICE, service_class, on_request)
-    rospy.loginfo("serving %s [%s]", PLANNER_SERVICE, SERVICE_TYPE)
-    print(f"{NODE_NAME}: serving {PLANNER_SERVICE} [{SERVICE_TYPE}]", flush=True)
-    try:
-        while not rospy.is_shutdown():
-            time.sleep(0.2)
-    except KeyboardInterrupt:
-        pass
-    finally:
-        server.shutdown("planner node stopping")
-        rospy.signal_shutdown("planner node stopping")
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    """Run the planner as a ROS 1 node (ROS args such as __master:=URI pass through)."""
-    args = list(sys.argv[1:] if argv is None else argv)
-    parser = argparse.ArgumentParser(
-        prog="python -m simbridge.apps.pick_and_place.planner_node",
-        description=f"Serve {SERVICE_TYPE} on {PLANNER_SERVICE} as a ROS 1 node.",
-    )
-    parser.add_argument("--scene", type=Path, default=SCENE_PATH, help="scene YAML (obstacles)")
-    parser.add_argument("--connect-timeout", type=float, default=10.0, metavar="S")
-    options, ros_args = parser.parse_known_args([a for a in args if ":=" not in a])
-    if ros_args:
-        parser.error(f"unrecognised arguments: {' '.join(ros_args)}")
-    logging.basicConfig(level=logging.INFO, format="%(name)s: %(message)s")
-    try:
-        _serve_ros1(options.scene, [a for a in args if ":=" in a], options.connect_timeout)
-    except SimbridgeError as exc:
-        print(f"{NODE_NAME}: {exc}", file=sys.stderr)
-        return 1
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -137,7 +137,7 @@ class Ros1Graph:
             [
                 sys.executable,
                 "-m",
-                "simbridge.apps.pick_and_place.planner_node",
+                "simbridge.apps.pick_and_place.ros1_planner",
                 "--scene",
                 str(self.scene_path),
             ],
