@@ -55,11 +55,13 @@ def wait_until(predicate: Callable[[], bool], timeout: float, what: str) -> None
 class Endpoint:
     """`simbridge endpoint --backend ros1` in its own process group."""
 
-    def __init__(self, master: RosMaster, port: int) -> None:
+    def __init__(
+        self, master: RosMaster, port: int, node_name: str = "/simbridge_endpoint"
+    ) -> None:
         self.port = port
         command = [sys.executable, "-m", "simbridge.cli", "endpoint", "--backend", "ros1"]
         self.process = subprocess.Popen(
-            [*command, "--port", str(port), "--idle-timeout", "0"],
+            [*command, "--port", str(port), "--idle-timeout", "0", "--node-name", node_name],
             env=master.env,
             stdout=subprocess.PIPE,
             stderr=subprocess.STDOUT,
@@ -225,8 +227,10 @@ def test_latched_topic_reaches_late_subscriber(master: RosMaster, connector: Con
 
 
 def test_restarted_endpoint_gets_data_flowing_again(master: RosMaster) -> None:
-    port = free_port()
-    first = Endpoint(master, port)
+    # Its own node name: a second node with the module endpoint's name would make the
+    # master shut that one down (ROS replaces a node by a newcomer with the same name).
+    port, name = free_port(), "/simbridge_restarted"
+    first = Endpoint(master, port, name)
     conn = Connector("127.0.0.1", port, FAST).connect(wait=10)
     second: Endpoint | None = None
     try:
@@ -236,7 +240,7 @@ def test_restarted_endpoint_gets_data_flowing_again(master: RosMaster) -> None:
 
         first.kill()
         wait_until(lambda: not conn.connected, 10, "the connector to notice the crash")
-        second = Endpoint(master, port)
+        second = Endpoint(master, port, name)
         assert conn.wait_connected(15)
 
         def publish() -> None:
@@ -250,3 +254,24 @@ def test_restarted_endpoint_gets_data_flowing_again(master: RosMaster) -> None:
         first.stop()
         if second is not None:
             second.stop()
+
+
+def test_remove_commands_and_disconnect_unregister_from_master(
+    master: RosMaster, endpoint: Endpoint
+) -> None:
+    conn = Connector("127.0.0.1", endpoint.port, FAST).connect(wait=10)
+    try:
+        conn.register_publisher("/e2e/short_lived", "std_msgs/String")
+        conn.subscribe("/e2e/listened", "std_msgs/String", lambda _: None, raw=True)
+        conn.implement_service("/e2e/served", "std_srvs/Trigger", lambda _: b"", raw=True)
+        wait_until(lambda: registered(master, "/e2e/short_lived", 0), 10, "the publisher")
+        wait_until(lambda: registered(master, "/e2e/listened", 1), 10, "the subscriber")
+        wait_until(lambda: registered(master, "/e2e/served", 2), 10, "the service")
+
+        conn.unregister_publisher("/e2e/short_lived")  # __remove_publisher
+        wait_until(lambda: not registered(master, "/e2e/short_lived", 0), 10, "unpublish")
+        assert registered(master, "/e2e/listened", 1)
+    finally:
+        conn.close()
+    wait_until(lambda: not registered(master, "/e2e/listened", 1), 10, "unsubscribe on close")
+    wait_until(lambda: not registered(master, "/e2e/served", 2), 10, "unadvertise on close")
