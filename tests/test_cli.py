@@ -192,3 +192,18 @@ def test_sim_runs_a_scene_for_a_duration(tmp_path, capsys: pytest.CaptureFixture
     scene.write_text(f"robots:\n  - name: arm\n    urdf: {urdf}\n")
     assert main(["sim", str(scene), "--duration", "0.5"]) == 0
     assert "simulated 0.5" in capsys.readouterr().out
+
+
+def test_demo_pick_and_place_json_last_line(capsys: pytest.CaptureFixture[str]) -> None:
+    import json
+
+    assert main(["demo", "--json", "--seed", "1"]) == 0
+    summary = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert summary["success"] is True
+    assert summary["cube_error_m"] < 0.02
+    assert [p["name"] for p in summary["phases"]][:3] == ["settle", "plan", "pre_grasp"]
+
+
+def test_demo_bridge(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["demo", "bridge"]) == 0
+    assert "5/5 messages delivered" in capsys.readouterr().out

@@ -243,10 +243,20 @@ def _cmd_sim(args: argparse.Namespace) -> int:
 
 
 def _cmd_demo(args: argparse.Namespace) -> int:
-    from simbridge.apps.bridge_demo import run_bridge_demo
+    if args.name == "bridge":
+        from simbridge.apps.bridge_demo import run_bridge_demo
 
-    delivered = run_bridge_demo()
-    return 0 if delivered else 1
+        return 0 if run_bridge_demo() else 1
+    from simbridge.apps import pick_and_place_main
+
+    forwarded = ["--backend", args.backend]
+    if args.json:
+        forwarded.append("--json")
+    if args.video:
+        forwarded += ["--video", args.video]
+    if args.seed is not None:
+        forwarded += ["--seed", str(args.seed)]
+    return pick_and_place_main(forwarded)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -378,10 +388,24 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_argument(
         "name",
         nargs="?",
-        default="bridge",
-        choices=["bridge"],
-        help="bridge: two connectors exchange Twist messages and a service call",
+        default="pick-and-place",
+        choices=["pick-and-place", "bridge"],
+        help="pick-and-place (default): a Niryo One arm planned by a MoverService; "
+        "bridge: two connectors exchange Twist messages and a service call",
     )
+    demo.add_argument(
+        "--backend",
+        choices=["local", "ros1"],
+        default="local",
+        help="pick-and-place: where the planner node runs",
+    )
+    demo.add_argument(
+        "--json",
+        action="store_true",
+        help='pick-and-place: print {"success", "cube_error_m", "phases"} last',
+    )
+    demo.add_argument("--video", metavar="PATH", help="pick-and-place: write a .gif (or .mp4)")
+    demo.add_argument("--seed", type=int, help="pick-and-place: random cube and target")
     demo.set_defaults(func=_cmd_demo)
     return parser
 
