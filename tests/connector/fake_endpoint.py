@@ -102,15 +102,21 @@ class FakeEndpoint:
     def __init__(
         self,
         port: int = 0,
+        *,
         keepalive: float | None = 1.0,
         service_answer: ServiceAnswer | None = None,
         protocol: str = "ROS1",
+        extensions: list[str] | None = None,
+        send_handshake: bool = True,
     ) -> None:
         self.keepalive = keepalive
         """Seconds between keepalives, announced in the handshake; None acts like the
         original endpoint (no keepalives, nothing announced)."""
         self.service_answer = service_answer
         self.protocol = protocol
+        self.extensions = extensions
+        """Announced in the handshake when not None (the simbridge endpoint does)."""
+        self.send_handshake = send_handshake
         self.topics: dict[str, str] = {}
         self.silent = False
         """When True nothing more is sent (simulates a hung endpoint)."""
@@ -142,6 +148,8 @@ class FakeEndpoint:
         meta: dict[str, Any] = {"protocol": self.protocol}
         if self.keepalive is not None:
             meta["keepalive"] = self.keepalive
+        if self.extensions is not None:
+            meta["extensions"] = self.extensions
         return Handshake("v0.7.0", meta).encode()
 
     def _accept(self) -> None:
@@ -153,10 +161,11 @@ class FakeEndpoint:
             conn = FakeClientConn(sock, self)
             with self.lock:
                 self.conns.append(conn)
-            try:
-                conn.send(self.handshake())
-            except OSError:
-                continue
+            if self.send_handshake:
+                try:
+                    conn.send(self.handshake())
+                except OSError:
+                    continue
             conn.thread.start()
 
     def _keepalives(self) -> None:

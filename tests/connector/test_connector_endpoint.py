@@ -239,3 +239,18 @@ def test_messages_published_right_before_close_are_delivered(endpoint):
                 pub.publish(REG.new("std_msgs/Int32", data=n))
         received = [got.get(timeout=5) for _ in range(300)]
     assert received == list(range(300))
+
+
+def test_subscriber_counts_follow_subscriptions(endpoint, make_connector):
+    sim = make_connector(endpoint.port).connect()
+    scan = sim.register_publisher("/scan", "sensor_msgs/LaserScan", report_subscribers=True)
+    plain = sim.register_publisher("/plain", "std_msgs/String")
+    assert wait_until(lambda: scan.subscriber_count == 0)
+    assert not scan.has_subscribers
+    viewer = make_connector(endpoint.port).connect()
+    sub = viewer.subscribe("/scan", "sensor_msgs/LaserScan", lambda _m: None)
+    assert wait_until(lambda: scan.subscriber_count == 1)
+    assert scan.has_subscribers
+    sub.unsubscribe()
+    assert wait_until(lambda: scan.subscriber_count == 0)
+    assert plain.subscriber_count is None  # not asked for

@@ -27,6 +27,7 @@ from simbridge.protocol import (
     RosService,
     ServiceResponseReceived,
     Subscribe,
+    SubscriberCount,
     UnityService,
     WarnMessage,
 )
@@ -472,3 +473,39 @@ def test_options_are_validated():
         ConnectorOptions(dead_timeout=0)
     with pytest.raises(ConnectorError, match="publish_queue_size must be >= 1"):
         ConnectorOptions(publish_queue_size=0)
+
+
+def test_subscriber_counts_are_requested_only_from_endpoints_that_offer_them(make_connector):
+    with FakeEndpoint(keepalive=0.2) as original:  # no "extensions" in its handshake
+        conn = make_connector(original.port).connect()
+        pub = conn.register_publisher("/scan", "sensor_msgs/LaserScan", report_subscribers=True)
+        assert original.wait_for(lambda: len(commands(original.events())) == 1)
+        assert commands(original.events()) == [Publish("/scan", "sensor_msgs/LaserScan")]
+        assert pub.subscriber_count is None
+        assert pub.has_subscribers  # unknown: a lazy sensor keeps publishing
+    with FakeEndpoint(keepalive=0.2, extensions=["subscribers"]) as modern:
+        conn = make_connector(modern.port).connect()
+        pub = conn.register_publisher("/scan", "sensor_msgs/LaserScan", report_subscribers=True)
+        assert modern.wait_for(lambda: len(commands(modern.events())) == 1)
+        assert commands(modern.events()) == [
+            Publish("/scan", "sensor_msgs/LaserScan", report_subscribers=True)
+        ]
+        modern.send_all(SubscriberCount("/scan", 0).encode())
+        assert modern.wait_for(lambda: pub.subscriber_count == 0)
+        assert not pub.has_subscribers
+        modern.send_all(SubscriberCount("/scan", 2).encode())
+        assert modern.wait_for(lambda: pub.subscriber_count == 2)
+
+
+def test_registrations_wait_for_the_handshake_or_go_on_without(make_connector):
+    with FakeEndpoint(keepalive=None, send_handshake=False) as mute:
+        options = dataclasses.replace(FAST, connect_timeout=0.4)
+        conn = make_connector(mute.port, options).connect(wait=None)
+        conn.register_publisher("/t", "std_msgs/String")
+        assert mute.wait_conns(1)
+        time.sleep(0.2)
+        assert not conn.connected
+        assert mute.events() == []  # nothing sent before the handshake
+        assert conn.wait_connected(2.0)
+        assert mute.wait_for(lambda: len(commands(mute.events())) == 1)
+        assert conn.handshake is None

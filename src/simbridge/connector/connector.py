@@ -55,6 +55,7 @@ from simbridge.protocol import (
     StatsReply,
     StatsRequest,
     Subscribe,
+    SubscriberCount,
     TopicListReply,
     TopicListRequest,
     UnityService,
@@ -116,6 +117,9 @@ class Connector:
         self._close_deadline = 0.0
         self._manager: threading.Thread | None = None
         self._peer_keepalive: float | None = None
+        self._extensions: frozenset[str] = frozenset()
+        """simbridge protocol extensions the current endpoint announced."""
+        self._handshaken = False
         self.handshake: Handshake | None = None
         """The endpoint's latest handshake (version and metadata)."""
 
@@ -215,12 +219,19 @@ class Connector:
     # ----------------------------------------------------------------- topics
 
     def register_publisher(
-        self, topic: str, msg_type: str, queue_size: int = 10, latch: bool = False
+        self,
+        topic: str,
+        msg_type: str,
+        queue_size: int = 10,
+        latch: bool = False,
+        report_subscribers: bool = False,
     ) -> Publisher:
         """Advertise `topic`; returns the Publisher.
 
-        Registering again replaces the registration; earlier Publisher objects of the
-        topic keep working and share its outgoing queue.
+        With `report_subscribers`, an endpoint that offers the simbridge `subscribers`
+        extension keeps `Publisher.subscriber_count` up to date (lazy sensors publish
+        only while someone listens). Registering again replaces the registration;
+        earlier Publisher objects of the topic keep working and share its queue.
         """
         _check_name(topic, "topic")
         _check_name(msg_type, "message type")
@@ -238,12 +249,13 @@ class Connector:
                 msg_type=msg_type,
                 queue_size=queue_size,
                 latch=latch,
+                report_subscribers=report_subscribers,
                 fifo=self._out,
                 codec=self._codec,
                 counters=self._counters,
             )
             self._publishers[topic] = pub
-            self._send_command(Publish(topic, msg_type, queue_size, latch))
+            self._send_command(self._publish_command(pub))
         return pub
 
     def unregister_publisher(self, topic: str) -> None:
@@ -429,6 +441,17 @@ class Connector:
 
     # ----------------------------------------------------------------- internals
 
+    def _publish_command(self, pub: Publisher) -> Publish:
+        """`__publish` for `pub`; asks for subscriber counts only from endpoints that offer
+        them (an original endpoint would choke on the extra field)."""
+        return Publish(
+            pub.topic,
+            pub.msg_type,
+            pub.queue_size,
+            pub.latch,
+            report_subscribers=pub.report_subscribers and "subscribers" in self._extensions,
+        )
+
     def _send_command(self, command: Command) -> None:
         """Queue a registration frame (caller holds the lock); replayed on reconnect anyway."""
         if self._link is not None:
@@ -450,7 +473,10 @@ class Connector:
                 delay = min(delay * 2, self.options.reconnect_max)
                 continue
             delay = self.options.reconnect_initial
-            self._setup(link)
+            with self._lock:
+                self._peer_keepalive = None
+                self._extensions = frozenset()
+                self._handshaken = False
             try:
                 self._read(link)
             except OSError as exc:
@@ -475,17 +501,17 @@ class Connector:
             self._closing.wait(min(_POLL_S, end - now))
 
     def _setup(self, link: Link) -> None:
-        """Replay every registration ahead of anything queued, then hand the link over."""
+        """Replay every registration ahead of anything queued, then hand the link over.
+
+        Runs once the handshake arrived (it tells which simbridge extensions to use).
+        """
         framer = self._framer
         with self._lock:
             self._counters.connections += 1
             self._generation += 1
-            self._peer_keepalive = None
             frames = [KEEPALIVE]
-            for topic, pub in self._publishers.items():
-                frames.append(
-                    framer.command(Publish(topic, pub.msg_type, pub.queue_size, pub.latch))
-                )
+            for pub in self._publishers.values():
+                frames.append(framer.command(self._publish_command(pub)))
             for topic, subs in self._subscriptions.items():
                 frames.append(
                     framer.command(Subscribe(topic, subs[0].msg_type, subs[0].queue_size))
@@ -513,6 +539,8 @@ class Connector:
             self._link = None
             self._connected.clear()
             self._writer.attach(None)
+            for pub in self._publishers.values():
+                pub.subscriber_count = None
             self._out.discard_control(lambda _frame: False)
             calls = list(self._calls.values())
             self._calls.clear()
@@ -553,6 +581,7 @@ class Connector:
         poller = select.poll()
         poller.register(sock.fileno(), select.POLLIN | select.POLLERR | select.POLLHUP)
         last_rx = last_check = time.monotonic()
+        handshake_deadline = last_rx + self.options.connect_timeout
         while not link.broken.is_set():
             ready = poller.poll(_POLL_S * 1000)
             now = time.monotonic()
@@ -561,6 +590,10 @@ class Connector:
             if now - last_check >= _POLL_S:
                 last_check = now
                 self._expire(now)
+            if not self._handshaken and now >= handshake_deadline:
+                _log.warning("no handshake from %s:%d; going on without", self.host, self.port)
+                self._handshaken = True
+                self._setup(link)
             if not ready:
                 keepalive = self._peer_keepalive
                 # an endpoint announcing a slow keepalive gets two of its periods
@@ -583,6 +616,8 @@ class Connector:
             counters.frames_received += len(items)
             if not self._deliver(items):
                 return
+            if self._handshaken and self._link is not link:
+                self._setup(link)
 
     def _deliver(self, items: list[Received]) -> bool:
         """Queue messages for their callbacks and act on events, in arrival order."""
@@ -673,6 +708,10 @@ class Connector:
             self._reply(self._topic_waiters, dict(zip(command.topics, command.types, strict=True)))
         elif isinstance(command, StatsReply):
             self._reply(self._stats_waiters, command.stats)
+        elif isinstance(command, SubscriberCount):
+            pub = self._publishers.get(command.topic)
+            if pub is not None:
+                pub.subscriber_count = command.count
 
     def _reply(self, waiters: deque[Future[Any]], value: Any) -> None:
         with self._lock:
@@ -684,6 +723,10 @@ class Connector:
 
     def _on_handshake(self, handshake: Handshake) -> None:
         self.handshake = handshake
+        self._handshaken = True
+        extensions = handshake.metadata.get("extensions")
+        if isinstance(extensions, list):
+            self._extensions = frozenset(e for e in extensions if isinstance(e, str))
         if not handshake.version.startswith("v0.7"):
             _log.error(
                 "endpoint speaks ROS-TCP %s; this connector expects v0.7.x", handshake.version

@@ -30,6 +30,8 @@ class Publisher:
         "latch",
         "msg_type",
         "queue_size",
+        "report_subscribers",
+        "subscriber_count",
     )
 
     def __init__(
@@ -39,6 +41,7 @@ class Publisher:
         msg_type: str,
         queue_size: int,
         latch: bool,
+        report_subscribers: bool,
         fifo: BoundedFifo[OutTopic, bytes],
         codec: PayloadCodec,
         counters: StatsCounters,
@@ -48,6 +51,11 @@ class Publisher:
         self.queue_size = queue_size
         """The ROS-side queue size announced to the endpoint."""
         self.latch = latch
+        self.report_subscribers = report_subscribers
+        self.subscriber_count: int | None = None
+        """Subscribers the endpoint reported (with `report_subscribers`): None while
+        unknown (not asked, not connected, or the endpoint lacks the extension), -1 when
+        the endpoint's graph cannot tell."""
         self._fifo = fifo
         self._codec = codec
         self._counters = counters
@@ -64,6 +72,11 @@ class Publisher:
     def out(self) -> OutTopic:
         """The writer's handle for this topic (the key of its outgoing queue)."""
         return self._out
+
+    @property
+    def has_subscribers(self) -> bool:
+        """False only when the endpoint reported that nobody subscribes right now."""
+        return self.subscriber_count != 0
 
     @property
     def last_payload(self) -> bytes | None:
