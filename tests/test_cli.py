@@ -207,3 +207,20 @@ def test_demo_pick_and_place_json_last_line(capsys: pytest.CaptureFixture[str]) 
 def test_demo_bridge(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["demo", "bridge"]) == 0
     assert "5/5 messages delivered" in capsys.readouterr().out
+
+
+def test_msg_genpy_writes_importable_modules(tmp_path, capsys: pytest.CaptureFixture[str]) -> None:
+    import subprocess
+
+    assert main(["msg", "genpy", str(tmp_path), "niryo_moveit/MoverService"]) == 0
+    exports = capsys.readouterr().out
+    assert f"PYTHONPATH={tmp_path}/python" in exports
+    probe = "import niryo_moveit.srv as s; print(s.MoverService._md5sum)"
+    done = subprocess.run(
+        ["/usr/bin/python3", "-c", probe],
+        env={"PYTHONPATH": f"{tmp_path}/python"},
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    assert done.stdout.strip() == default_registry().md5("niryo_moveit/MoverService")
