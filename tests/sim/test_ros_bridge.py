@@ -260,3 +260,44 @@ def test_bad_endpoint_text(text: str) -> None:
     with pytest.raises(SimError, match="is not host:port"):
         parse_endpoint(text)
     assert parse_endpoint(":10000") == ("127.0.0.1", 10000)
+
+
+def test_sensors_nobody_subscribes_to_cost_nothing(tmp_path: Path) -> None:
+    import yaml
+
+    from simbridge.sim.ros import SimulationSession
+
+    (tmp_path / "arm.urdf").write_text(GRAVITY_ARM)
+    imu = {"type": "imu", "body": "fore", "rate": 50}
+    (tmp_path / "scene.yaml").write_text(
+        yaml.safe_dump(
+            {
+                "robots": [{"urdf": "arm.urdf"}],
+                "sensors": [
+                    {**imu, "name": "read_imu", "topic": "/read/imu"},
+                    {**imu, "name": "unread_imu", "topic": "/unread/imu"},
+                ],
+            }
+        )
+    )
+    with EndpointThread(EndpointOptions(port=0)) as endpoint:
+        assert isinstance(endpoint.backend, LocalBus)
+        with Node(endpoint.backend, "/tester") as node:
+            read = _collect(node, "/read/imu", "sensor_msgs/Imu")
+            address = f"127.0.0.1:{endpoint.port}"
+            with SimulationSession(tmp_path / "scene.yaml", address, connect_timeout=5) as session:
+                assert session.connector is not None and session.sensors is not None
+                sensors = {s.name: s for s in session.sensors.suite.sensors}
+                pubs = {t: session.sensors.publisher(t) for t in ("/read/imu", "/unread/imu")}
+                assert _wait(lambda: pubs["/read/imu"].subscriber_count == 1)
+                assert _wait(lambda: pubs["/unread/imu"].subscriber_count == 0)
+                session.run(duration=0.2)
+                assert sensors["read_imu"].active
+                assert not sensors["unread_imu"].active
+                assert read.get(timeout=5).linear_acceleration.z != 0.0
+                # A late subscriber switches the sensor on.
+                unread = _collect(node, "/unread/imu", "sensor_msgs/Imu")
+                assert _wait(lambda: pubs["/unread/imu"].subscriber_count == 1)
+                session.run(duration=0.2)
+                assert sensors["unread_imu"].active
+                assert unread.get(timeout=5) is not None

@@ -29,6 +29,9 @@ class StatePublisher:
         self._topics: list[str] = []
         self.extra_static: list[Any] = []
         """More geometry_msgs/TransformStamped for /tf_static (e.g. sensor frames)."""
+        self.parented_elsewhere: set[str] = set()
+        """Floating-base frames whose parent transform another publisher broadcasts
+        (odometry's odom -> base_link): no world -> base edge for them, so TF stays a tree."""
 
     def start(self) -> None:
         """Advertise the topics, publish /tf_static once (latched), schedule the rest."""
@@ -73,7 +76,11 @@ class StatePublisher:
         edges = []
         for robot in self.world.robots.values():
             root = robot.prefix + robot.robot.root
-            if root != WORLD_FRAME and robot.built.spec.fixed_base == fixed:
+            if (
+                root != WORLD_FRAME
+                and robot.built.spec.fixed_base == fixed
+                and root not in self.parented_elsewhere
+            ):
                 edges.append((WORLD_FRAME, root, self.world.link_pose(root)))
             for parent, child, is_fixed in robot.tree_edges():
                 if is_fixed == fixed:

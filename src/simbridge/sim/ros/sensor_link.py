@@ -1,8 +1,15 @@
-"""Publish what the scene's sensors measure, polled after each physics step."""
+"""Publish what the scene's sensors measure, polled after each physics step.
+
+Sensors are lazy: an output whose topic has no subscriber (as the endpoint reports
+through its subscriber-count extension) is not measured at all. With an endpoint
+that cannot report counts every output stays on.
+"""
 
 from __future__ import annotations
 
-from simbridge.connector import Connector
+from collections.abc import Collection
+
+from simbridge.connector import Connector, Publisher
 from simbridge.sim.sensors import SensorSuite
 from simbridge.sim.world.world import World
 
@@ -10,21 +17,44 @@ __all__ = ["SensorPublisher"]
 
 
 class SensorPublisher:
-    """Advertises every sensor output and publishes the messages that fall due."""
+    """Advertises every sensor output and publishes the messages that fall due.
 
-    def __init__(self, world: World, connector: Connector, suite: SensorSuite) -> None:
+    `shared` names topics other publishers on the same connector also use (e.g. `/tf`):
+    they stay registered on close and are always produced.
+    """
+
+    def __init__(
+        self,
+        world: World,
+        connector: Connector,
+        suite: SensorSuite,
+        shared: Collection[str] = (),
+    ) -> None:
         self.world, self.connector, self.suite = world, connector, suite
+        self.shared = frozenset(shared)
         self._callback: int | None = None
+        self._lazy: dict[str, Publisher] = {}
 
     def start(self) -> None:
         """Advertise the sensor topics and poll after every step; restart on world reset."""
         for topic, msg_type in self.suite.outputs.items():
-            self.connector.register_publisher(topic, msg_type, queue_size=2)
+            lazy = topic not in self.shared
+            publisher = self.connector.register_publisher(
+                topic, msg_type, queue_size=2, report_subscribers=lazy
+            )
+            if lazy:
+                self._lazy[topic] = publisher
         self._callback = self.world.add_step_callback(lambda world: self.poll())
         self.world.add_reset_callback(lambda world: self.suite.reset())
 
+    def publisher(self, topic: str) -> Publisher:
+        """The connector publisher of a lazy output (its `subscriber_count` drives laziness)."""
+        return self._lazy[topic]
+
     def poll(self) -> None:
-        """Publish every message due at the current sim time."""
+        """Publish every message due at the current sim time, for outputs someone reads."""
+        for topic, publisher in self._lazy.items():
+            self.suite.set_wanted(topic, publisher.has_subscribers)
         for publication in self.suite.poll(self.world.model, self.world.data):
             self.connector.publish(publication.topic, publication.message)
 
@@ -33,6 +63,7 @@ class SensorPublisher:
         if self._callback is not None:
             self.world.remove_step_callback(self._callback)
             self._callback = None
-        for topic in self.suite.outputs:
+        for topic in self._lazy:
             self.connector.unregister_publisher(topic)
+        self._lazy.clear()
         self.suite.close()

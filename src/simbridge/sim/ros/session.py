@@ -11,6 +11,7 @@ from simbridge.sim.ros.sensor_link import SensorPublisher
 from simbridge.sim.scene.loader import load_scene
 from simbridge.sim.scene.model import Scene
 from simbridge.sim.sensors import SensorSuite
+from simbridge.sim.sensors.odometry import Odometry
 from simbridge.sim.world.world import RunStats, World
 
 __all__ = ["SimulationSession", "parse_endpoint", "run_scene"]
@@ -58,8 +59,15 @@ class SimulationSession:
         self.bridge = SimRosBridge(self.world, self.connector, self.scene.ros)
         if self.scene.sensors:
             suite = SensorSuite.from_config(self.world.model, self.scene.sensors)
-            self.sensors = SensorPublisher(self.world, self.connector, suite)
+            shared = {"/tf"} if self.scene.ros.tf else set()
+            self.sensors = SensorPublisher(self.world, self.connector, suite, shared)
             self.bridge.state.extra_static.extend(suite.static_transforms(self.world.model))
+            # Odometry that broadcasts odom -> base owns the base's parent (REP 105).
+            self.bridge.state.parented_elsewhere.update(
+                s.child_frame_id
+                for s in suite.sensors
+                if isinstance(s, Odometry) and s.config.publish_tf
+            )
             self.sensors.start()
         self.bridge.start()
         return self
