@@ -286,7 +286,8 @@ def test_sensors_nobody_subscribes_to_cost_nothing(tmp_path: Path) -> None:
             read = _collect(node, "/read/imu", "sensor_msgs/Imu")
             address = f"127.0.0.1:{endpoint.port}"
             with SimulationSession(tmp_path / "scene.yaml", address, connect_timeout=5) as session:
-                assert session.connector is not None and session.sensors is not None
+                assert session.connector is not None
+                assert session.sensors is not None
                 sensors = {s.name: s for s in session.sensors.suite.sensors}
                 pubs = {t: session.sensors.publisher(t) for t in ("/read/imu", "/unread/imu")}
                 assert _wait(lambda: pubs["/read/imu"].subscriber_count == 1)
