@@ -6,6 +6,9 @@ the backend: Ros1Backend.publish -> the same rospy subscriber node (sim->ros),
 and the same rospy publisher node -> Ros1Backend.subscribe callback on the
 event loop (ros->sim). Publishers queue without limit, so loss must be zero.
 Payloads: geometry_msgs/Twist (48 B) and a 640x480 rgb8 sensor_msgs/Image.
+For reference it also measures the whole path a simulation sees: a Connector in
+this process -> `simbridge endpoint --backend ros1` (a subprocess) -> the rospy
+subscriber node, and back.
 """
 
 from __future__ import annotations
@@ -14,6 +17,7 @@ import asyncio
 import contextlib
 import json
 import os
+import re
 import shutil
 import signal
 import socket
@@ -283,6 +287,85 @@ async def _ros_to_sim(env: dict[str, str], script: Path, p: Payload, topic: str)
     return _row("ros -> sim (Ros1Backend.subscribe)", p, len(times), span)
 
 
+class _EndpointProcess:
+    """`simbridge endpoint --backend ros1` as its own process and ROS node."""
+
+    def __init__(self, env: dict[str, str]) -> None:
+        command = [sys.executable, "-m", "simbridge.cli", "--log-level", "WARNING", "endpoint"]
+        command += ["--backend", "ros1", "--node-name", "/bench_endpoint", "--port", "0"]
+        self._proc = subprocess.Popen(
+            [*command, "--idle-timeout", "0"],
+            env=env,
+            stdout=subprocess.PIPE,
+            text=True,
+            start_new_session=True,
+        )
+        assert self._proc.stdout is not None
+        line = self._proc.stdout.readline()
+        found = re.search(r"listening on \S+:(\d+)", line)
+        if found is None:
+            self.stop()
+            raise RuntimeError(f"the endpoint did not start: {line!r}")
+        self.port = int(found[1])
+
+    def stop(self) -> None:
+        if self._proc.poll() is None:
+            os.killpg(self._proc.pid, signal.SIGINT)
+            try:
+                self._proc.wait(10)
+            except subprocess.TimeoutExpired:
+                os.killpg(self._proc.pid, signal.SIGKILL)
+                self._proc.wait()
+
+
+def _connector(port: int, p: Payload) -> Any:
+    from simbridge.connector import Connector, ConnectorOptions
+
+    options = ConnectorOptions(publish_queue_size=p.count + 10, subscribe_queue_size=p.count + 10)
+    return Connector("127.0.0.1", port, options).connect(wait=10)
+
+
+def _full_sim_to_ros(env: dict[str, str], script: Path, p: Payload, topic: str) -> dict[str, Any]:
+    endpoint = _EndpointProcess(env)
+    conn = _connector(endpoint.port, p)
+    sub = _Node(env, script, "sub", topic, p)
+    try:
+        publisher = conn.register_publisher(topic, p.msg_type, queue_size=0)
+        sub.wait_ready()
+        time.sleep(0.5)  # the subscriber saw the connection; let the endpoint's side finish too
+        for _ in range(p.count):
+            publisher.publish(p.data)
+        result = sub.result()
+    finally:
+        sub.stop()
+        conn.close()
+        endpoint.stop()
+    span = result["times"][1] - result["times"][0] if result["times"] else 0.0
+    return _row("sim -> ros (connector -> endpoint)", p, result["count"], span)
+
+
+def _full_ros_to_sim(env: dict[str, str], script: Path, p: Payload, topic: str) -> dict[str, Any]:
+    endpoint = _EndpointProcess(env)
+    conn = _connector(endpoint.port, p)
+    times: list[float] = []
+    pub = _Node(env, script, "pub", topic, p)
+    try:
+        conn.subscribe(topic, p.msg_type, lambda _: times.append(time.perf_counter()), raw=True)
+        pub.wait_ready()
+        pub.send()
+        while len(times) < p.count:
+            before = len(times)
+            time.sleep(IDLE_END)
+            if len(times) == before:
+                break
+    finally:
+        pub.stop()
+        conn.close()
+        endpoint.stop()
+    span = times[-1] - times[0] if times else 0.0
+    return _row("ros -> sim (endpoint -> connector)", p, len(times), span)
+
+
 def run(repeats: int = REPEATS) -> list[dict[str, Any]]:
     """Every direction and payload, best of `repeats` interleaved rounds (the machine may be
     shared); each backend row carries its share of the ceiling and the worst loss seen."""
@@ -300,9 +383,11 @@ def run(repeats: int = REPEATS) -> list[dict[str, Any]]:
                         _ceiling(env, script, p, topic + "/ceiling"),
                         asyncio.run(_sim_to_ros(env, script, p, topic + "/sim_to_ros")),
                         asyncio.run(_ros_to_sim(env, script, p, topic + "/ros_to_sim")),
+                        _full_sim_to_ros(env, script, p, topic + "/full_sim_to_ros"),
+                        _full_ros_to_sim(env, script, p, topic + "/full_ros_to_sim"),
                     ]
                 )
-            best = [_best([rnd[k] for rnd in rounds]) for k in range(3)]
+            best = [_best([rnd[k] for rnd in rounds]) for k in range(len(rounds[0]))]
             for row in best[1:]:
                 row["of_ceiling"] = row["msg_per_s"] / best[0]["msg_per_s"]
             rows.extend(best)
