@@ -317,12 +317,16 @@ class Connector:
     def unsubscribe(self, topic: str) -> None:
         """Remove every callback on `topic` and unsubscribe from it."""
         with self._lock:
-            if self._subscriptions.pop(topic, None) is not None:
+            subs = self._subscriptions.pop(topic, None)
+            if subs is not None:
+                for sub in subs:
+                    sub.active = False
                 self._send_command(RemoveSubscriber(topic))
 
     def _remove_sub(self, sub: Subscription) -> None:
         with self._lock:
             existing = self._subscriptions.get(sub.topic, ())
+            sub.active = False
             if sub not in existing:
                 return
             left = tuple(s for s in existing if s is not sub)
@@ -585,7 +589,7 @@ class Connector:
         while not link.broken.is_set():
             ready = poller.poll(_POLL_S * 1000)
             now = time.monotonic()
-            if self._closing.is_set() and now >= self._close_deadline:
+            if self._closing.is_set() and (now >= self._close_deadline or self._link is not link):
                 return
             if now - last_check >= _POLL_S:
                 last_check = now

@@ -102,7 +102,16 @@ class Publisher:
 class Subscription:
     """One callback on a topic; `unsubscribe()` cancels just this one."""
 
-    __slots__ = ("_codec", "_remove", "callback", "msg_type", "queue_size", "raw", "topic")
+    __slots__ = (
+        "_codec",
+        "_remove",
+        "active",
+        "callback",
+        "msg_type",
+        "queue_size",
+        "raw",
+        "topic",
+    )
 
     def __init__(
         self,
@@ -123,9 +132,13 @@ class Subscription:
         """Received messages waiting for this callback; the oldest is dropped beyond."""
         self._codec = codec
         self._remove = remove
+        self.active = True
+        """Cleared on unsubscribe: messages still queued for the callback are skipped."""
 
     def deliver(self, payload: bytes) -> None:
         """Run the callback on one payload (called on the dispatch thread)."""
+        if not self.active:
+            return
         if self.raw:
             self.callback(payload)
         else:
