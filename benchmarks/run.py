@@ -11,7 +11,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from benchmarks.table import format_table  # noqa: E402
+from benchmarks.table import format_table
 
 SUITES = {
     "endpoint": "benchmarks.bench_endpoint",
