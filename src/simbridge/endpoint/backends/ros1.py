@@ -42,9 +42,6 @@ __all__ = ["Ros1Backend", "Ros1Options", "Ros1Publisher"]
 
 _log = logging.getLogger(__name__)
 
-_RECEIVE_BUFFER = 1 << 20
-"""rospy's per-read receive size for subscriptions; large so images need few reads."""
-
 
 @dataclass(frozen=True, slots=True)
 class Ros1Options:
@@ -270,7 +267,7 @@ class _Ros1Subscription(_Registration, BackendSubscription):
         self._topic = topic
         self._loop = loop
         self._callback = callback
-        self._subscriber = rospy.Subscriber(topic, cls, self._on_message, buff_size=_RECEIVE_BUFFER)
+        self._subscriber = rospy.Subscriber(topic, cls, self._on_message)
         super().__init__(live)
 
     def _on_message(self, message: RawMessage) -> None:
