@@ -331,23 +331,29 @@ def test_subscriber_queue_drops_oldest_and_counts(endpoint: FakeEndpoint, make_c
     assert got == [b"\x00", b"\x08", b"\x09", b"\x0a"]
 
 
-def test_no_callbacks_after_unsubscribe(endpoint: FakeEndpoint, make_connector):
-    conn = make_connector(endpoint.port).connect()
-    got: list[bytes] = []
-    gate = threading.Event()
+def test_no_callbacks_after_unsubscribe(make_connector):
+    with FakeEndpoint(keepalive=None) as ep:  # no keepalives: byte counts are exact
+        conn = make_connector(ep.port).connect()
+        got: list[bytes] = []
+        entered = threading.Event()
+        gate = threading.Event()
 
-    def blocked(payload: bytes) -> None:
-        gate.wait(5)
-        got.append(payload)
+        def blocked(payload: bytes) -> None:
+            entered.set()
+            gate.wait(5)
+            got.append(payload)
 
-    sub = conn.subscribe("/in", "std_msgs/UInt8", blocked, raw=True)
-    assert endpoint.wait_for(lambda: len(commands(endpoint.events())) == 1)
-    endpoint.send_all(b"".join(ProtocolConnection.message("/in", bytes([i])) for i in range(5)))
-    assert endpoint.wait_for(lambda: len(conn._dispatcher.fifo) == 4)  # 1 running, 4 queued
-    sub.unsubscribe()  # four messages are still queued behind the blocked callback
-    gate.set()
-    time.sleep(0.2)
-    assert got == [b"\x00"]
+        sub = conn.subscribe("/in", "std_msgs/UInt8", blocked, raw=True)
+        assert ep.wait_for(lambda: len(commands(ep.events())) == 1)
+        before = conn.stats().bytes_received
+        frames = [ProtocolConnection.message("/in", bytes([i])) for i in range(5)]
+        ep.send_all(b"".join(frames))
+        assert entered.wait(3)
+        assert ep.wait_for(lambda: conn.stats().bytes_received == before + 5 * len(frames[0]))
+        sub.unsubscribe()  # four messages are still waiting behind the blocked callback
+        gate.set()
+        time.sleep(0.2)
+        assert got == [b"\x00"]
 
 
 def test_callback_errors_are_logged_not_fatal(endpoint, make_connector, caplog):
