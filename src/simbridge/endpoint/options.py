@@ -27,7 +27,7 @@ class EndpointOptions:
     """Close a client that sent nothing (not even a keepalive) for this long; 0 disables."""
     service_timeout: float = 30.0
     """Longest wait for a service answer, in either direction."""
-    write_high_water: int = 16 * 1024 * 1024
+    write_high_water: int = 1024 * 1024
     """Bytes buffered for a client before its per-topic queues take over."""
     max_control_backlog: int = 10_000
     """Control frames queued for a stalled client before it is disconnected."""
