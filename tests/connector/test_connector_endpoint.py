@@ -6,7 +6,7 @@ import dataclasses
 import queue
 import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from typing import Any
 
 import pytest
@@ -15,7 +15,7 @@ from simbridge.connector import Connector, ConnectorOptions
 from simbridge.endpoint import EndpointOptions, EndpointThread, LocalBus, Node
 from simbridge.errors import ServiceError
 from simbridge.messages import default_registry
-from tests.connector.conftest import FAST
+from tests.connector.conftest import FAST, wait_until
 
 REG = default_registry()
 
@@ -31,15 +31,6 @@ def twist(x: float, z: float) -> Any:
     msg.linear.x = x
     msg.angular.z = z
     return msg
-
-
-def wait_until(predicate: Callable[[], bool], timeout: float = 5.0) -> bool:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if predicate():
-            return True
-        time.sleep(0.01)
-    return predicate()
 
 
 def test_topic_between_two_connectors_with_message_objects(endpoint, make_connector):

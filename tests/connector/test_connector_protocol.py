@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import logging
 import threading
 import time
@@ -31,7 +32,7 @@ from simbridge.protocol import (
     UnityService,
     WarnMessage,
 )
-from tests.connector.conftest import FAST
+from tests.connector.conftest import FAST, wait_until
 from tests.connector.fake_endpoint import FakeEndpoint
 
 
@@ -534,3 +535,22 @@ def test_registrations_wait_for_the_handshake_or_go_on_without(make_connector):
         assert conn.wait_connected(2.0)
         assert mute.wait_for(lambda: len(commands(mute.events())) == 1)
         assert conn.handshake is None
+
+
+def test_reconnect_backoff_doubles_up_to_the_maximum(monkeypatch, make_connector):
+    import simbridge.connector.connector as module
+
+    attempts: list[float] = []
+
+    def refuse(host: str, port: int, timeout: float) -> Any:
+        attempts.append(time.monotonic())
+        raise ConnectionRefusedError(111, "Connection refused")
+
+    monkeypatch.setattr(module, "open_link", refuse)
+    options = dataclasses.replace(FAST, reconnect_initial=0.1, reconnect_max=0.4)
+    conn = make_connector(1, options).connect(wait=None)
+    assert wait_until(lambda: len(attempts) >= 6)
+    conn.close()
+    gaps = [b - a for a, b in itertools.pairwise(attempts)][:5]
+    for gap, expected in zip(gaps, [0.1, 0.2, 0.4, 0.4, 0.4], strict=True):
+        assert expected - 0.02 <= gap <= expected + 0.25

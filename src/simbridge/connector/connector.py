@@ -468,15 +468,25 @@ class Connector:
 
     def _run(self) -> None:
         delay = self.options.reconnect_initial
+        failures = 0
         while not self._closing.is_set():
             try:
                 link = open_link(self.host, self.port, self.options.connect_timeout)
             except OSError as exc:
-                _log.debug("connecting to %s:%d failed: %s", self.host, self.port, exc)
+                failures += 1
+                _log.log(
+                    logging.WARNING if failures == 1 else logging.DEBUG,
+                    "cannot reach the endpoint at %s:%d (%s); retrying in %.1f s",
+                    self.host,
+                    self.port,
+                    exc,
+                    delay,
+                )
                 self._idle(delay)
                 delay = min(delay * 2, self.options.reconnect_max)
                 continue
             delay = self.options.reconnect_initial
+            failures = 0
             with self._lock:
                 self._peer_keepalive = None
                 self._extensions = frozenset()
