@@ -388,7 +388,7 @@ def run(repeats: int = REPEATS) -> list[dict[str, Any]]:
                     ]
                 )
             best = [_best([rnd[k] for rnd in rounds]) for k in range(len(rounds[0]))]
-            for row in best[1:]:
+            for row in best:
                 row["of_ceiling"] = row["msg_per_s"] / best[0]["msg_per_s"]
             rows.extend(best)
     return rows
@@ -404,7 +404,7 @@ def _table(rows: list[dict[str, Any]]) -> str:
     head = f"{'direction':36} {'payload':20} {'msg/s':>9} {'MB/s':>8} {'loss':>6} {'ceiling':>8}"
     lines = [head, "-" * len(head)]
     for r in rows:
-        share = f"{r['of_ceiling']:.0%}" if "of_ceiling" in r else "-"
+        share = f"{r['of_ceiling']:.0%}"
         lines.append(
             f"{r['direction']:36} {r['payload']:20} {r['msg_per_s']:9.0f} "
             f"{r['mb_per_s']:8.1f} {r['loss']:6.1%} {share:>8}"
