@@ -14,10 +14,12 @@ from typing import TypeVar
 
 import pytest
 import rosgraph
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 from tests.ros1support import SYSTEM_PYTHON, RosMaster, require_ros, shared_master
 
 from simbridge.endpoint.backends.base import TopicInfo
-from simbridge.endpoint.backends.ros1 import Ros1Backend, Ros1Options
+from simbridge.endpoint.backends.ros1 import Ros1Backend, Ros1Options, Ros1Publisher
 from simbridge.endpoint.backends.ros1_node import read_drop_in_params, ros_args
 from simbridge.errors import EndpointError, ServiceError, UnknownMessageTypeError
 
@@ -362,7 +364,7 @@ def test_ros_args_rename_node_and_set_drop_in_params(master: RosMaster, tmp_path
         textwrap.dedent(
             """
             import asyncio, rospy
-            from simbridge.endpoint.backends.ros1 import Ros1Backend, Ros1Options
+            from simbridge.endpoint.backends.ros1 import Ros1Backend, Ros1Options, Ros1Publisher
             from simbridge.endpoint.backends.ros1_node import read_drop_in_params
 
             async def main():
@@ -391,3 +393,33 @@ def test_drop_in_params_reject_bad_values(master: RosMaster) -> None:
             rosgraph.Master("/sb_test").deleteParam("/simbridge_endpoint/tcp_port")
 
     with_backend(scenario)
+
+
+def uint8_multi_array(data: bytes) -> bytes:
+    """std_msgs/UInt8MultiArray by hand: no dims, data_offset 0, then uint8[] data."""
+    return struct.pack("<II", 0, 0) + struct.pack("<I", len(data)) + data
+
+
+@settings(
+    max_examples=15, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(st.lists(st.binary(max_size=3000), min_size=1, max_size=12))
+def test_payloads_cross_rospy_unchanged_and_in_order(
+    master: RosMaster, chunks: list[bytes]
+) -> None:
+    payloads = [uint8_multi_array(chunk) for chunk in chunks]
+    received: list[bytes] = []
+
+    async def scenario(backend: Ros1Backend) -> None:
+        backend.subscribe("/sb/prop", "std_msgs/UInt8MultiArray", received.append)
+        publisher = backend.advertise(
+            "/sb/prop", "std_msgs/UInt8MultiArray", queue_size=0, latch=False
+        )
+        assert isinstance(publisher, Ros1Publisher)
+        await until(lambda: publisher.subscriber_count() > 0, 10, "the loopback connection")
+        for payload in payloads:
+            publisher.publish(payload)
+        await until(lambda: len(received) >= len(payloads), 10, "every payload")
+
+    with_backend(scenario)
+    assert received == payloads
