@@ -11,6 +11,7 @@ from simbridge.sim.ros.convert import (
     tf_message,
     trajectory_from_message,
 )
+from simbridge.sim.ros.diff_drive_link import DiffDriveLink, measure_wheels
 from simbridge.sim.ros.publishers import StatePublisher
 from simbridge.sim.ros.sensor_link import SensorPublisher
 from simbridge.sim.ros.services import STEP_SRV, STEP_SRV_TEXT, ControlServices
@@ -21,6 +22,7 @@ __all__ = [
     "STEP_SRV_TEXT",
     "CommandSubscriber",
     "ControlServices",
+    "DiffDriveLink",
     "SensorPublisher",
     "SimRosBridge",
     "SimulationSession",
@@ -28,6 +30,7 @@ __all__ = [
     "StatePublisher",
     "duration_seconds",
     "joint_state_message",
+    "measure_wheels",
     "parse_endpoint",
     "run_scene",
     "tf_message",

@@ -5,6 +5,7 @@ from __future__ import annotations
 from simbridge.connector import Connector
 from simbridge.messages import MessageRegistry, default_registry
 from simbridge.sim.ros.commands import CommandSubscriber
+from simbridge.sim.ros.diff_drive_link import DiffDriveLink
 from simbridge.sim.ros.publishers import StatePublisher
 from simbridge.sim.ros.services import ControlServices
 from simbridge.sim.scene.model import RosSettings
@@ -29,6 +30,8 @@ class SimRosBridge:
         self.registry = registry or default_registry()
         self.state = StatePublisher(world, connector, self.settings, self.registry)
         self.commands = CommandSubscriber(world, connector, self.settings)
+        drive = self.settings.diff_drive
+        self.diff_drive = DiffDriveLink(world, connector, drive) if drive is not None else None
         self.services = ControlServices(
             world, connector, self.settings.services_prefix, self.registry
         )
@@ -37,12 +40,16 @@ class SimRosBridge:
         """Register every topic and service; state is published as the world steps."""
         self.services.start()
         self.commands.start()
+        if self.diff_drive is not None:
+            self.diff_drive.start()
         self.state.start()
         return self
 
     def close(self) -> None:
         """Unregister everything (the connector stays open)."""
         self.state.close()
+        if self.diff_drive is not None:
+            self.diff_drive.close()
         self.commands.close()
         self.services.close()
 

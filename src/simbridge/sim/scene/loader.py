@@ -10,6 +10,7 @@ from typing import Any, TypeVar
 import yaml
 
 from simbridge.errors import SimError
+from simbridge.sim.control.diff_drive import DiffDriveConfig, DiffDriveLimits
 from simbridge.sim.control.drive import DriveMode, DriveSpec
 from simbridge.sim.scene.model import (
     INTEGRATORS,
@@ -304,6 +305,36 @@ def _physics(section: _Section) -> PhysicsSettings:
     return settings
 
 
+def _diff_drive(section: _Section) -> DiffDriveConfig | None:
+    if not section.data:
+        return None
+    for key in ("left", "right"):
+        if key not in section.data:
+            raise SimError(f"scene {section.where}: missing key '{key}' (a wheel joint)")
+    base, limits = DiffDriveConfig("left", "right"), DiffDriveLimits()
+    names = tuple(
+        f"max_{q}_{d}" for d in ("velocity", "acceleration") for q in ("linear", "angular")
+    )
+    try:
+        config = DiffDriveConfig(
+            left_joint=section.get("left", _str, ""),
+            right_joint=section.get("right", _str, ""),
+            topic=section.get("topic", _str, base.topic),
+            wheel_radius=section.optional("wheel_radius", _positive),
+            wheel_separation=section.optional("wheel_separation", _positive),
+            limits=DiffDriveLimits(
+                **{n: section.get(n, _positive, getattr(limits, n)) for n in names}
+            ),
+            cmd_timeout=section.get("cmd_timeout", _positive, base.cmd_timeout),
+        )
+    except SimError as exc:
+        raise SimError(f"scene {section.where}: {exc}") from None
+    section.done(
+        ("left", "right", "topic", "wheel_radius", "wheel_separation", "cmd_timeout", *names)
+    )
+    return config
+
+
 def _ros(section: _Section) -> RosSettings:
     commands = section.sub("commands")
     defaults = CommandTopics()
@@ -326,6 +357,7 @@ def _ros(section: _Section) -> RosSettings:
         commands=topics,
         command_joints=tuple(str(j) for j in section.data.get("command_joints") or ()),
         services_prefix=section.get("services_prefix", _str, base.services_prefix),
+        diff_drive=_diff_drive(section.sub("diff_drive")),
     )
     section.done(
         (
@@ -339,6 +371,7 @@ def _ros(section: _Section) -> RosSettings:
             "commands",
             "command_joints",
             "services_prefix",
+            "diff_drive",
         )
     )
     return settings

@@ -6,6 +6,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from simbridge.sim.control.diff_drive import DiffDriveConfig
 from simbridge.sim.control.drive import DriveSpec
 from simbridge.sim.urdf.transforms import Transform, Vec3
 
@@ -122,6 +123,8 @@ class RosSettings:
     commands: CommandTopics = CommandTopics()
     command_joints: tuple[str, ...] = ()
     services_prefix: str = "/simbridge"
+    diff_drive: DiffDriveConfig | None = None
+    """A differential-drive base commanded by geometry_msgs/Twist (None: no base)."""
 
 
 @dataclass(frozen=True)
