@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import logging
+import struct
 import threading
 import time
 from concurrent.futures import Future
@@ -554,3 +555,41 @@ def test_reconnect_backoff_doubles_up_to_the_maximum(monkeypatch, make_connector
     gaps = [b - a for a, b in itertools.pairwise(attempts)][:5]
     for gap, expected in zip(gaps, [0.1, 0.2, 0.4, 0.4, 0.4], strict=True):
         assert expected - 0.02 <= gap <= expected + 0.25
+
+
+def test_many_threads_publish_concurrently(endpoint: FakeEndpoint, make_connector):
+    big_queue = dataclasses.replace(FAST, publish_queue_size=100_000)  # no drops here
+    conn = make_connector(endpoint.port, big_queue).connect()
+    pubs = [conn.register_publisher(f"/t{k}", "std_msgs/UInt32") for k in range(4)]
+
+    def worker(k: int) -> None:
+        for n in range(2000):
+            pubs[n % 4].publish(struct.pack("<II", k, n))
+
+    threads = [threading.Thread(target=worker, args=(k,)) for k in range(8)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert conn.flush(5)
+    assert wait_until(
+        lambda: sum(len(messages(endpoint.events(), f"/t{k}")) for k in range(4)) == 16000
+    )
+    per_thread: dict[int, list[int]] = {}
+    for k in range(4):
+        for payload in messages(endpoint.events(), f"/t{k}"):
+            thread, n = struct.unpack("<II", payload)
+            per_thread.setdefault(thread, []).append(n)
+    # nothing lost or duplicated, and each thread's messages on a topic keep their order
+    assert {t: sorted(ns) for t, ns in per_thread.items()} == {
+        t: list(range(2000)) for t in range(8)
+    }
+    for k in range(4):
+        for thread in range(8):
+            ns = [
+                n
+                for t, n in (struct.unpack("<II", p) for p in messages(endpoint.events(), f"/t{k}"))
+                if t == thread
+            ]
+            assert ns == sorted(ns)
+    assert conn.stats().publish_drops == {}
