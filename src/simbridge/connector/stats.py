@@ -11,7 +11,10 @@ __all__ = ["ConnectorStats", "StatsCounters"]
 
 @dataclass(frozen=True, slots=True)
 class ConnectorStats:
-    """What a connector has sent, received and lost since it was created."""
+    """What a connector has sent, received and lost since it was created.
+
+    Frame counts treat a `__request`/`__response` header and its service frame as one.
+    """
 
     frames_sent: int = 0
     bytes_sent: int = 0
