@@ -423,3 +423,32 @@ def test_payloads_cross_rospy_unchanged_and_in_order(
 
     with_backend(scenario)
     assert received == payloads
+
+
+def test_one_type_per_topic(master: RosMaster) -> None:
+    async def scenario(backend: Ros1Backend) -> None:
+        backend.advertise("/sb/typed", "std_msgs/String", queue_size=1, latch=False)
+        backend.subscribe("/sb/typed", "std_msgs/String", lambda _: None)  # same type: fine
+        with pytest.raises(EndpointError, match="already used as std_msgs/String"):
+            backend.advertise("/sb/typed", "std_msgs/Bool", queue_size=1, latch=False)
+        with pytest.raises(EndpointError, match="cannot also be std_msgs/Bool"):
+            backend.subscribe("sb/typed", "std_msgs/Bool", lambda _: None)  # relative name
+
+    with_backend(scenario)
+
+
+def test_watch_subscribers_follows_rostopic_echo(master: RosMaster) -> None:
+    counts: list[int] = []
+
+    async def scenario(backend: Ros1Backend) -> None:
+        publisher = backend.advertise("/sb/watched", "std_msgs/String", queue_size=1, latch=False)
+        assert publisher.watch_subscribers(counts.append)
+        assert counts == [0]
+        with master.running(["rostopic", "echo", "/sb/watched"]):
+            await until(lambda: counts[-1] == 1, 30, "the echo to connect")
+        while counts[-1] != 0:  # TCPROS notices a gone subscriber when it next writes
+            publisher.publish(STRING_HELLO)
+            await asyncio.sleep(0.1)
+
+    with_backend(scenario)
+    assert counts == [0, 1, 0]

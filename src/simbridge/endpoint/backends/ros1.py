@@ -11,8 +11,10 @@ from __future__ import annotations
 import abc
 import asyncio
 import logging
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
+from typing import Any
 
 import rosgraph
 import rospy
@@ -124,10 +126,10 @@ class Ros1Backend(Backend):
         self, topic: str, msg_type: str, *, queue_size: int, latch: bool
     ) -> BackendPublisher:
         """Advertise `topic`; publishing never blocks (rospy queues per subscriber)."""
-        self._started()
-        cls = raw_message_class(self._types.message(msg_type))
+        loop = self._started()
+        cls = self._topic_class(topic, msg_type)
         try:
-            publisher = Ros1Publisher(topic, cls, max(queue_size, 0), latch, self._live)
+            publisher = Ros1Publisher(topic, cls, max(queue_size, 0), latch, loop, live=self._live)
         except rospy.ROSException as exc:
             raise EndpointError(f"cannot advertise {topic!r} as {msg_type}: {exc}") from exc
         _log.info("publishing %s [%s] for the sim (latch=%s)", topic, msg_type, latch)
@@ -138,7 +140,7 @@ class Ros1Backend(Backend):
     ) -> BackendSubscription:
         """Subscribe with the type's real md5sum; payloads arrive on the event loop."""
         loop = self._started()
-        cls = raw_message_class(self._types.message(msg_type))
+        cls = self._topic_class(topic, msg_type)
         try:
             subscription = _Ros1Subscription(topic, cls, loop, callback, self._live)
         except rospy.ROSException as exc:
@@ -190,6 +192,23 @@ class Ros1Backend(Backend):
             raise EndpointError(f"cannot list topics from the ROS master: {exc}") from exc
         return [TopicInfo(name, msg_type) for name, msg_type in sorted(pairs)]
 
+    def _topic_class(self, topic: str, msg_type: str) -> type[RawMessage]:
+        """The raw class of `msg_type`, refusing a topic this node already uses with
+        another type (rospy would silently share one connection for both)."""
+        cls = raw_message_class(self._types.message(msg_type))
+        resolved = rospy.resolve_name(topic)
+        for other in self._live:
+            if (
+                isinstance(other, Ros1Publisher | _Ros1Subscription)
+                and other.topic == resolved
+                and other.msg_type != cls._type
+            ):
+                raise EndpointError(
+                    f"{resolved} is already used as {other.msg_type} by this endpoint; "
+                    f"it cannot also be {cls._type} (one type per topic)"
+                )
+        return cls
+
     def _started(self) -> asyncio.AbstractEventLoop:
         if self._loop is None:
             raise EndpointError("the ROS 1 backend is not started: await start() first")
@@ -219,6 +238,19 @@ class _Registration(abc.ABC):
         """Undo the registration in rospy."""
 
 
+class _PeerListener(rospy.SubscribeListener):  # type: ignore[misc]
+    """Tells a publisher, from rospy's threads, that a subscriber connected or left."""
+
+    def __init__(self, changed: Callable[[], None]) -> None:
+        self._changed = changed
+
+    def peer_subscribe(self, topic_name: str, topic_publish: Any, peer_publish: Any) -> None:
+        self._changed()
+
+    def peer_unsubscribe(self, topic_name: str, num_peers: int) -> None:
+        self._changed()
+
+
 class Ros1Publisher(_Registration, BackendPublisher):
     """A rospy Publisher of raw bytes."""
 
@@ -228,29 +260,68 @@ class Ros1Publisher(_Registration, BackendPublisher):
         cls: type[RawMessage],
         queue_size: int,
         latch: bool,
+        loop: asyncio.AbstractEventLoop,
+        *,
         live: set[_Registration],
     ) -> None:
         self._cls = cls
-        self._topic = topic
-        self._publisher = rospy.Publisher(topic, cls, queue_size=queue_size, latch=latch)
+        self._loop = loop
+        self._watchers: list[Callable[[int], None]] = []
+        self._reported = -1
+        self._publisher = rospy.Publisher(
+            topic,
+            cls,
+            queue_size=queue_size,
+            latch=latch,
+            subscriber_listener=_PeerListener(self._peers_changed),
+        )
+        self.topic: str = self._publisher.resolved_name
+        self.msg_type = cls._type
         super().__init__(live)
 
     def publish(self, payload: bytes) -> None:
         if self.closed:
-            raise EndpointError(f"publisher of {self._topic!r} is closed")
+            raise EndpointError(f"publisher of {self.topic!r} is closed")
         try:
             self._publisher.publish(self._cls(payload))
         except rospy.ROSException as exc:
-            raise EndpointError(f"cannot publish on {self._topic!r}: {exc}") from exc
+            raise EndpointError(f"cannot publish on {self.topic!r}: {exc}") from exc
 
     def subscriber_count(self) -> int:
         """How many subscribers are connected now (messages before the first one are lost)."""
         count: int = self._publisher.get_num_connections()
         return count
 
+    def watch_subscribers(self, callback: Callable[[int], None]) -> bool:
+        """Call `callback(count)` now and on the event loop whenever the count changes.
+
+        A subscriber that leaves is noticed when rospy next writes to it (TCPROS has
+        no goodbye), so the drop to zero shows up at the next publish.
+        """
+        self._watchers.append(callback)
+        self._reported = self.subscriber_count()
+        callback(self._reported)
+        return True
+
+    def _peers_changed(self) -> None:
+        """Runs on a rospy thread."""
+        try:
+            self._loop.call_soon_threadsafe(self._report_count)
+        except RuntimeError:  # the loop is closed: the endpoint is going away
+            return
+
+    def _report_count(self) -> None:
+        if self.closed or not self._watchers:
+            return
+        count = self.subscriber_count()
+        if count != self._reported:
+            self._reported = count
+            for callback in list(self._watchers):
+                callback(count)
+
     def _unregister(self) -> None:
         self._publisher.unregister()
-        _log.info("stopped publishing %s", self._topic)
+        _log.info("stopped publishing %s", self.topic)
 
 
 class _Ros1Subscription(_Registration, BackendSubscription):
@@ -264,10 +335,11 @@ class _Ros1Subscription(_Registration, BackendSubscription):
         callback: MessageCallback,
         live: set[_Registration],
     ) -> None:
-        self._topic = topic
         self._loop = loop
         self._callback = callback
         self._subscriber = rospy.Subscriber(topic, cls, self._on_message)
+        self.topic: str = self._subscriber.resolved_name
+        self.msg_type = cls._type
         super().__init__(live)
 
     def _on_message(self, message: RawMessage) -> None:
@@ -283,7 +355,7 @@ class _Ros1Subscription(_Registration, BackendSubscription):
 
     def _unregister(self) -> None:
         self._subscriber.unregister()
-        _log.info("unsubscribed from %s", self._topic)
+        _log.info("unsubscribed from %s", self.topic)
 
 
 class _Ros1ServiceServer(_Registration, BackendServiceServer):
