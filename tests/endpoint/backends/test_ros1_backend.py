@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import hashlib
 import logging
 import struct
 import sys
@@ -452,3 +453,35 @@ def test_watch_subscribers_follows_rostopic_echo(master: RosMaster) -> None:
 
     with_backend(scenario)
     assert counts == [0, 1, 0]
+
+
+def test_custom_package_from_registry_needs_no_catkin(master: RosMaster) -> None:
+    """A type known only from .msg text (like --msg-path) is advertised with genmsg's md5."""
+    from simbridge.messages import MessageRegistry
+
+    registry = MessageRegistry()
+    registry.add_message("sb_custom/Reading", "float64 value\nstring sensor\n")
+    payload = struct.pack("<d", 21.5) + ros_string("probe-1")
+    received: list[bytes] = []
+
+    async def main() -> tuple[str, str]:
+        backend = Ros1Backend(registry=registry)
+        await backend.start()
+        try:
+            backend.subscribe("/sb/reading", "sb_custom/Reading", received.append)
+            publisher = backend.advertise(
+                "/sb/reading", "sb_custom/Reading", queue_size=0, latch=False
+            )
+            while not received:
+                publisher.publish(payload)
+                await asyncio.sleep(0.05)
+            info = await asyncio.to_thread(master.run, ["rostopic", "info", "/sb/reading"])
+            return info.stdout, registry.md5("sb_custom/Reading")
+        finally:
+            await backend.close()
+
+    info, md5 = asyncio.run(main())
+    assert received[0] == payload
+    assert "Type: sb_custom/Reading" in info
+    # genmsg md5 of "float64 value\nstring sensor", computed independently here
+    assert md5 == hashlib.md5(b"float64 value\nstring sensor").hexdigest()
