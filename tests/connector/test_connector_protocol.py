@@ -539,7 +539,7 @@ def test_registrations_wait_for_the_handshake_or_go_on_without(make_connector):
 
 
 def test_reconnect_backoff_doubles_up_to_the_maximum(monkeypatch, make_connector):
-    import simbridge.connector.connector as module
+    import simbridge.connector.engine as module
 
     attempts: list[float] = []
 

@@ -1,0 +1,417 @@
+"""The connector's machinery: shared state and the I/O threads' work.
+
+A manager thread connects, reads and parses (and reconnects with back-off); a writer
+thread batches queued frames into the socket and sends keepalives; a dispatch thread
+runs user callbacks and service handlers. Every registration is kept here and replayed
+on each new connection, so a restarted endpoint needs no help. `Connector` adds the
+public API on top.
+"""
+
+from __future__ import annotations
+
+import functools
+import itertools
+import logging
+import select
+import threading
+import time
+from collections import deque
+from concurrent.futures import Future
+from typing import TYPE_CHECKING, Any
+
+from simbridge.connector.calls import PendingCall, ServiceImpl, resolve_future
+from simbridge.connector.codec import PayloadCodec
+from simbridge.connector.dispatcher import Dispatcher, Task
+from simbridge.connector.fifo import BoundedFifo
+from simbridge.connector.framer import Framer
+from simbridge.connector.handles import Publisher, Subscription
+from simbridge.connector.link import Link, open_link
+from simbridge.connector.options import ConnectorOptions
+from simbridge.connector.reader import FrameReader, Received
+from simbridge.connector.stats import StatsCounters
+from simbridge.connector.writer import FrameWriter, OutTopic
+from simbridge.errors import ConnectorError
+from simbridge.protocol import (
+    KEEPALIVE,
+    Command,
+    CommandReceived,
+    ErrorMessage,
+    Event,
+    Handshake,
+    LogMessage,
+    MessageReceived,
+    ProtocolConnection,
+    ProtocolViolation,
+    Publish,
+    RosService,
+    ServiceRequestReceived,
+    ServiceResponseReceived,
+    StatsReply,
+    Subscribe,
+    SubscriberCount,
+    TopicListReply,
+    UnityService,
+    WarnMessage,
+)
+
+if TYPE_CHECKING:
+    from simbridge.messages import MessageRegistry
+
+__all__ = ["ConnectorEngine"]
+
+_log = logging.getLogger("simbridge.connector")
+_POLL_S = 0.1
+"""How often the reader wakes while idle to check deadlines and the dead timeout."""
+
+
+class ConnectorEngine:
+    """State shared by the public API and the I/O threads, and what those threads do."""
+
+    def __init__(
+        self,
+        host: str = "127.0.0.1",
+        port: int = 10000,
+        options: ConnectorOptions | None = None,
+        registry: MessageRegistry | None = None,
+    ) -> None:
+        self.host = host
+        self.port = port
+        self.options = options if options is not None else ConnectorOptions()
+        self._codec = PayloadCodec(registry, self.options.protocol)
+        self._framer = Framer(self.options.protocol)
+        self._counters = StatsCounters()
+        self._out: BoundedFifo[OutTopic, bytes] = BoundedFifo()
+        self._writer = FrameWriter(self._out, self._counters, self.options.keepalive_interval)
+        self._dispatcher = Dispatcher(self._counters)
+        self._lock = threading.RLock()
+        self._publishers: dict[str, Publisher] = {}
+        self._subscriptions: dict[str, tuple[Subscription, ...]] = {}
+        self._ros_services: dict[str, str] = {}
+        self._unity_services: dict[str, ServiceImpl] = {}
+        self._calls: dict[int, PendingCall] = {}
+        self._unsent_calls: list[PendingCall] = []
+        self._srv_ids = itertools.count(1)
+        self._topic_waiters: deque[Future[dict[str, str]]] = deque()
+        self._stats_waiters: deque[Future[dict[str, Any]]] = deque()
+        self._link: Link | None = None
+        self._generation = 0
+        self._connected = threading.Event()
+        self._closing = threading.Event()
+        self._close_deadline = 0.0
+        self._manager: threading.Thread | None = None
+        self._peer_keepalive: float | None = None
+        self._extensions: frozenset[str] = frozenset()
+        """simbridge protocol extensions the current endpoint announced."""
+        self._handshaken = False
+        self.handshake: Handshake | None = None
+        """The endpoint's latest handshake (version and metadata)."""
+
+    def _publish_command(self, pub: Publisher) -> Publish:
+        """`__publish` for `pub`; asks for subscriber counts only from endpoints that offer
+        them (an original endpoint would choke on the extra field)."""
+        return Publish(
+            pub.topic,
+            pub.msg_type,
+            pub.queue_size,
+            pub.latch,
+            report_subscribers=pub.report_subscribers and "subscribers" in self._extensions,
+        )
+
+    def _send_command(self, command: Command) -> None:
+        """Queue a registration frame (caller holds the lock); replayed on reconnect anyway."""
+        if self._link is not None:
+            self._out.put_control(self._framer.command(command))
+
+    def _send_call(self, call: PendingCall) -> None:
+        call.srv_id = next(self._srv_ids)
+        self._calls[call.srv_id] = call
+        self._out.put_control(self._framer.service_request(call.srv_id, call.service, call.payload))
+
+    def _run(self) -> None:
+        delay = self.options.reconnect_initial
+        failures = 0
+        while not self._closing.is_set():
+            try:
+                link = open_link(self.host, self.port, self.options.connect_timeout)
+            except OSError as exc:
+                failures += 1
+                _log.log(
+                    logging.WARNING if failures == 1 else logging.DEBUG,
+                    "cannot reach the endpoint at %s:%d (%s); retrying in %.1f s",
+                    self.host,
+                    self.port,
+                    exc,
+                    delay,
+                )
+                self._idle(delay)
+                delay = min(delay * 2, self.options.reconnect_max)
+                continue
+            delay = self.options.reconnect_initial
+            failures = 0
+            with self._lock:
+                self._peer_keepalive = None
+                self._extensions = frozenset()
+                self._handshaken = False
+            try:
+                self._read(link)
+            except OSError as exc:
+                if not self._closing.is_set():
+                    _log.warning("connection to %s:%d lost: %s", self.host, self.port, exc)
+            except Exception:
+                _log.exception("connector failure; dropping the connection and reconnecting")
+            finally:
+                self._teardown(link)
+            if not self._closing.is_set():
+                _log.info("reconnecting to %s:%d in %.1f s", self.host, self.port, delay)
+                self._idle(delay)
+
+    def _idle(self, seconds: float) -> None:
+        """Sleep while disconnected, still timing out service calls."""
+        end = time.monotonic() + seconds
+        while not self._closing.is_set():
+            now = time.monotonic()
+            self._expire(now)
+            if now >= end:
+                return
+            self._closing.wait(min(_POLL_S, end - now))
+
+    def _setup(self, link: Link) -> None:
+        """Replay every registration ahead of anything queued, then hand the link over.
+
+        Runs once the handshake arrived (it tells which simbridge extensions to use).
+        """
+        framer = self._framer
+        with self._lock:
+            self._counters.connections += 1
+            self._generation += 1
+            frames = [KEEPALIVE]
+            for pub in self._publishers.values():
+                frames.append(framer.command(self._publish_command(pub)))
+            for topic, subs in self._subscriptions.items():
+                frames.append(
+                    framer.command(Subscribe(topic, subs[0].msg_type, subs[0].queue_size))
+                )
+            for service, srv_type in self._ros_services.items():
+                frames.append(framer.command(RosService(service, srv_type)))
+            for service, impl in self._unity_services.items():
+                frames.append(framer.command(UnityService(service, impl.srv_type)))
+            for topic, pub in self._publishers.items():
+                last = pub.last_payload
+                if last is not None and self._out.pending(pub.out) == 0:
+                    frames.append(framer.message(topic, last))
+            self._out.put_control_front(frames)
+            unsent, self._unsent_calls = self._unsent_calls, []
+            for call in unsent:
+                self._send_call(call)
+            self._link = link
+            self._writer.attach(link)
+            self._connected.set()
+        _log.info("connected to %s:%d", self.host, self.port)
+
+    def _teardown(self, link: Link) -> None:
+        """Forget the link; fail whatever was waiting on it."""
+        with self._lock:
+            self._link = None
+            self._connected.clear()
+            self._writer.attach(None)
+            for pub in self._publishers.values():
+                pub.subscriber_count = None
+            self._out.discard_control(lambda _frame: False)
+            calls = list(self._calls.values())
+            self._calls.clear()
+            waiters = [*self._topic_waiters, *self._stats_waiters]
+            self._topic_waiters.clear()
+            self._stats_waiters.clear()
+        link.close()
+        reason = "connector closed" if self._closing.is_set() else "connection lost"
+        for call in calls:
+            call.fail(f"{reason} before {call.service} answered (srv_id {call.srv_id})")
+        for waiter in waiters:
+            resolve_future(waiter, error=ConnectorError(f"{reason} before the endpoint replied"))
+
+    def _expire(self, now: float) -> None:
+        expired: list[PendingCall] = []
+        with self._lock:
+            if self._calls:
+                for srv_id, call in list(self._calls.items()):
+                    if call.deadline <= now or call.future.done():
+                        del self._calls[srv_id]
+                        expired.append(call)
+            if self._unsent_calls:
+                keep: list[PendingCall] = []
+                for call in self._unsent_calls:
+                    (expired if call.deadline <= now or call.future.done() else keep).append(call)
+                self._unsent_calls = keep
+        for call in expired:
+            call.fail(f"{call.service} did not answer in time (srv_id {call.srv_id})")
+
+    def _read(self, link: Link) -> None:
+        """Receive and handle frames until the link breaks, goes silent or the connector closes."""
+        max_frame = self.options.max_frame_size
+        proto = ProtocolConnection("client", max_payload=max_frame)
+        reader = FrameReader(proto, max_frame, self.options.recv_size)
+        sock = link.sock
+        counters = self._counters
+        dead = self.options.dead_timeout
+        poller = select.poll()
+        poller.register(sock.fileno(), select.POLLIN | select.POLLERR | select.POLLHUP)
+        last_rx = last_check = time.monotonic()
+        handshake_deadline = last_rx + self.options.connect_timeout
+        while not link.broken.is_set():
+            ready = poller.poll(_POLL_S * 1000)
+            now = time.monotonic()
+            if self._closing.is_set() and (now >= self._close_deadline or self._link is not link):
+                return
+            if now - last_check >= _POLL_S:
+                last_check = now
+                self._expire(now)
+            if not self._handshaken and now >= handshake_deadline:
+                _log.warning("no handshake from %s:%d; going on without", self.host, self.port)
+                self._handshaken = True
+                self._setup(link)
+            if not ready:
+                keepalive = self._peer_keepalive
+                # an endpoint announcing a slow keepalive gets two of its periods
+                if keepalive is not None and now - last_rx > max(dead, 2 * keepalive):
+                    _log.warning(
+                        "endpoint %s:%d silent for %.1f s; dropping the connection",
+                        self.host,
+                        self.port,
+                        now - last_rx,
+                    )
+                    return
+                continue
+            count, items = reader.receive(sock)
+            if not count:
+                if not self._closing.is_set():
+                    _log.warning("endpoint %s:%d closed the connection", self.host, self.port)
+                return
+            last_rx = now
+            counters.bytes_received += count
+            counters.frames_received += len(items)
+            if not self._deliver(items):
+                return
+            if self._handshaken and self._link is not link:
+                self._setup(link)
+
+    def _deliver(self, items: list[Received]) -> bool:
+        """Queue messages for their callbacks and act on events, in arrival order."""
+        batch: list[tuple[Subscription, bytes | Task, int]] = []
+        subscriptions = self._subscriptions
+        for item in items:
+            if isinstance(item, tuple):
+                topic, payload = item
+                subs = subscriptions.get(topic)
+                if subs is None:
+                    _log.debug("message on %r, which is not subscribed; ignored", topic)
+                    continue
+                for sub in subs:
+                    batch.append((sub, payload, sub.queue_size))
+                continue
+            if batch:
+                self._queue_messages(batch)
+                batch = []
+            if not self._handle(item):
+                return False
+        if batch:
+            self._queue_messages(batch)
+        return True
+
+    def _queue_messages(self, batch: list[tuple[Subscription, bytes | Task, int]]) -> None:
+        for sub in self._dispatcher.fifo.put_many(batch):
+            self._counters.subscribe_dropped(sub.topic)
+
+    def _handle(self, event: Event) -> bool:
+        """Act on one event; False when the connection must be dropped."""
+        if isinstance(event, MessageReceived):
+            self._deliver([(event.topic, event.payload)])
+        elif isinstance(event, ServiceResponseReceived):
+            with self._lock:
+                call = self._calls.pop(event.srv_id, None)
+            if call is None:
+                _log.debug("response %d for %s came too late", event.srv_id, event.service)
+            else:
+                call.complete(event.payload, self._codec)
+        elif isinstance(event, ServiceRequestReceived):
+            impl = self._unity_services.get(event.service)
+            if impl is None:
+                _log.error(
+                    "endpoint called %r, which this connector does not implement", event.service
+                )
+            else:
+                self._dispatcher.submit(
+                    functools.partial(
+                        self._serve, impl, event.srv_id, event.payload, self._generation
+                    )
+                )
+        elif isinstance(event, CommandReceived):
+            self._on_command(event.command)
+        elif isinstance(event, ProtocolViolation):
+            _log.warning("bad frame from the endpoint: %s", event.text)
+            return not event.fatal
+        return True
+
+    def _serve(self, impl: ServiceImpl, srv_id: int, payload: bytes, generation: int) -> None:
+        """Run a sim-side service handler and queue its response (dispatch thread)."""
+        response = impl.serve(payload, self._codec)
+        with self._lock:
+            if self._generation != generation or self._link is None:
+                _log.warning("connection lost before %s could answer", impl.service)
+                return
+            self._out.put_control(self._framer.service_response(srv_id, impl.service, response))
+
+    def _on_command(self, command: Command) -> None:
+        if isinstance(command, Handshake):
+            self._on_handshake(command)
+        elif isinstance(command, ErrorMessage):
+            self._counters.errors_received += 1
+            call = None
+            if command.srv_id is not None:
+                with self._lock:
+                    call = self._calls.pop(command.srv_id, None)
+            if call is not None:
+                call.fail(f"{call.service}: {command.text}")
+            else:
+                _log.error("endpoint: %s", command.text)
+        elif isinstance(command, WarnMessage):
+            self._counters.warnings_received += 1
+            _log.warning("endpoint: %s", command.text)
+        elif isinstance(command, LogMessage):
+            self._counters.logs_received += 1
+            _log.info("endpoint: %s", command.text)
+        elif isinstance(command, TopicListReply):
+            self._reply(self._topic_waiters, dict(zip(command.topics, command.types, strict=True)))
+        elif isinstance(command, StatsReply):
+            self._reply(self._stats_waiters, command.stats)
+        elif isinstance(command, SubscriberCount):
+            pub = self._publishers.get(command.topic)
+            if pub is not None:
+                pub.subscriber_count = command.count
+
+    def _reply(self, waiters: deque[Future[Any]], value: Any) -> None:
+        with self._lock:
+            while waiters:
+                waiter = waiters.popleft()
+                if not waiter.done():
+                    resolve_future(waiter, value)
+                    return
+
+    def _on_handshake(self, handshake: Handshake) -> None:
+        self.handshake = handshake
+        self._handshaken = True
+        extensions = handshake.metadata.get("extensions")
+        if isinstance(extensions, list):
+            self._extensions = frozenset(e for e in extensions if isinstance(e, str))
+        if not handshake.version.startswith("v0.7"):
+            _log.error(
+                "endpoint speaks ROS-TCP %s; this connector expects v0.7.x", handshake.version
+            )
+        if handshake.protocol != self.options.protocol:
+            _log.error(
+                "endpoint uses %s serialization but this connector is set to %s",
+                handshake.protocol,
+                self.options.protocol,
+            )
+        keepalive = handshake.metadata.get("keepalive")
+        if isinstance(keepalive, int | float) and not isinstance(keepalive, bool) and keepalive > 0:
+            self._peer_keepalive = float(keepalive)
