@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import atexit
 import contextlib
+import importlib.util
 import os
 import shutil
 import signal
@@ -37,13 +38,17 @@ SYSTEM_PYTHON = "/usr/bin/python3"
 """The interpreter Debian's rospy belongs to, for helper nodes run as subprocesses."""
 
 
-def require_ros() -> None:
-    """Skip when ROS 1 is not installed, except on CI (env CI set), where that is a failure."""
-    if shutil.which("roscore") and shutil.which("rostopic"):
+def require_ros(module_level: bool = False) -> None:
+    """Skip when ROS 1 is not installed, except on CI (env CI set), where that is a failure.
+
+    With `module_level`, call it before a test module imports rospy or rosgraph.
+    """
+    have_python = all(importlib.util.find_spec(m) for m in ("rospy", "rosgraph"))
+    if have_python and shutil.which("roscore") and shutil.which("rostopic"):
         return
     if os.environ.get("CI"):
-        pytest.fail("ROS 1 (roscore, rostopic) is not installed on CI: run `make sysdeps`")
-    pytest.skip("ROS 1 (roscore) is not installed")
+        pytest.fail("ROS 1 (roscore, rostopic, rospy) is not installed on CI: run `make sysdeps`")
+    pytest.skip("ROS 1 (roscore, rospy) is not installed", allow_module_level=module_level)
 
 
 def free_port() -> int:

@@ -19,11 +19,14 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import pytest
-import rosgraph
 from tests.ros1support import SYSTEM_PYTHON, RosMaster, free_port, require_ros, terminate
 
 from simbridge.connector import Connector, ConnectorOptions
 from simbridge.errors import ServiceError
+
+require_ros(module_level=True)
+
+import rosgraph  # noqa: E402
 
 pytestmark = [pytest.mark.ros1, pytest.mark.timeout(180)]
 

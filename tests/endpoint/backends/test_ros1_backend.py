@@ -14,15 +14,19 @@ from pathlib import Path
 from typing import TypeVar
 
 import pytest
-import rosgraph
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from tests.ros1support import SYSTEM_PYTHON, RosMaster, require_ros, shared_master
 
 from simbridge.endpoint.backends.base import TopicInfo
-from simbridge.endpoint.backends.ros1 import Ros1Backend, Ros1Options, Ros1Publisher
-from simbridge.endpoint.backends.ros1_node import read_drop_in_params, ros_args
 from simbridge.errors import EndpointError, ServiceError, UnknownMessageTypeError
+
+require_ros(module_level=True)
+
+import rosgraph  # noqa: E402
+
+from simbridge.endpoint.backends.ros1 import Ros1Backend, Ros1Options, Ros1Publisher  # noqa: E402
+from simbridge.endpoint.backends.ros1_node import read_drop_in_params, ros_args  # noqa: E402
 
 pytestmark = [
     pytest.mark.ros1,
