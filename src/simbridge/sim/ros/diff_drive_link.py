@@ -22,7 +22,7 @@ from simbridge.sim.world.world import World
 __all__ = ["DiffDriveLink", "measure_wheels"]
 
 _log = logging.getLogger("simbridge.sim.ros")
-_ROUND = (mujoco.mjtGeom.mjGEOM_CYLINDER, mujoco.mjtGeom.mjGEOM_SPHERE)
+_ROUND = {int(mujoco.mjtGeom.mjGEOM_CYLINDER), int(mujoco.mjtGeom.mjGEOM_SPHERE)}
 
 
 def _wheel_radius(model: mujoco.MjModel, joint: str) -> float:
@@ -31,7 +31,7 @@ def _wheel_radius(model: mujoco.MjModel, joint: str) -> float:
         float(model.geom_size[g][0])
         for g in range(model.ngeom)
         if model.geom_bodyid[g] == body
-        and model.geom_type[g] in _ROUND
+        and int(model.geom_type[g]) in _ROUND
         and model.geom_group[g] == COLLISION_GROUP
     ]
     if not radii:

@@ -1,0 +1,215 @@
+"""Run the mobile-robot demo headless: endpoint, simulation with sensors, driver node.
+
+`main(argv)` is `simbridge demo mobile-robot [--side M] [--realtime F] [--json]`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json as json_text
+import math
+import sys
+import time
+from collections.abc import Callable, Sequence
+from contextlib import ExitStack
+from pathlib import Path
+
+from simbridge.apps.mobile_robot.driver import DriverNode, DriverTopics, SensorTally, SquarePath
+from simbridge.apps.mobile_robot.result import MobileRobotResult
+from simbridge.connector import ConnectorOptions
+from simbridge.endpoint import EndpointOptions, EndpointThread, LocalBus
+from simbridge.errors import AppError, SimbridgeError
+from simbridge.sim.control import Pose2D
+from simbridge.sim.ros import SimulationSession
+from simbridge.sim.urdf.transforms import Matrix, Transform
+from simbridge.sim.world import World
+
+__all__ = ["BASE_LINK", "SCENE_PATH", "main", "run_mobile_robot"]
+
+SCENE_PATH = Path(__file__).resolve().parent / "scene.yaml"
+BASE_LINK = "base_link"
+SETTLE_S = 0.5
+"""Simulated seconds the robot stands still after the path before it is measured."""
+
+
+def _yaw(rotation: Matrix) -> float:
+    return math.atan2(float(rotation[1, 0]), float(rotation[0, 0]))
+
+
+def _planar(pose: Transform, anchor: Transform) -> Pose2D:
+    """`pose` in the levelled frame of `anchor` (what odometry calls odom)."""
+    yaw0 = _yaw(anchor.rotation)
+    dx, dy = (float(v) for v in (pose.translation - anchor.translation)[:2])
+    c, s = math.cos(yaw0), math.sin(yaw0)
+    yaw = math.remainder(_yaw(pose.rotation) - yaw0, math.tau)
+    return Pose2D(c * dx + s * dy, -s * dx + c * dy, yaw)
+
+
+def _errors(estimate: Pose2D | None, truth: Pose2D) -> tuple[float, float]:
+    if estimate is None:
+        return math.inf, math.inf
+    distance = math.hypot(estimate.x - truth.x, estimate.y - truth.y)
+    return distance, math.degrees(abs(math.remainder(estimate.yaw - truth.yaw, math.tau)))
+
+
+def _wait(predicate: Callable[[], bool], timeout: float) -> bool:
+    deadline = time.monotonic() + timeout
+    while not predicate():
+        if time.monotonic() > deadline:
+            return False
+        time.sleep(0.005)
+    return True
+
+
+def _caught_up(world: World, driver: DriverNode) -> bool:
+    """Whether the last odometry and joint states the driver got are the newest published."""
+    tally = driver.tally()
+    newest = world.time - 1.0 / 50 - 1e-6
+    return tally.odom_stamp >= newest and tally.joint_states_stamp >= newest
+
+
+def run_mobile_robot(
+    side_m: float = 1.0,
+    realtime_factor: float = 0.0,
+    json: bool = False,
+    *,
+    scene: Path = SCENE_PATH,
+    path: SquarePath | None = None,
+    subscribe_sensors: bool = True,
+    max_sim_s: float = 120.0,
+    progress: Callable[[str], None] | None = print,
+) -> MobileRobotResult:
+    """Drive diffbot around a square of `side_m` metres in the walled room and measure.
+
+    Runs an endpoint with the local bus, the scene's simulation (sensors, /cmd_vel diff
+    drive) and a driver node closing the loop on /odom. `realtime_factor` 0 runs as fast
+    as possible; `subscribe_sensors` False leaves lidar, camera and IMU without
+    subscribers (so they are never computed). `json` prints the summary as the last line.
+    """
+    say = progress or (lambda _text: None)
+    path = path or SquarePath(side_m=side_m)
+    with ExitStack() as stack:
+        bus = LocalBus()
+        endpoint = stack.enter_context(EndpointThread(EndpointOptions(port=0), bus))
+        session = SimulationSession(
+            scene,
+            f"127.0.0.1:{endpoint.port}",
+            ConnectorOptions(reconnect_initial=0.2),
+            connect_timeout=5.0,
+        )
+        stack.enter_context(session)
+        world = session.world
+        bridge, sensors = session.bridge, session.sensors
+        if bridge is None or bridge.diff_drive is None or sensors is None:
+            raise AppError(f"scene {scene} needs ros.diff_drive and sensors (odometry at least)")
+        config = bridge.diff_drive.config
+        topics = DriverTopics(cmd_vel=config.topic)
+        driver = stack.enter_context(
+            DriverNode(
+                bus,
+                bridge.diff_drive.kinematics,
+                (config.left_joint, config.right_joint),
+                path,
+                topics=topics,
+                subscribe_sensors=subscribe_sensors,
+                progress=say,
+            )
+        )
+        watched = [topics.odom] + ([topics.scan, topics.image] if subscribe_sensors else [])
+        if not _wait(lambda: all(sensors.publisher(t).has_subscribers for t in watched), 5.0):
+            raise AppError(f"the simulation never saw subscribers on {', '.join(watched)}")
+        say(
+            f"[mobile-robot] endpoint on port {endpoint.port} (local bus); driving a "
+            f"{path.side_m:g} m square"
+        )
+        anchor = world.link_pose(BASE_LINK)
+        driver.on_done = world.stop
+        first = world.run(max_sim_s, realtime_factor)
+        settle = world.run(SETTLE_S, realtime_factor)
+        caught_up = _wait(lambda: _caught_up(world, driver), 5.0)
+        tally = driver.tally()
+        truth = _planar(world.link_pose(BASE_LINK), anchor)
+        sim_time = world.time
+        wall_time = first.wall_time + settle.wall_time
+    error = None
+    if not driver.done.is_set():
+        error = f"the square was not finished within {max_sim_s:g} s of sim time"
+    elif not caught_up:
+        error = "the last odometry or joint states never reached the driver"
+    result = _result(
+        tally,
+        truth,
+        sim_time=sim_time,
+        wall_time=wall_time,
+        subscribed=subscribe_sensors,
+        error=error,
+    )
+    verdict = "done" if result.completed else f"FAILED ({error})"
+    say(
+        f"[mobile-robot] {verdict}: odom error {result.odom_error_m * 1000:.2f} mm, wheel "
+        f"odometry error {result.wheel_odom_error_m * 100:.2f} cm / "
+        f"{result.wheel_odom_yaw_error_deg:.2f} deg; nearest lidar return "
+        f"{result.min_range_m:.3f} m; {result.scans_per_s:.1f} scans/s, "
+        f"{result.images_per_s:.1f} images/s (sim); {sim_time:.1f} s simulated in "
+        f"{wall_time:.1f} s (x{result.realtime_factor:.1f})"
+    )
+    if json:
+        print(json_text.dumps(result.to_dict()), flush=True)
+    return result
+
+
+def _result(
+    tally: SensorTally,
+    truth: Pose2D,
+    *,
+    sim_time: float,
+    wall_time: float,
+    subscribed: bool,
+    error: str | None,
+) -> MobileRobotResult:
+    odom_m, odom_deg = _errors(tally.odom_pose, truth)
+    wheel_m, wheel_deg = _errors(tally.wheel_pose, truth)
+    per_s = 1.0 / sim_time if sim_time > 0 else 0.0
+    return MobileRobotResult(
+        completed=error is None,
+        sim_time=sim_time,
+        wall_time=wall_time,
+        final_pose=(truth.x, truth.y, truth.yaw),
+        odom_error_m=odom_m,
+        odom_yaw_error_deg=odom_deg,
+        wheel_odom_error_m=wheel_m,
+        wheel_odom_yaw_error_deg=wheel_deg,
+        min_range_m=tally.min_range_m,
+        scans_per_s=tally.scans * per_s,
+        images_per_s=tally.images * per_s,
+        imu_per_s=tally.imus * per_s,
+        odom_per_s=tally.odoms * per_s,
+        image_kib=tally.image_bytes / 1024 / tally.images if tally.images else 0.0,
+        sensors_subscribed=subscribed,
+        error=error,
+        first_scan=tally.first_scan,
+    )
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """`simbridge demo mobile-robot`: 0 when the square was driven, 1 if not, 2 on errors."""
+    parser = argparse.ArgumentParser(
+        prog="simbridge demo mobile-robot",
+        description="Drive a differential-drive robot around a square in a walled room over "
+        "ROS topics (/cmd_vel, /odom, /scan, camera, /imu) and measure what arrives.",
+    )
+    parser.add_argument("--side", type=float, default=1.0, help="square side in metres")
+    parser.add_argument(
+        "--realtime", type=float, default=0.0, help="sim seconds per wall second (0: unpaced)"
+    )
+    parser.add_argument("--json", action="store_true", help="print a JSON summary last")
+    args = parser.parse_args(argv)
+    if not 0.2 <= args.side <= 1.2:
+        print("simbridge demo mobile-robot: --side must be in [0.2, 1.2] m", file=sys.stderr)
+        return 2
+    try:
+        result = run_mobile_robot(args.side, args.realtime, args.json)
+    except SimbridgeError as exc:
+        print(f"simbridge demo mobile-robot: {exc}", file=sys.stderr)
+        return 2
+    return 0 if result.completed else 1
