@@ -187,7 +187,8 @@ class Ros1Backend(Backend):
         """Every topic the master knows, with its type, sorted by name."""
         self._started()
         try:
-            pairs = rosgraph.Master(rospy.get_name()).getTopicTypes()
+            master = rosgraph.Master(rospy.get_name(), master_uri=self.identity.master_uri)
+            pairs = master.getTopicTypes()
         except (rosgraph.MasterException, OSError) as exc:
             raise EndpointError(f"cannot list topics from the ROS master: {exc}") from exc
         return [TopicInfo(name, msg_type) for name, msg_type in sorted(pairs)]
@@ -384,7 +385,7 @@ class _Ros1ServiceServer(_Registration, BackendServiceServer):
 
     def _on_request(self, request: RawMessage) -> RawMessage:
         """Runs on a rospy service thread; any exception becomes the caller's error."""
-        if self.closed:
+        if self.closed or self._loop.is_closed():
             raise rospy.ServiceException(f"service {self._service} is being removed")
         future = asyncio.run_coroutine_threadsafe(self._run(request.payload), self._loop)
         try:
