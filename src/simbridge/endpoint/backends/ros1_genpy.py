@@ -63,9 +63,9 @@ def generate_python_messages(
     for message in messages:
         types.add(registry.resolve(message))
         types.update(registry.dependencies(message))
-    messages = {t for t in types if not t.endswith(("Request", "Response"))}
+    plain = {t for t in types if not t.endswith(("Request", "Response"))}
     packages: dict[str, list[str]] = {}
-    for name in sorted(messages):
+    for name in sorted(plain):
         package, base = name.split("/")
         folder = sources / package / "msg"
         folder.mkdir(parents=True, exist_ok=True)
