@@ -432,6 +432,14 @@ def test_topic_list_and_endpoint_stats(endpoint: FakeEndpoint, make_connector):
     assert stats["frames_in"] >= 2
 
 
+def test_stats_are_not_asked_of_an_original_endpoint(make_connector):
+    with FakeEndpoint(keepalive=None) as original:
+        conn = make_connector(original.port).connect()
+        with pytest.raises(ConnectorError, match="does not offer __stats"):
+            conn.endpoint_stats()
+        assert commands(original.events()) == []
+
+
 def test_topic_list_without_reply_times_out(endpoint: FakeEndpoint, make_connector):
     endpoint.answer = False
     conn = make_connector(endpoint.port).connect()

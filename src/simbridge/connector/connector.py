@@ -269,15 +269,33 @@ class Connector(ConnectorEngine):
         return topics
 
     def endpoint_stats(self, timeout: float | None = None) -> dict[str, Any]:
-        """The endpoint's counters for this connection (simbridge `__stats` extension)."""
-        stats: dict[str, Any] = self._ask(StatsRequest(), self._stats_waiters, timeout)
+        """The endpoint's counters for this connection (simbridge `__stats` extension).
+
+        Refused unless the endpoint announced the extension: the original endpoint's
+        connection thread dies on system commands it does not know.
+        """
+        stats: dict[str, Any] = self._ask(
+            StatsRequest(), self._stats_waiters, timeout, extension="stats"
+        )
         return stats
 
-    def _ask(self, command: Command, waiters: deque[Future[Any]], timeout: float | None) -> Any:
+    def _ask(
+        self,
+        command: Command,
+        waiters: deque[Future[Any]],
+        timeout: float | None,
+        extension: str | None = None,
+    ) -> Any:
+        """Send a request whose reply carries no id; replies pair up in order."""
         limit = self.options.request_timeout if timeout is None else timeout
         deadline = time.monotonic() + limit
         if not self._connected.wait(limit):
             raise ConnectorError(f"{command.NAME}: not connected to {self.host}:{self.port}")
+        if extension is not None and extension not in self._extensions:
+            raise ConnectorError(
+                f"the endpoint at {self.host}:{self.port} does not offer {command.NAME} "
+                f"(announced extensions: {sorted(self._extensions) or 'none'})"
+            )
         future: Future[Any] = Future()
         with self._lock:
             if self._link is None:
