@@ -3,12 +3,20 @@
 from __future__ import annotations
 
 import math
+import time
+from contextlib import ExitStack
+from pathlib import Path
 
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+import simbridge
+from simbridge.connector import Connector
+from simbridge.endpoint import EndpointOptions, EndpointThread, LocalBus, Node
 from simbridge.errors import SimError
+from simbridge.messages import default_registry
+from simbridge.sim.control import DriveMode
 from simbridge.sim.control.diff_drive import (
     DiffDriveConfig,
     DiffDriveController,
@@ -16,7 +24,11 @@ from simbridge.sim.control.diff_drive import (
     DiffDriveLimits,
     Pose2D,
 )
+from simbridge.sim.ros import SimRosBridge, measure_wheels
+from simbridge.sim.scene import Scene, parse_scene
+from simbridge.sim.world import World
 
+REG = default_registry()
 KIN = DiffDriveKinematics(wheel_radius=0.05, wheel_separation=0.23)
 speeds = st.floats(-20.0, 20.0, allow_nan=False)
 
@@ -104,3 +116,90 @@ def test_bad_values_are_rejected_with_names() -> None:
         DiffDriveConfig("w", "w")
     with pytest.raises(SimError, match="finite"):
         DiffDriveController(KIN).command(math.nan, 0.0, 0.0)
+
+
+# --- the scene key and the /cmd_vel link, end to end through an endpoint --------------------
+
+DIFFBOT = Path(simbridge.__file__).parent / "assets" / "robots" / "diffbot.urdf"
+WHEEL_DRIVE = {"damping": 2.0, "force_limit": 2.0}
+"""Velocity-drive gains that suit 0.2 kg wheels (the defaults are for arm joints)."""
+DRIVE_KEYS = {"left": "left_wheel_joint", "right": "right_wheel_joint"}
+
+
+def _scene(**drive: object) -> Scene:
+    data = {
+        "physics": {"realtime_factor": 0},
+        "robots": [
+            {
+                "urdf": str(DIFFBOT),
+                "fixed_base": False,
+                "base": {"xyz": [0, 0, 0.05]},
+                "drives": {
+                    "joints": {
+                        "left_wheel_joint": WHEEL_DRIVE,
+                        "right_wheel_joint": WHEEL_DRIVE,
+                        "caster_swivel_joint": {"mode": "none"},
+                        "caster_wheel_joint": {"mode": "none"},
+                    }
+                },
+            }
+        ],
+        "objects": [{"name": "floor", "type": "plane"}],
+        "ros": {"diff_drive": {**DRIVE_KEYS, **drive}},
+    }
+    return parse_scene(data, DIFFBOT.parent)
+
+
+def test_scene_key_parses_with_defaults_and_names_mistakes() -> None:
+    config = _scene(max_linear_velocity=0.4).ros.diff_drive
+    assert config == DiffDriveConfig(
+        "left_wheel_joint", "right_wheel_joint", limits=DiffDriveLimits(max_linear_velocity=0.4)
+    )
+    assert parse_scene({}, DIFFBOT.parent).ros.diff_drive is None
+    with pytest.raises(SimError, match=r"ros\.diff_drive: unknown key\(s\) speed"):
+        _scene(speed=1)
+    with pytest.raises(SimError, match=r"ros\.diff_drive: missing key 'right'"):
+        parse_scene({"ros": {"diff_drive": {"left": "a"}}}, DIFFBOT.parent)
+    with pytest.raises(SimError, match=r"ros\.diff_drive\.cmd_timeout: must be > 0"):
+        _scene(cmd_timeout=0)
+
+
+def test_wheels_are_measured_from_the_model() -> None:
+    world = World.from_scene(_scene())
+    kinematics = measure_wheels(world, "left_wheel_joint", "right_wheel_joint")
+    assert kinematics.wheel_radius == pytest.approx(0.05)
+    assert kinematics.wheel_separation == pytest.approx(0.23)
+    with pytest.raises(SimError, match="no joint 'hub'"):
+        measure_wheels(world, "hub", "right_wheel_joint")
+
+
+def test_one_cmd_vel_moves_the_base_then_the_timeout_stops_it() -> None:
+    world = World.from_scene(_scene(max_linear_acceleration=1.0))
+    with ExitStack() as stack:
+        endpoint = stack.enter_context(EndpointThread(EndpointOptions(port=0)))
+        connector = stack.enter_context(Connector("127.0.0.1", endpoint.port).connect(wait=5))
+        bridge = stack.enter_context(SimRosBridge(world, connector))
+        link = bridge.diff_drive
+        assert link is not None
+        assert world.drives.spec("left_wheel_joint").mode is DriveMode.VELOCITY
+        assert isinstance(endpoint.backend, LocalBus)
+        node = stack.enter_context(Node(endpoint.backend, "/teleop"))
+        assert connector.flush(5)
+        cmd = node.advertise("/cmd_vel", "geometry_msgs/Twist")
+        world.step(100)  # settle on the wheels and caster
+        start = world.link_pose("base_link").translation.copy()
+        forward = REG.new("geometry_msgs/Vector3", x=0.2, y=0.0, z=0.0)
+        cmd.publish(REG.new("geometry_msgs/Twist", linear=forward))
+        deadline = time.monotonic() + 5
+        while link.controller.timed_out(world.time) and time.monotonic() < deadline:
+            time.sleep(0.001)
+            world.process_posted()
+        commanded_at = world.time
+        world.step(1000)  # 2 s: ramp up 0.2 s, cruise until the 0.5 s timeout, brake 0.2 s
+        moved = world.link_pose("base_link").translation - start
+    # 0.02 m ramping up + 0.3 s * 0.2 m/s + 0.02 m braking = 0.1 m, straight ahead
+    assert moved[0] == pytest.approx(0.1, abs=0.006)
+    assert abs(moved[1]) < 0.002
+    assert link.controller.timed_out(commanded_at + 0.51)
+    wheels = world.joint_velocities(["left_wheel_joint", "right_wheel_joint"])
+    assert max(abs(v) for v in wheels.values()) < 0.05
