@@ -4,11 +4,18 @@ from __future__ import annotations
 
 import json
 import math
+import re
+from pathlib import Path
 
 import pytest
+import yaml
 
-from simbridge.apps.mobile_robot import MobileRobotResult, main, run_mobile_robot
+from simbridge.apps.mobile_robot import SCENE_PATH, MobileRobotResult, main, run_mobile_robot
 from simbridge.apps.mobile_robot.driver import ScanSample
+from simbridge.sim.sensors import SensorSuite
+from simbridge.sim.world import World
+
+DOCS = Path(__file__).resolve().parents[2] / "docs" / "sensors.md"
 
 ROOM_HALF = 2.0
 """Wall inner faces at x, y = +-2 m (scene.yaml)."""
@@ -85,3 +92,15 @@ def test_main_prints_json_last_and_rejects_bad_sides(capsys: pytest.CaptureFixtu
     assert summary["completed"] is True
     assert list(summary)[:3] == ["completed", "odom_error_m", "wheel_odom_error_m"]
     assert summary["scans_per_s"] == pytest.approx(10.0, rel=0.05)
+
+
+def test_docs_worked_example_is_the_app_scene() -> None:
+    text = DOCS.read_text()
+    blocks = re.findall(r"```yaml\n(.*?)```", text, flags=re.DOTALL)
+    documented = yaml.safe_load(blocks[-1])["sensors"]
+    assert documented == yaml.safe_load(SCENE_PATH.read_text())["sensors"]
+    world = World.from_scene(SCENE_PATH)
+    suite = SensorSuite.from_config(world.model, documented)
+    rows = re.findall(r"^\| `(/[^`]+)` \| ([a-z0-9_]+/\w+)", text, flags=re.MULTILINE)
+    documented_topics = {topic: kind for topic, kind in rows if topic in suite.outputs}
+    assert documented_topics == suite.outputs  # every sensor output, with its type
