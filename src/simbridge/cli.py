@@ -257,6 +257,11 @@ def _cmd_demo(args: argparse.Namespace) -> int:
         from simbridge.apps.bridge_demo import run_bridge_demo
 
         return 0 if run_bridge_demo() else 1
+    if args.name == "mobile-robot":
+        from simbridge.apps.mobile_robot import main as mobile_robot_main
+
+        forwarded = ["--side", str(args.side), "--realtime", str(args.realtime or 0.0)]
+        return mobile_robot_main([*forwarded, "--json"] if args.json else forwarded)
     from simbridge.apps import pick_and_place_main
 
     forwarded = ["--backend", args.backend]
@@ -405,8 +410,9 @@ def build_parser() -> argparse.ArgumentParser:
         "name",
         nargs="?",
         default="pick-and-place",
-        choices=["pick-and-place", "bridge"],
+        choices=["pick-and-place", "mobile-robot", "bridge"],
         help="pick-and-place (default): a Niryo One arm planned by a MoverService; "
+        "mobile-robot: a diff-drive robot with lidar, camera, IMU and odometry drives a square; "
         "bridge: two connectors exchange Twist messages and a service call",
     )
     demo.add_argument(
@@ -422,6 +428,13 @@ def build_parser() -> argparse.ArgumentParser:
     )
     demo.add_argument("--video", metavar="PATH", help="pick-and-place: write a .gif (or .mp4)")
     demo.add_argument("--seed", type=int, help="pick-and-place: random cube and target")
+    demo.add_argument("--side", type=float, default=1.0, help="mobile-robot: square side (m)")
+    demo.add_argument(
+        "--realtime",
+        type=float,
+        default=0.0,
+        help="mobile-robot: pace at this real-time factor (0 = flat out)",
+    )
     demo.set_defaults(func=_cmd_demo)
     return parser
 
