@@ -363,17 +363,19 @@ def test_start_twice_is_one_start(master: RosMaster) -> None:
 
 
 def test_ros_args_rename_node_and_set_drop_in_params(master: RosMaster, tmp_path: Path) -> None:
-    """roslaunch-style `__name:=` and `_tcp_port:=` args (a fresh process: one node each)."""
+    """roslaunch-style `__name:=`, `__master:=` and `_tcp_port:=` args (a fresh process)."""
     script = tmp_path / "drop_in.py"
     script.write_text(
         textwrap.dedent(
             """
-            import asyncio, rospy
+            import asyncio, os, rospy
             from simbridge.endpoint.backends.ros1 import Ros1Backend, Ros1Options, Ros1Publisher
             from simbridge.endpoint.backends.ros1_node import read_drop_in_params
 
             async def main():
-                args = ("__name:=bridge_7", "_tcp_ip:=0.0.0.0", "_tcp_port:=10555")
+                uri = os.environ.pop("ROS_MASTER_URI")  # given as __master:= instead
+                args = ("__name:=bridge_7", "__master:=" + uri)
+                args += ("_tcp_ip:=0.0.0.0", "_tcp_port:=10555")
                 backend = Ros1Backend(Ros1Options(ros_args=args))
                 await backend.start()
                 print(rospy.get_name(), *read_drop_in_params())
@@ -489,3 +491,26 @@ def test_custom_package_from_registry_needs_no_catkin(master: RosMaster) -> None
     assert "Type: sb_custom/Reading" in info
     # genmsg md5 of "float64 value\nstring sensor", computed independently here
     assert md5 == hashlib.md5(b"float64 value\nstring sensor").hexdigest()
+
+
+def test_illegal_names_are_endpoint_errors(master: RosMaster) -> None:
+    async def handler(request: bytes) -> bytes:
+        return request
+
+    async def scenario(backend: Ros1Backend) -> None:
+        with pytest.raises(EndpointError, match="bad topic"):
+            backend.advertise("bad topic", "std_msgs/String", queue_size=1, latch=False)
+        with pytest.raises(EndpointError, match="bad topic"):
+            backend.subscribe("bad topic", "std_msgs/String", lambda _: None)
+        with pytest.raises(EndpointError, match="bad service"):
+            backend.advertise_service("bad service", "std_srvs/Trigger", handler)
+
+    with_backend(scenario)
+
+
+def test_illegal_service_name_is_a_service_error(master: RosMaster) -> None:
+    async def scenario(backend: Ros1Backend) -> None:
+        with pytest.raises(ServiceError, match="not a legal ROS name"):
+            await backend.call_service("bad service", "std_srvs/Trigger", b"", timeout=1)
+
+    with_backend(scenario)

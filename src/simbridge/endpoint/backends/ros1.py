@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import rosgraph
+import rosgraph.names
 import rospy
 
 from simbridge.endpoint.backends.base import (
@@ -127,10 +128,11 @@ class Ros1Backend(Backend):
     ) -> BackendPublisher:
         """Advertise `topic`; publishing never blocks (rospy queues per subscriber)."""
         loop = self._started()
+        _check_name(topic, "topic")
         cls = self._topic_class(topic, msg_type)
         try:
             publisher = Ros1Publisher(topic, cls, max(queue_size, 0), latch, loop, live=self._live)
-        except rospy.ROSException as exc:
+        except (rospy.ROSException, ValueError) as exc:
             raise EndpointError(f"cannot advertise {topic!r} as {msg_type}: {exc}") from exc
         _log.info("publishing %s [%s] for the sim (latch=%s)", topic, msg_type, latch)
         return publisher
@@ -140,10 +142,11 @@ class Ros1Backend(Backend):
     ) -> BackendSubscription:
         """Subscribe with the type's real md5sum; payloads arrive on the event loop."""
         loop = self._started()
+        _check_name(topic, "topic")
         cls = self._topic_class(topic, msg_type)
         try:
             subscription = _Ros1Subscription(topic, cls, loop, callback, self._live)
-        except rospy.ROSException as exc:
+        except (rospy.ROSException, ValueError) as exc:
             raise EndpointError(f"cannot subscribe to {topic!r} as {msg_type}: {exc}") from exc
         _log.info("subscribed to %s [%s] for the sim", topic, msg_type)
         return subscription
@@ -154,8 +157,9 @@ class Ros1Backend(Backend):
         """Call a ROS service in a worker thread; missing, failed or slow -> ServiceError."""
         loop = self._started()
         try:
+            _check_name(service, "service")
             cls = raw_service_class(self._types.service(srv_type))
-        except MessageError as exc:
+        except (MessageError, EndpointError) as exc:
             raise ServiceError(f"cannot call {service!r}: {exc}") from exc
         proxy = rospy.ServiceProxy(service, cls, persistent=True)
         call = loop.run_in_executor(self._executor, proxy.call, cls._request_class(request))
@@ -174,11 +178,12 @@ class Ros1Backend(Backend):
     ) -> BackendServiceServer:
         """Offer `service` to ROS; each call runs `handler` on the event loop."""
         loop = self._started()
+        _check_name(service, "service")
         cls = raw_service_class(self._types.service(srv_type))
         timeout = self._options.service_handler_timeout
         try:
             server = _Ros1ServiceServer(service, cls, loop, handler, timeout, live=self._live)
-        except rospy.ROSException as exc:
+        except (rospy.ROSException, ValueError) as exc:
             raise EndpointError(f"cannot advertise service {service!r}: {exc}") from exc
         _log.info("serving %s [%s] for the sim", service, srv_type)
         return server
@@ -214,6 +219,15 @@ class Ros1Backend(Backend):
         if self._loop is None:
             raise EndpointError("the ROS 1 backend is not started: await start() first")
         return self._loop
+
+
+def _check_name(name: str, what: str) -> None:
+    """Refuse what the master would reject later (rospy itself only warns)."""
+    if not name or not rosgraph.names.is_legal_name(name):
+        raise EndpointError(
+            f"{what} name {name!r} is not a legal ROS name: letters, digits, '_' and '/', "
+            f"starting with a letter, '/' or '~'"
+        )
 
 
 class _Registration(abc.ABC):

@@ -8,6 +8,7 @@ name or master is an error rather than a silent reuse.
 from __future__ import annotations
 
 import logging
+import os
 import socket
 import sys
 import threading
@@ -66,6 +67,9 @@ def join_graph(name: str, args: Sequence[str], connect_timeout: float) -> NodeId
         if rospy.core.is_shutdown_requested():
             raise EndpointError("rospy was shut down in this process; start a new process")
         _wait_for_master(master_uri, connect_timeout)
+        # rospy reads the master from os.environ or sys.argv only: make `__master:=` in
+        # args count too (the process has one node, so one master, anyway).
+        os.environ["ROS_MASTER_URI"] = master_uri
         root = logging.getLogger()
         handlers, level = list(root.handlers), root.level
         try:
