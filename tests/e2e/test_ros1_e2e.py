@@ -278,3 +278,25 @@ def test_remove_commands_and_disconnect_unregister_from_master(
         conn.close()
     wait_until(lambda: not registered(master, "/e2e/listened", 1), 10, "unsubscribe on close")
     wait_until(lambda: not registered(master, "/e2e/served", 2), 10, "unadvertise on close")
+
+
+def test_topic_list_comes_from_the_master(master: RosMaster, connector: Connector) -> None:
+    connector.register_publisher("/e2e/listed", "sensor_msgs/Image")
+    wait_until(lambda: registered(master, "/e2e/listed", 0), 10, "the publisher")
+    topics = connector.topic_list()
+    assert topics["/e2e/listed"] == "sensor_msgs/Image"
+    assert topics["/rosout"] == "rosgraph_msgs/Log"
+
+
+def test_endpoint_events_reach_rosout(master: RosMaster, connector: Connector) -> None:
+    lines: list[str] = []
+    with master.running(["rostopic", "echo", "/rosout"]) as echo:
+        assert echo.stdout is not None
+        reader = threading.Thread(target=lambda: lines.extend(echo.stdout or []), daemon=True)
+        reader.start()
+        expected = "publishing /e2e/logged [std_msgs/String] for the sim"
+        deadline = time.monotonic() + 30
+        while not any(expected in line for line in list(lines)):  # until echo is connected
+            assert time.monotonic() < deadline, "the endpoint's event never reached /rosout"
+            connector.register_publisher("/e2e/logged", "std_msgs/String")
+            time.sleep(0.5)
