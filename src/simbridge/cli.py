@@ -46,24 +46,33 @@ def _add_endpoint_arg(parser: argparse.ArgumentParser) -> None:
 def _cmd_endpoint(args: argparse.Namespace) -> int:
     from simbridge.endpoint import EndpointOptions, EndpointServer, make_backend
 
-    backend = make_backend(args.backend, node_name=args.node_name)
-    host, port = args.host, args.port
-    options = EndpointOptions(
-        host=host,
-        port=port,
-        max_frame_size=int(args.max_frame_mb * 1024 * 1024),
-        idle_timeout=args.idle_timeout,
-    )
     if args.msg_path:
         from simbridge.messages import default_registry
 
         default_registry().load_packages(*args.msg_path)
-    server = EndpointServer(options, backend)
+    backend = make_backend(args.backend, node_name=args.node_name, ros_args=args.ros_args)
 
     async def run() -> None:
+        # Precedence: command-line flag, then the original node's ~tcp_ip/~tcp_port, then default.
+        host, port = args.host, args.port
+        if args.backend == "ros1":
+            from simbridge.endpoint.backends.ros1_node import read_drop_in_params
+
+            await backend.start()
+            param_host, param_port = read_drop_in_params()
+            host = host if host is not None else param_host
+            port = port if port is not None else param_port
+        options = EndpointOptions(
+            host=host if host is not None else "127.0.0.1",
+            port=port if port is not None else 10000,
+            max_frame_size=int(args.max_frame_mb * 1024 * 1024),
+            idle_timeout=args.idle_timeout,
+        )
+        server = EndpointServer(options, backend)
         await server.start()
         print(
-            f"simbridge endpoint listening on {host}:{server.port} (backend {backend.name})",
+            f"simbridge endpoint listening on {options.host}:{server.port} "
+            f"(backend {backend.name})",
             flush=True,
         )
         try:
@@ -283,8 +292,17 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     ep = sub.add_parser("endpoint", help="run the ROS-TCP endpoint (TCP server on the ROS side)")
-    ep.add_argument("--host", default="127.0.0.1", help="address to bind (default 127.0.0.1)")
-    ep.add_argument("--port", type=int, default=10000, help="TCP port (default 10000; 0 = any)")
+    ep.add_argument(
+        "--host",
+        default=None,
+        help="address to bind (default: ros1 param ~tcp_ip, else 127.0.0.1)",
+    )
+    ep.add_argument(
+        "--port",
+        type=int,
+        default=None,
+        help="TCP port (default: ros1 param ~tcp_port, else 10000; 0 = any free port)",
+    )
     ep.add_argument("--backend", choices=["local", "ros1"], default="local")
     ep.add_argument("--node-name", default="/simbridge_endpoint", help="ROS node name (ros1)")
     ep.add_argument("--max-frame-mb", type=float, default=64.0, help="largest accepted frame")
@@ -442,7 +460,11 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the `simbridge` console script."""
     parser = build_parser()
-    args = parser.parse_args(argv)
+    given = list(sys.argv[1:] if argv is None else argv)
+    # roslaunch appends ROS arguments (__name:=x, _tcp_port:=10000): keep them for rospy.
+    ros_args = tuple(arg for arg in given if ":=" in arg)
+    args = parser.parse_args([arg for arg in given if ":=" not in arg])
+    args.ros_args = ros_args
     quiet_tool = args.command in ("topic", "service", "msg", "urdf", "demo")
     level_name = args.log_level or ("WARNING" if quiet_tool else "INFO")
     logging.basicConfig(

@@ -300,3 +300,31 @@ def test_endpoint_events_reach_rosout(master: RosMaster, connector: Connector) -
             assert time.monotonic() < deadline, "the endpoint's event never reached /rosout"
             connector.register_publisher("/e2e/logged", "std_msgs/String")
             time.sleep(0.5)
+
+
+def test_drop_in_private_params_choose_the_address(master: RosMaster) -> None:
+    """Like ros_tcp_endpoint under roslaunch: `_tcp_ip:=` / `_tcp_port:=` set where it listens."""
+    port = free_port()
+    command = [sys.executable, "-m", "simbridge.cli", "endpoint", "--backend", "ros1"]
+    process = subprocess.Popen(
+        [*command, "--node-name", "/dropin_endpoint", "_tcp_ip:=127.0.0.1", f"_tcp_port:={port}"],
+        env=master.env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        stdin=subprocess.DEVNULL,
+        text=True,
+        start_new_session=True,
+    )
+    try:
+        assert process.stdout is not None
+        line = ""
+        deadline = time.monotonic() + 30
+        while time.monotonic() < deadline and "listening on" not in line:
+            line = process.stdout.readline()
+            if not line:
+                break
+        assert f"listening on 127.0.0.1:{port}" in line
+        with Connector("127.0.0.1", port, FAST).connect(wait=10) as conn:
+            assert isinstance(conn.topic_list(), dict)
+    finally:
+        terminate(process)

@@ -31,8 +31,10 @@ __all__ = [
 BACKENDS = ("local", "ros1")
 
 
-def make_backend(name: str, *, node_name: str = "/simbridge_endpoint") -> Backend:
-    """The backend called `name` ("local" or "ros1")."""
+def make_backend(
+    name: str, *, node_name: str = "/simbridge_endpoint", ros_args: tuple[str, ...] = ()
+) -> Backend:
+    """The backend called `name` ("local" or "ros1"); `ros_args` are ROS `a:=b` arguments."""
     if name == "local":
         return LocalBus()
     if name == "ros1":
@@ -41,5 +43,5 @@ def make_backend(name: str, *, node_name: str = "/simbridge_endpoint") -> Backen
             Ros1Options,
         )
 
-        return Ros1Backend(Ros1Options(node_name=node_name.lstrip("/")))
+        return Ros1Backend(Ros1Options(node_name=node_name.lstrip("/"), ros_args=ros_args))
     raise EndpointError(f"unknown backend {name!r}; choose one of {', '.join(BACKENDS)}")
