@@ -21,8 +21,8 @@ import yaml
 
 from simbridge.apps.pick_and_place import PLANNER_SERVICE, SERVICE_TYPE, PickAndPlaceTask
 from simbridge.apps.pick_and_place.conversion import pose_to_msg
-from simbridge.apps.pick_and_place.ros1_graph import master_answers
 from simbridge.endpoint.backends.ros1_genpy import generate_python_messages
+from simbridge.endpoint.backends.ros1_master import master_answers
 from simbridge.messages import default_registry
 from simbridge.planning import Pose, top_down_orientation
 from tests.ros1support import RosMaster, free_port, require_ros, shared_master

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import json
 from dataclasses import dataclass, field
-from typing import Any, ClassVar, Literal
+from typing import Any, ClassVar, Literal, get_args
 
 from simbridge.errors import ProtocolError
 from simbridge.protocol.framing import encode_frame
@@ -450,37 +450,8 @@ EndpointCommand = (
     | SubscriberCount
 )
 
-_FROM_CLIENT: dict[str, type[Command]] = {
-    c.NAME: c
-    for c in (
-        Subscribe,
-        Publish,
-        RosService,
-        UnityService,
-        RemoveSubscriber,
-        RemovePublisher,
-        RemoveRosService,
-        RemoveUnityService,
-        ServiceRequestHeader,
-        ServiceResponseHeader,
-        TopicListRequest,
-        StatsRequest,
-    )
-}
-_FROM_ENDPOINT: dict[str, type[Command]] = {
-    c.NAME: c
-    for c in (
-        Handshake,
-        LogMessage,
-        WarnMessage,
-        ErrorMessage,
-        ServiceRequestHeader,
-        ServiceResponseHeader,
-        TopicListReply,
-        StatsReply,
-        SubscriberCount,
-    )
-}
+_FROM_CLIENT: dict[str, type[Command]] = {c.NAME: c for c in get_args(ClientCommand)}
+_FROM_ENDPOINT: dict[str, type[Command]] = {c.NAME: c for c in get_args(EndpointCommand)}
 
 
 def decode_command(name: str, payload: bytes, *, sender: Sender) -> Command:

@@ -8,60 +8,24 @@ and this process's node is the endpoint's).
 
 from __future__ import annotations
 
-import contextlib
 import os
 import shutil
-import signal
-import socket
 import subprocess
 import sys
 import tempfile
 import time
-import urllib.parse
 import xmlrpc.client
 from pathlib import Path
 from typing import IO, Any
 
 from simbridge.apps.pick_and_place.planner_node import PLANNER_SERVICE
 from simbridge.apps.pick_and_place.scene import SCENE_PATH
-from simbridge.errors import AppError
+from simbridge.endpoint.backends.ros1_master import RosCore, master_answers, terminate
+from simbridge.errors import AppError, EndpointError
 
-__all__ = ["Ros1Graph", "master_answers"]
+__all__ = ["Ros1Graph"]
 
 _CALLER = "/simbridge_pick_and_place"
-
-
-def master_answers(uri: str, timeout: float = 1.0) -> bool:
-    """True when a ROS master answers getPid at ``uri``."""
-    url = urllib.parse.urlparse(uri)
-    if not url.hostname or not url.port:
-        return False
-    try:
-        with socket.create_connection((url.hostname, url.port), timeout=timeout):
-            pass
-        reply: Any = xmlrpc.client.ServerProxy(uri).getPid(_CALLER)
-    except (OSError, xmlrpc.client.Error):
-        return False
-    return isinstance(reply, list | tuple) and len(reply) == 3 and reply[0] == 1
-
-
-def _free_port() -> int:
-    with socket.socket() as sock:
-        sock.bind(("127.0.0.1", 0))
-        port: int = sock.getsockname()[1]
-        return port
-
-
-def _stop(process: subprocess.Popen[bytes], grace: float = 5.0) -> None:
-    """SIGINT the process group, then SIGKILL what is left."""
-    if process.poll() is None:
-        with contextlib.suppress(ProcessLookupError):
-            os.killpg(process.pid, signal.SIGINT)
-        with contextlib.suppress(subprocess.TimeoutExpired):
-            process.wait(grace)
-    with contextlib.suppress(ProcessLookupError):
-        os.killpg(process.pid, signal.SIGKILL)
-    process.wait()
 
 
 class Ros1Graph:
@@ -73,7 +37,7 @@ class Ros1Graph:
         self.master_uri = ""
         self.started_master = False
         self._home: Path | None = None
-        self._roscore: subprocess.Popen[bytes] | None = None
+        self._roscore: RosCore | None = None
         self._planner: subprocess.Popen[bytes] | None = None
         self._planner_log: IO[bytes] | None = None
         self._saved_env: dict[str, str | None] = {}
@@ -98,31 +62,21 @@ class Ros1Graph:
                 f"no ROS master answers at ROS_MASTER_URI={uri or '(unset)'} and roscore is "
                 "not installed; install ROS 1 (roscore) or use the local backend"
             )
-        port = _free_port()
-        self._home = Path(tempfile.mkdtemp(prefix="simbridge-pick-and-place-ros-"))
-        self.master_uri = f"http://127.0.0.1:{port}/"
+        roscore = RosCore()
+        try:
+            roscore.start(self.startup_timeout)
+        except EndpointError as exc:
+            raise AppError(str(exc)) from exc
+        self._roscore = roscore
+        self.started_master = True
+        self.master_uri = roscore.uri
         hostname = {} if os.environ.get("ROS_IP") else {"ROS_HOSTNAME": "127.0.0.1"}
         self._set_env(
-            ROS_MASTER_URI=self.master_uri,
-            ROS_HOME=str(self._home),
-            ROS_LOG_DIR=str(self._home / "log"),
+            ROS_MASTER_URI=roscore.uri,
+            ROS_HOME=str(roscore.home),
+            ROS_LOG_DIR=str(roscore.home / "log"),
             **hostname,
         )
-        with (self._home / "roscore.out").open("wb") as out:
-            self._roscore = subprocess.Popen(
-                ["roscore", "-p", str(port)],
-                stdout=out,
-                stderr=subprocess.STDOUT,
-                stdin=subprocess.DEVNULL,
-                start_new_session=True,
-            )
-        self.started_master = True
-        deadline = time.monotonic() + self.startup_timeout
-        while not master_answers(self.master_uri):
-            if self._roscore.poll() is not None or time.monotonic() > deadline:
-                output = (self._home / "roscore.out").read_text(errors="replace")
-                raise AppError(f"roscore on port {port} did not come up:\n{output[-2000:]}")
-            time.sleep(0.1)
 
     def _set_env(self, **values: str) -> None:
         for key, value in values.items():
@@ -170,13 +124,13 @@ class Ros1Graph:
     def stop(self) -> None:
         """Stop the planner node and a roscore this object started; restore the environment."""
         if self._planner is not None:
-            _stop(self._planner)
+            terminate(self._planner)
             self._planner = None
         if self._planner_log is not None:
             self._planner_log.close()
             self._planner_log = None
         if self._roscore is not None:
-            _stop(self._roscore)
+            self._roscore.stop()
             self._roscore = None
         for key, value in self._saved_env.items():
             if value is None:

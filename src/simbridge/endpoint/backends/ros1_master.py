@@ -1,0 +1,191 @@
+"""A private ROS 1 master (roscore) on a free port, and clean process shutdown.
+
+Used by the demos (when no master answers at ROS_MASTER_URI) and by the test suite.
+Every roscore runs in its own session with a private ROS_HOME; stopping it kills its
+whole process tree, since roslaunch gives its children process groups of their own.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import shutil
+import signal
+import socket
+import subprocess
+import tempfile
+import time
+import urllib.parse
+import xmlrpc.client
+from collections.abc import Iterator, Sequence
+from pathlib import Path
+from typing import Any
+
+from simbridge.errors import EndpointError
+
+__all__ = ["RosCore", "free_port", "master_answers", "terminate"]
+
+_CALLER = "/simbridge"
+
+
+def free_port() -> int:
+    """A TCP port on 127.0.0.1 that was free a moment ago."""
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        port: int = sock.getsockname()[1]
+        return port
+
+
+def master_answers(uri: str, timeout: float = 1.0) -> bool:
+    """True when a ROS master answers getPid at `uri`."""
+    url = urllib.parse.urlparse(uri)
+    if not url.hostname or not url.port:
+        return False
+    try:
+        with socket.create_connection((url.hostname, url.port), timeout=timeout):
+            pass
+        reply: Any = xmlrpc.client.ServerProxy(uri).getPid(_CALLER)
+    except (OSError, xmlrpc.client.Error):
+        return False
+    return isinstance(reply, list | tuple) and len(reply) == 3 and reply[0] == 1
+
+
+def _stat(pid: int) -> tuple[int, str] | None:
+    """(parent pid, start time) of a live process, from /proc."""
+    try:
+        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+        return int(fields[1]), fields[19]
+    except (OSError, ValueError, IndexError):
+        return None
+
+
+def _descendants(pid: int) -> list[tuple[int, str]]:
+    """Every live process below `pid`, with its start time."""
+    children: dict[int, list[tuple[int, str]]] = {}
+    for entry in Path("/proc").iterdir():
+        stat = _stat(int(entry.name)) if entry.name.isdigit() else None
+        if stat is not None:
+            children.setdefault(stat[0], []).append((int(entry.name), stat[1]))
+    found: list[tuple[int, str]] = []
+    todo = [pid]
+    while todo:
+        for child in children.get(todo.pop(), []):
+            found.append(child)
+            todo.append(child[0])
+    return found
+
+
+def terminate(process: subprocess.Popen[bytes] | subprocess.Popen[str], grace: float = 5) -> None:
+    """Stop a process started in its own session, and everything it started:
+    SIGINT to its group, SIGKILL after `grace` seconds, then any descendant left."""
+    below = _descendants(process.pid) if process.poll() is None else []
+    if process.poll() is None:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(process.pid, signal.SIGINT)
+        with contextlib.suppress(subprocess.TimeoutExpired):
+            process.wait(grace)
+    with contextlib.suppress(ProcessLookupError):
+        os.killpg(process.pid, signal.SIGKILL)
+    process.wait()
+    for pid, started in below:  # those that outlived a clean shutdown (same start time)
+        stat = _stat(pid)
+        if stat is not None and stat[1] == started:
+            with contextlib.suppress(ProcessLookupError):
+                os.kill(pid, signal.SIGKILL)
+
+
+class RosCore:
+    """A roscore on a free port with a private ROS_HOME; use as a context manager."""
+
+    def __init__(self, port: int | None = None) -> None:
+        self.port = port or free_port()
+        self.uri = f"http://127.0.0.1:{self.port}/"
+        self.home = Path(tempfile.mkdtemp(prefix="simbridge-roshome-"))
+        self._process: subprocess.Popen[bytes] | None = None
+
+    @property
+    def env(self) -> dict[str, str]:
+        """The environment a ROS process needs to use this master."""
+        env = dict(os.environ)
+        env.update(
+            ROS_MASTER_URI=self.uri,
+            ROS_HOSTNAME="127.0.0.1",
+            ROS_HOME=str(self.home),
+            ROS_LOG_DIR=str(self.home / "log"),
+            PYTHONUNBUFFERED="1",
+        )
+        env.pop("ROS_IP", None)
+        return env
+
+    def start(self, timeout: float = 30) -> RosCore:
+        """Start roscore and wait until the master and /rosout answer."""
+        if shutil.which("roscore") is None:
+            raise EndpointError("roscore is not installed; install ros-core (make sysdeps)")
+        with (self.home / "roscore.out").open("wb") as log:
+            self._process = subprocess.Popen(
+                ["roscore", "-p", str(self.port)],
+                env=self.env,
+                stdout=log,
+                stderr=subprocess.STDOUT,
+                stdin=subprocess.DEVNULL,
+                start_new_session=True,
+            )
+        deadline = time.monotonic() + timeout
+        master = xmlrpc.client.ServerProxy(self.uri)
+        while time.monotonic() < deadline and self._process.poll() is None:
+            with contextlib.suppress(OSError):
+                reply: Any = master.getSystemState(_CALLER)
+                code, _, state = reply
+                publishers = state[0] if code == 1 else []
+                if any(topic == "/rosout_agg" for topic, _ in publishers):
+                    return self
+            time.sleep(0.1)
+        output = (self.home / "roscore.out").read_text(errors="replace")
+        self.stop()
+        raise EndpointError(f"roscore on port {self.port} did not come up:\n{output[-2000:]}")
+
+    def stop(self) -> None:
+        """Kill roscore's whole process tree and remove ROS_HOME."""
+        if self._process is not None:
+            terminate(self._process)
+            self._process = None
+        shutil.rmtree(self.home, ignore_errors=True)
+
+    def __enter__(self) -> RosCore:
+        return self.start()
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
+
+    def run(self, args: Sequence[str], timeout: float = 30) -> subprocess.CompletedProcess[str]:
+        """Run a ROS tool (rostopic, rosservice ...) against this master, to completion."""
+        return subprocess.run(
+            list(args),
+            env=self.env,
+            capture_output=True,
+            text=True,
+            timeout=timeout,
+            stdin=subprocess.DEVNULL,
+            check=False,
+        )
+
+    def spawn(self, args: Sequence[str]) -> subprocess.Popen[str]:
+        """Start a ROS process against this master in its own session (stop with terminate)."""
+        return subprocess.Popen(
+            list(args),
+            env=self.env,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            stdin=subprocess.DEVNULL,
+            text=True,
+            start_new_session=True,
+        )
+
+    @contextlib.contextmanager
+    def running(self, args: Sequence[str]) -> Iterator[subprocess.Popen[str]]:
+        """`spawn` that always terminates the process on exit."""
+        process = self.spawn(args)
+        try:
+            yield process
+        finally:
+            terminate(process)
