@@ -14,12 +14,11 @@ from simbridge.sim.ros.convert import (
 from simbridge.sim.ros.diff_drive_link import DiffDriveLink, measure_wheels
 from simbridge.sim.ros.publishers import StatePublisher
 from simbridge.sim.ros.sensor_link import SensorPublisher
-from simbridge.sim.ros.services import STEP_SRV, STEP_SRV_TEXT, ControlServices
+from simbridge.sim.ros.services import STEP_SRV, ControlServices
 from simbridge.sim.ros.session import SimulationSession, parse_endpoint, run_scene
 
 __all__ = [
     "STEP_SRV",
-    "STEP_SRV_TEXT",
     "CommandSubscriber",
     "ControlServices",
     "DiffDriveLink",

@@ -9,11 +9,11 @@ from simbridge.connector import Connector
 from simbridge.messages import MessageRegistry
 from simbridge.sim.world.world import World
 
-__all__ = ["STEP_SRV", "STEP_SRV_TEXT", "ControlServices"]
+__all__ = ["STEP_SRV", "ControlServices"]
 
 STEP_SRV = "simbridge_msgs/StepSimulation"
-STEP_SRV_TEXT = "uint32 steps\n---\nfloat64 sim_time\nbool success\nstring message\n"
-"""Request: how many physics steps to advance; response: sim time after them."""
+"""Shipped with the message definitions (so a separate endpoint process knows it too).
+Request: how many physics steps to advance; response: sim time after them."""
 
 
 class ControlServices:
@@ -31,8 +31,6 @@ class ControlServices:
         self.world, self.connector, self.registry = world, connector, registry
         self.prefix = prefix.rstrip("/")
         self.step_timeout = step_timeout
-        if not registry.has_service(STEP_SRV):
-            registry.add_service(STEP_SRV, STEP_SRV_TEXT)
         self._services: list[str] = []
 
     def start(self) -> None:
