@@ -245,3 +245,38 @@ def test_subscriber_counts_follow_subscriptions(endpoint, make_connector):
     sub.unsubscribe()
     assert wait_until(lambda: scan.subscriber_count == 0)
     assert plain.subscriber_count is None  # not asked for
+
+
+def test_failing_sim_service_handler_fails_the_ros_call_at_once() -> None:
+    """With the service_error extension the caller hears of the failure now, not at timeout."""
+    import time
+
+    from simbridge.connector import Connector, ConnectorOptions
+    from simbridge.endpoint import EndpointOptions, EndpointThread, LocalBus
+    from simbridge.errors import ServiceError
+    from simbridge.messages import default_registry
+
+    reg = default_registry()
+
+    def broken(request: object) -> object:
+        raise RuntimeError("gripper jammed")
+
+    options = EndpointOptions(port=0, service_timeout=20.0)
+    with EndpointThread(options) as endpoint:
+        opts = ConnectorOptions(reconnect_initial=0.2)
+        with (
+            Connector("127.0.0.1", endpoint.port, opts).connect() as sim,
+            Connector("127.0.0.1", endpoint.port, opts).connect() as tool,
+        ):
+            sim.implement_service("/grip", "std_srvs/Trigger", broken)
+            assert sim.flush(5)
+            deadline = time.monotonic() + 5
+            bus = endpoint.backend
+            assert isinstance(bus, LocalBus)
+            while "/grip" not in endpoint.call(bus.services) and time.monotonic() < deadline:
+                time.sleep(0.02)
+            tool.register_ros_service("/grip", "std_srvs/Trigger")
+            start = time.monotonic()
+            with pytest.raises(ServiceError, match="gripper jammed"):
+                tool.call("/grip", reg.new("std_srvs/TriggerRequest"), timeout=15)
+            assert time.monotonic() - start < 5

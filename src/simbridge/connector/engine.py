@@ -44,6 +44,7 @@ from simbridge.protocol import (
     ProtocolViolation,
     Publish,
     RosService,
+    ServiceFailure,
     ServiceRequestReceived,
     ServiceResponseReceived,
     StatsReply,
@@ -352,13 +353,29 @@ class ConnectorEngine:
         return True
 
     def _serve(self, impl: ServiceImpl, srv_id: int, payload: bytes, generation: int) -> None:
-        """Run a sim-side service handler and queue its response (dispatch thread)."""
-        response = impl.serve(payload, self._codec)
+        """Run a sim-side service handler and queue its response (dispatch thread).
+
+        A failing handler is logged; an endpoint offering the `service_error` extension
+        is told, so the ROS caller gets the error at once instead of timing out.
+        """
+        failure: str | None = None
+        try:
+            response = impl.serve(payload, self._codec)
+        except Exception as exc:
+            _log.exception("service handler for %s failed", impl.service)
+            self._counters.callback_failed()
+            failure = f"{type(exc).__name__}: {exc}"
         with self._lock:
             if self._generation != generation or self._link is None:
                 _log.warning("connection lost before %s could answer", impl.service)
                 return
-            self._out.put_control(self._framer.service_response(srv_id, impl.service, response))
+            if failure is None:
+                frame = self._framer.service_response(srv_id, impl.service, response)
+            elif "service_error" in self._extensions:
+                frame = self._framer.command(ServiceFailure(srv_id, failure))
+            else:
+                return
+            self._out.put_control(frame)
 
     def _on_command(self, command: Command) -> None:
         if isinstance(command, Handshake):

@@ -35,6 +35,7 @@ from simbridge.protocol import (
     RemoveSubscriber,
     RemoveUnityService,
     RosService,
+    ServiceFailure,
     ServiceRequestReceived,
     ServiceResponseReceived,
     StatsReply,
@@ -364,6 +365,16 @@ class ClientSession(asyncio.BufferedProtocol):
             infos = backend.topics()
             reply = TopicListReply(tuple(t.name for t in infos), tuple(t.msg_type for t in infos))
             self._send_control(reply.encode())
+        elif isinstance(command, ServiceFailure):
+            future = self._pending.pop(command.srv_id, None)
+            if future is None:
+                self.send_error(f"__service_error for unknown srv_id {command.srv_id}")
+            elif not future.done():
+                future.set_exception(
+                    ServiceError(
+                        f"the service handler in client {self.peer} failed: {command.text}"
+                    )
+                )
         elif isinstance(command, StatsRequest):
             stats = {"session": self.stats.as_dict(), "server": self.server.stats()}
             self._send_control(StatsReply(stats).encode())

@@ -28,6 +28,7 @@ __all__ = [
     "RemoveSubscriber",
     "RemoveUnityService",
     "RosService",
+    "ServiceFailure",
     "ServiceHeader",
     "ServiceRequestHeader",
     "ServiceResponseHeader",
@@ -43,7 +44,7 @@ __all__ = [
 ]
 
 PROTOCOL_VERSION = "v0.7.0"
-EXTENSIONS = ("keepalive", "error_srv_id", "stats", "subscribers")
+EXTENSIONS = ("keepalive", "error_srv_id", "stats", "subscribers", "service_error")
 """simbridge additions an endpoint announces in its handshake metadata (`extensions`)."""
 DEFAULT_SUBSCRIBE_QUEUE = 100
 """Per-client send queue bound for a subscription that names none (simbridge extension)."""
@@ -396,6 +397,23 @@ class SubscriberCount(Command):
 
 
 @dataclass(frozen=True, slots=True)
+class ServiceFailure(Command):
+    """simbridge extension: the client's handler for request `srv_id` failed (instead of
+    a `__response`), so the ROS caller gets the error at once rather than a timeout."""
+
+    NAME: ClassVar[str] = "__service_error"
+    srv_id: int
+    text: str
+
+    def to_json(self) -> dict[str, Any]:
+        return {"srv_id": self.srv_id, "text": self.text}
+
+    @classmethod
+    def from_json(cls, obj: dict[str, Any]) -> Command:
+        return cls(_get_int(cls.NAME, obj, "srv_id"), _get_str(cls.NAME, obj, "text"))
+
+
+@dataclass(frozen=True, slots=True)
 class StatsRequest(Command):
     """simbridge extension: ask the endpoint for this connection's counters."""
 
@@ -437,6 +455,7 @@ ClientCommand = (
     | ServiceResponseHeader
     | TopicListRequest
     | StatsRequest
+    | ServiceFailure
 )
 EndpointCommand = (
     Handshake
