@@ -6,17 +6,19 @@ STAMP := $(VENV)/.installed
 export MUJOCO_GL ?= osmesa
 export PYOPENGL_PLATFORM ?= osmesa
 
-.PHONY: all demo test lint typecheck pytest bench sysdeps clean
+.PHONY: all demo test lint typecheck pytest bench sysdeps constraints clean
 
 all: test
 
 sysdeps:
 	@bash scripts/install-system-deps.sh
 
-$(STAMP): pyproject.toml | sysdeps
+$(STAMP): pyproject.toml constraints.txt | sysdeps
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install -q --upgrade pip
-	$(BIN)/pip install -q -e '.[dev,planning]'
+	@# constraints.txt pins the versions the suite was last run with (regenerate with
+	@# `make constraints` after an intentional upgrade).
+	$(BIN)/pip install -q -c constraints.txt -e '.[dev]'
 	@# rospy and the ROS message modules live in Debian's dist-packages; append
 	@# that directory (after the venv's own packages) so the venv can import them.
 	@$(BIN)/python -c "import site, pathlib; pathlib.Path(site.getsitepackages()[0], 'zz_debian_dist_packages.pth').write_text('/usr/lib/python3/dist-packages\n')"
@@ -41,6 +43,10 @@ test: sysdeps $(STAMP)
 
 bench: sysdeps $(STAMP)
 	$(BIN)/python benchmarks/run.py
+
+constraints: $(STAMP)
+	$(BIN)/pip freeze --path $$($(BIN)/python -c "import site; print(site.getsitepackages()[0])") \
+	  | grep -v -e '^-e' -e '^#' -e '^simbridge' -e '^pip==' -e '^setuptools==' > constraints.txt
 
 clean:
 	rm -rf $(VENV) .mypy_cache .ruff_cache .pytest_cache
