@@ -17,6 +17,7 @@ from simbridge.protocol import (
     MessageReceived,
     ProtocolConnection,
     Publish,
+    RemovePublisher,
     RemoveSubscriber,
     RosService,
     ServiceRequestHeader,
@@ -331,3 +332,50 @@ def test_subscriber_counts_reported_when_asked(endpoint: EndpointThread) -> None
         for e in quiet.events
         if isinstance(e, CommandReceived) and isinstance(e.command, SubscriberCount)
     ]
+
+
+def test_registrations_per_client_are_bounded() -> None:
+    with EndpointThread(EndpointOptions(port=0, max_registrations=3)) as ep:
+        c = RawClient(ep.port)
+        for i in range(3):
+            c.send(Publish(f"/t{i}", "std_msgs/String").encode())
+        c.send(Subscribe("/one_too_many", "std_msgs/String").encode())
+        text = error_text(c)
+        assert "'/one_too_many'" in text
+        assert "3 registrations" in text
+        c.send(Publish("/t0", "std_msgs/String").encode())  # re-registering is fine
+        c.send(RemovePublisher("/t1").encode())
+        c.send(Subscribe("/now_fits", "std_msgs/String").encode())
+        sync(c)
+        assert not [e for e in c.events if is_cmd(ErrorMessage)(e)]
+        c.close()
+
+
+def test_inflight_service_calls_per_client_are_bounded() -> None:
+    with EndpointThread(EndpointOptions(port=0, max_inflight_calls=2, service_timeout=5)) as ep:
+        server, caller = RawClient(ep.port), RawClient(ep.port)
+        server.send(UnityService("/slow", "std_srvs/Empty").encode())
+        sync(server)
+        caller.send(RosService("/slow", "std_srvs/Empty").encode())
+        for srv_id in (1, 2, 3):
+            caller.send(ProtocolConnection.service_request(srv_id, "/slow", b""))
+        refused = caller.expect(is_cmd(ErrorMessage)).command
+        assert refused.srv_id == 3
+        assert "2 calls already in flight" in refused.text
+        # The two accepted calls reached the provider and are answered normally.
+        for _ in range(2):
+            req = server.expect(lambda e: isinstance(e, ServiceRequestReceived))
+            server.send(ProtocolConnection.service_response(req.srv_id, "/slow", b""))
+        got = {
+            caller.expect(lambda e: isinstance(e, ServiceResponseReceived)).srv_id for _ in range(2)
+        }
+        assert got == {1, 2}
+
+
+def test_flood_of_unregistered_topics_stays_bounded(
+    client: RawClient, endpoint: EndpointThread
+) -> None:
+    client.send(b"".join(encode_frame(f"/junk{i}", b"x") for i in range(5000)))
+    sync(client)
+    sessions = endpoint.call(lambda: list(endpoint.server.sessions))
+    assert all(len(s._unregistered_seen) <= 1024 for s in sessions)

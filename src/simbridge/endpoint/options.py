@@ -15,7 +15,8 @@ class EndpointOptions:
 
     Every buffer is bounded: frames by `max_frame_size`, a slow client's kernel-side
     backlog by `write_high_water`, queued messages by each registration's queue_size,
-    control frames (service replies, errors) by `max_control_backlog`.
+    control frames (service replies, errors) by `max_control_backlog`, and what one
+    client may hold by `max_registrations` and `max_inflight_calls`.
     """
 
     host: str = "127.0.0.1"
@@ -33,3 +34,7 @@ class EndpointOptions:
     """Control frames queued for a stalled client before it is disconnected."""
     warn_interval: float = 1.0
     """Shortest time between two drop/error summaries sent to one client."""
+    max_registrations: int = 10_000
+    """Publishers + subscriptions + services one client may hold at once."""
+    max_inflight_calls: int = 1_000
+    """Service calls one client may have waiting for an answer at once."""

@@ -9,7 +9,7 @@ import socket
 import struct
 import time
 from collections import deque
-from collections.abc import Awaitable, Callable, Coroutine
+from collections.abc import Awaitable, Callable, Coroutine, Mapping
 from typing import TYPE_CHECKING, Any
 
 from simbridge.endpoint.backends.base import (
@@ -18,7 +18,7 @@ from simbridge.endpoint.backends.base import (
     BackendSubscription,
 )
 from simbridge.endpoint.stats import SessionStats
-from simbridge.errors import ServiceError, SimbridgeError
+from simbridge.errors import EndpointError, ServiceError, SimbridgeError
 from simbridge.protocol import (
     EXTENSIONS,
     KEEPALIVE,
@@ -59,6 +59,9 @@ _pack_u32 = struct.Struct("<I").pack
 
 _WRITE_ALONE = 64 * 1024
 """Chunks at least this big are written without joining them to their neighbours."""
+
+_MAX_REMEMBERED = 1024
+"""Unregistered topics remembered (to rate-limit their errors) before forgetting all."""
 
 FIRST_SRV_ID = 1001
 """Ids of endpoint-initiated service requests start here, as in the original endpoint."""
@@ -290,6 +293,8 @@ class ClientSession(asyncio.BufferedProtocol):
         now = time.monotonic()
         if now - self._unregistered_seen.get(topic, -1e9) < self.options.warn_interval:
             return
+        if len(self._unregistered_seen) >= _MAX_REMEMBERED:
+            self._unregistered_seen.clear()
         self._unregistered_seen[topic] = now
         if topic in self.ros_services or topic in self.unity_services:
             hint = "a service frame must follow a __request or __response header"
@@ -304,7 +309,15 @@ class ClientSession(asyncio.BufferedProtocol):
             except SimbridgeError as exc:
                 self.send_error(f"{event.command.NAME} failed: {exc}")
         elif isinstance(event, ServiceRequestReceived):
-            self._spawn(self._serve_client_request(event))
+            if len(self._tasks) >= self.options.max_inflight_calls:
+                self.send_error(
+                    f"call of {event.service!r} (srv_id {event.srv_id}) refused: "
+                    f"{len(self._tasks)} calls already in flight (limit "
+                    f"{self.options.max_inflight_calls}); wait for answers first",
+                    event.srv_id,
+                )
+            else:
+                self._spawn(self._serve_client_request(event))
         elif isinstance(event, ServiceResponseReceived):
             future = self._pending.pop(event.srv_id, None)
             if future is None:
@@ -317,10 +330,27 @@ class ClientSession(asyncio.BufferedProtocol):
                 self._flush()
                 self.close()
 
+    def _registrations(self) -> int:
+        return (
+            len(self.publishers)
+            + len(self.subscriptions)
+            + len(self.ros_services)
+            + len(self.unity_services)
+        )
+
+    def _check_room(self, topic: str, held: Mapping[str, object]) -> None:
+        limit = self.options.max_registrations
+        if topic not in held and self._registrations() >= limit:
+            raise EndpointError(
+                f"{topic!r} not registered: this client already holds {limit} registrations "
+                "(the limit); remove some with __remove_* first"
+            )
+
     def _handle_command(self, command: Command) -> None:
         types = self.server.types
         backend = self.server.backend
         if isinstance(command, Publish):
+            self._check_room(command.topic, self.publishers)
             msg_type = types.message(command.message_name)
             self._drop_publisher(command.topic)
             publisher = backend.advertise(
@@ -336,6 +366,7 @@ class ClientSession(asyncio.BufferedProtocol):
                 ):
                     send(SubscriberCount(topic, -1).encode())
         elif isinstance(command, Subscribe):
+            self._check_room(command.topic, self.subscriptions)
             msg_type = types.message(command.message_name)
             self._drop_subscription(command.topic)
             outbox = _Outbox(command.topic, command.queue_size)
@@ -345,8 +376,10 @@ class ClientSession(asyncio.BufferedProtocol):
             )
             self.subscriptions[command.topic] = (subscription, outbox)
         elif isinstance(command, RosService):
+            self._check_room(command.topic, self.ros_services)
             self.ros_services[command.topic] = types.service(command.message_name)
         elif isinstance(command, UnityService):
+            self._check_room(command.topic, self.unity_services)
             srv_type = types.service(command.message_name)
             self._drop_unity_service(command.topic)
             server = backend.advertise_service(
