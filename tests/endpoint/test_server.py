@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import struct
+import time
 from collections.abc import Callable, Iterator
 
 import pytest
@@ -379,3 +380,19 @@ def test_flood_of_unregistered_topics_stays_bounded(
     sync(client)
     sessions = endpoint.call(lambda: list(endpoint.server.sessions))
     assert all(len(s._unregistered_seen) <= 1024 for s in sessions)
+
+
+def test_connections_are_bounded() -> None:
+    with EndpointThread(EndpointOptions(port=0, max_clients=2)) as ep:
+        a, b = RawClient(ep.port), RawClient(ep.port)
+        sync(a)
+        sync(b)
+        third = RawClient(ep.port)
+        assert "endpoint full" in error_text(third)
+        assert third.closed_by_peer()
+        a.close()
+        assert ep.call(lambda: len(ep.server.sessions)) <= 2
+        deadline = time.monotonic() + 5
+        while ep.call(lambda: len(ep.server.sessions)) > 1 and time.monotonic() < deadline:
+            time.sleep(0.02)
+        sync(RawClient(ep.port))  # room again

@@ -34,6 +34,8 @@ class EndpointOptions:
     """Control frames queued for a stalled client before it is disconnected."""
     warn_interval: float = 1.0
     """Shortest time between two drop/error summaries sent to one client."""
+    max_clients: int = 1_000
+    """Connections served at once; more are told so and closed."""
     max_registrations: int = 10_000
     """Publishers + subscriptions + services one client may hold at once."""
     max_inflight_calls: int = 1_000

@@ -122,6 +122,17 @@ class ClientSession(asyncio.BufferedProtocol):
         peer = transport.get_extra_info("peername")
         self.peer = f"{peer[0]}:{peer[1]}" if isinstance(peer, tuple) else str(peer)
         transport.set_write_buffer_limits(high=self.options.write_high_water)
+        if len(self.server._sessions) >= self.options.max_clients:
+            log.warning(
+                "refusing client %s: %d clients connected", self.peer, self.options.max_clients
+            )
+            transport.write(
+                ErrorMessage(
+                    f"endpoint full: {self.options.max_clients} clients connected (the limit)"
+                ).encode()
+            )
+            transport.close()
+            return
         self.server._sessions.add(self)
         log.info("client %s connected", self.peer)
         meta = {
