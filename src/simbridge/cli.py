@@ -67,6 +67,7 @@ def _cmd_endpoint(args: argparse.Namespace) -> int:
             port=port if port is not None else 10000,
             max_frame_size=int(args.max_frame_mb * 1024 * 1024),
             idle_timeout=args.idle_timeout,
+            max_clients=args.max_clients,
         )
         server = EndpointServer(options, backend)
         await server.start()
@@ -306,6 +307,9 @@ def build_parser() -> argparse.ArgumentParser:
     ep.add_argument("--backend", choices=["local", "ros1"], default="local")
     ep.add_argument("--node-name", default="/simbridge_endpoint", help="ROS node name (ros1)")
     ep.add_argument("--max-frame-mb", type=float, default=64.0, help="largest accepted frame")
+    ep.add_argument(
+        "--max-clients", type=int, default=1000, help="connections served at once (default 1000)"
+    )
     ep.add_argument(
         "--idle-timeout",
         type=float,
