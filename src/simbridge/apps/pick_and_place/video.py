@@ -1,6 +1,7 @@
 """Offscreen video of a run: frames rendered headless, written as a GIF (Pillow) or MP4.
 
-MP4 needs an ffmpeg executable on PATH (frames are piped to it); GIF needs nothing more.
+MP4 frames are piped to ffmpeg: the one on PATH, else the binary the imageio-ffmpeg
+package ships. GIF needs nothing more.
 """
 
 from __future__ import annotations
@@ -35,6 +36,19 @@ def _look_at(eye: tuple[float, float, float], target: tuple[float, float, float]
     return Pose(position, np.column_stack([forward, left, up]))
 
 
+def ffmpeg_executable() -> str | None:
+    """An ffmpeg to encode MP4 with: PATH first, then imageio-ffmpeg's bundled binary."""
+    found = shutil.which("ffmpeg")
+    if found is not None:
+        return found
+    try:
+        import imageio_ffmpeg  # noqa: PLC0415 - optional, heavy only when MP4 is asked for
+
+        return str(imageio_ffmpeg.get_ffmpeg_exe())
+    except (ImportError, RuntimeError):
+        return None
+
+
 def check_video_path(path: str | Path) -> Path:
     """Validate the output path before the run: known suffix, encoder available, folder exists."""
     out = Path(path)
@@ -44,10 +58,10 @@ def check_video_path(path: str | Path) -> Path:
             f"video {str(out)!r}: unknown format {suffix or '(none)'!r}; "
             f"use one of {', '.join(VIDEO_FORMATS)}"
         )
-    if suffix == ".mp4" and shutil.which("ffmpeg") is None:
+    if suffix == ".mp4" and ffmpeg_executable() is None:
         raise AppError(
-            f"video {str(out)!r}: writing MP4 needs the ffmpeg executable, which is not on PATH; "
-            "install ffmpeg or ask for a .gif instead"
+            f"video {str(out)!r}: writing MP4 needs ffmpeg (on PATH or from the imageio-ffmpeg "
+            "package); install one or ask for a .gif instead"
         )
     if not out.parent.is_dir():
         raise AppError(f"video {str(out)!r}: folder {str(out.parent)!r} does not exist")
@@ -111,9 +125,9 @@ class VideoRecorder:
 
     def _write_mp4(self) -> None:
         height, width = self._frames[0].shape[:2]
-        ffmpeg = shutil.which("ffmpeg")
+        ffmpeg = ffmpeg_executable()
         if ffmpeg is None:
-            raise AppError("writing MP4 needs the ffmpeg executable, which is not on PATH")
+            raise AppError("writing MP4 needs ffmpeg (on PATH or from the imageio-ffmpeg package)")
         command = [
             ffmpeg, "-y", "-loglevel", "error", "-f", "rawvideo", "-pix_fmt", "rgb24",
             "-s", f"{width}x{height}", "-r", f"{self.fps:g}", "-i", "-",
