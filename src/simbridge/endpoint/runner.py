@@ -5,7 +5,7 @@ from __future__ import annotations
 import asyncio
 import concurrent.futures
 import threading
-from collections.abc import Awaitable, Callable
+from collections.abc import Callable
 from typing import Any, TypeVar
 
 from simbridge.endpoint.backends.base import Backend
@@ -85,14 +85,6 @@ class EndpointThread:
 
         self.loop.call_soon_threadsafe(run)
         return future.result(timeout)
-
-    def run_coroutine(self, coro: Awaitable[T], timeout: float = 30.0) -> T:
-        """Await `coro` on the endpoint's loop from another thread."""
-
-        async def wrap() -> T:
-            return await coro
-
-        return asyncio.run_coroutine_threadsafe(wrap(), self.loop).result(timeout)
 
     def stop(self, timeout: float = 10.0) -> None:
         """Close every connection and stop the thread."""

@@ -47,7 +47,7 @@ from simbridge.protocol import (
     UnityService,
     WarnMessage,
 )
-from simbridge.protocol.commands import Command, LogMessage
+from simbridge.protocol.commands import Command
 
 if TYPE_CHECKING:
     from simbridge.endpoint.server import EndpointServer
@@ -513,7 +513,3 @@ class ClientSession(asyncio.BufferedProtocol):
         self._pending.clear()
         for task in list(self._tasks):
             task.cancel()
-
-    def log_to_client(self, text: str) -> None:
-        """Send an informational `__log`."""
-        self._send_control(LogMessage(text).encode())

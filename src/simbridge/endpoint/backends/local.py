@@ -46,7 +46,6 @@ class _Topic:
 
     publishers: int = 0
     latched: dict[int, bytes] = field(default_factory=dict)
-    published: int = 0
 
 
 @dataclass(slots=True)
@@ -70,7 +69,6 @@ class _Publisher(BackendPublisher):
         state = self._state
         if state is None:
             raise EndpointError(f"publisher for {self._topic!r} is closed")
-        state.published += 1
         if self._latch:
             state.latched[self._id] = payload
         for callback in state.fanout:
