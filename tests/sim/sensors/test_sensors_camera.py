@@ -20,6 +20,7 @@ from simbridge.sim.sensors import (
     optical_pose,
 )
 from simbridge.sim.sensors.depth_camera import CLOUD_DTYPE
+from tests.sim.sensors.conftest import forward_model
 
 BALL = np.array([2.0, 0.35, 1.25])
 BALL_RADIUS = 0.03
@@ -42,10 +43,7 @@ SCENE = f"""
 
 @pytest.fixture(scope="module")
 def world() -> tuple[mujoco.MjModel, mujoco.MjData]:
-    model = mujoco.MjModel.from_xml_string(SCENE)
-    data = mujoco.MjData(model)
-    mujoco.mj_forward(model, data)
-    return model, data
+    return forward_model(SCENE)
 
 
 @pytest.fixture(scope="module")

@@ -14,6 +14,7 @@ from hypothesis import strategies as st
 from simbridge.errors import SimError
 from simbridge.sim.sensors import Lidar2D, Lidar2DConfig, Lidar3D, Lidar3DConfig
 from simbridge.sim.sensors.lidar3d import POINT_DTYPE
+from tests.sim.sensors.conftest import forward_model
 
 WALL_X = 2.0  # the wall's near face
 WALL_HALF_WIDTH = 1.0  # in y
@@ -36,10 +37,7 @@ SCENE = f"""
 
 @pytest.fixture(scope="module")
 def world() -> tuple[mujoco.MjModel, mujoco.MjData]:
-    model = mujoco.MjModel.from_xml_string(SCENE)
-    data = mujoco.MjData(model)
-    mujoco.mj_forward(model, data)
-    return model, data
+    return forward_model(SCENE)
 
 
 def expected_ranges(angles: np.ndarray, origin_x: float = 0.0) -> np.ndarray:

@@ -23,6 +23,7 @@ from simbridge.sim.sensors import (
     configure_gl,
 )
 from simbridge.sim.sensors.gl_backend import is_software_renderer, probe_egl
+from tests.sim.sensors.conftest import forward_model
 
 SCENE = """
 <mujoco>
@@ -54,9 +55,7 @@ CONFIGS = [
 
 @pytest.fixture
 def world():
-    model = mujoco.MjModel.from_xml_string(SCENE)
-    data = mujoco.MjData(model)
-    mujoco.mj_forward(model, data)
+    model, data = forward_model(SCENE)
     suite = SensorSuite.from_config(model, CONFIGS)
     yield model, data, suite
     suite.close()

@@ -12,7 +12,7 @@ from numpy.typing import NDArray
 from simbridge.errors import SimError
 from simbridge.sim.sensors.base import Sensor
 from simbridge.sim.sensors.config import SensorConfig
-from simbridge.sim.sensors.raycast import RayCaster, body_ids
+from simbridge.sim.sensors.raycast import RayCaster, body_ids, check_range_limits
 from simbridge.sim.sensors.rosmsg import Publication, header, new_message
 
 __all__ = ["LaserScanResult", "Lidar2D", "Lidar2DConfig", "apply_range_limits"]
@@ -64,11 +64,7 @@ class Lidar2D(Sensor):
                 f"lidar {config.name!r}: needs samples >= 2 and angle_max > angle_min, got "
                 f"samples={config.samples}, angles [{config.angle_min}, {config.angle_max}]"
             )
-        if not 0 <= config.range_min < config.range_max:
-            raise SimError(
-                f"lidar {config.name!r}: needs 0 <= range_min < range_max, got "
-                f"[{config.range_min}, {config.range_max}]"
-            )
+        check_range_limits(config.name, config.range_min, config.range_max)
         frame = config.mount().resolve(model)
         self.config = config
         self.topic = config.topic or "scan"

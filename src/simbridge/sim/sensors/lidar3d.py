@@ -12,7 +12,7 @@ from numpy.typing import NDArray
 from simbridge.errors import SimError
 from simbridge.sim.sensors.base import Sensor
 from simbridge.sim.sensors.config import SensorConfig
-from simbridge.sim.sensors.raycast import RayCaster, body_ids
+from simbridge.sim.sensors.raycast import RayCaster, body_ids, check_range_limits
 from simbridge.sim.sensors.rosmsg import Publication, header, point_cloud2
 
 __all__ = ["POINT_DTYPE", "Lidar3D", "Lidar3DConfig", "PointScan"]
@@ -69,11 +69,7 @@ class Lidar3D(Sensor):
                 f"lidar {config.name!r}: channels and samples must be >= 1, got "
                 f"{config.channels} x {config.samples}"
             )
-        if not 0 <= config.range_min < config.range_max:
-            raise SimError(
-                f"lidar {config.name!r}: needs 0 <= range_min < range_max, got "
-                f"[{config.range_min}, {config.range_max}]"
-            )
+        check_range_limits(config.name, config.range_min, config.range_max)
         frame = config.mount().resolve(model)
         self.config = config
         self.topic = config.topic or "points"

@@ -13,7 +13,7 @@ from numpy.typing import NDArray
 from simbridge.errors import SimError
 from simbridge.sim.sensors.frames import Pose
 
-__all__ = ["RayCaster", "RayHits", "body_ids", "collision_geom_groups"]
+__all__ = ["RayCaster", "RayHits", "body_ids", "check_range_limits", "collision_geom_groups"]
 
 NUM_GEOM_GROUPS = 6
 
@@ -21,6 +21,14 @@ NUM_GEOM_GROUPS = 6
 _MIN_RAYS_PER_THREAD = 4096
 # A ray passes through at most this many ignored geoms before it counts as blocked.
 _MAX_PASS_THROUGH = 16
+
+
+def check_range_limits(name: str, range_min: float, range_max: float) -> None:
+    """A ray sensor needs 0 <= range_min < range_max; SimError naming the sensor otherwise."""
+    if not 0 <= range_min < range_max:
+        raise SimError(
+            f"lidar {name!r}: needs 0 <= range_min < range_max, got [{range_min}, {range_max}]"
+        )
 
 
 def body_ids(model: mujoco.MjModel, names: tuple[str, ...]) -> frozenset[int]:
