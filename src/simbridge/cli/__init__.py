@@ -1,0 +1,60 @@
+"""The `simbridge` command line: endpoint, topic/service tools, messages, URDF, sim, demos.
+
+One module per group of subcommands; their implementations import lazily so
+`simbridge msg md5` stays quick.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+from collections.abc import Sequence
+
+from simbridge.errors import SimbridgeError
+
+from . import demo, endpoint, graph, msg, sim
+
+__all__ = ["build_parser", "main"]
+
+log = logging.getLogger("simbridge")
+
+_GROUPS = (endpoint, graph, msg, sim, demo)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The full argument parser."""
+    parser = argparse.ArgumentParser(prog="simbridge", description=__doc__)
+    parser.add_argument(
+        "--log-level", default=None, help="DEBUG, INFO, WARNING or ERROR (default INFO for servers)"
+    )
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    for group in _GROUPS:
+        group.add_parser(sub)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the `simbridge` console script."""
+    parser = build_parser()
+    given = list(sys.argv[1:] if argv is None else argv)
+    # roslaunch appends ROS arguments (__name:=x, _tcp_port:=10000): keep them for rospy.
+    ros_args = tuple(arg for arg in given if ":=" in arg)
+    args = parser.parse_args([arg for arg in given if ":=" not in arg])
+    args.ros_args = ros_args
+    quiet_tool = args.command in ("topic", "service", "msg", "urdf", "demo")
+    level_name = args.log_level or ("WARNING" if quiet_tool else "INFO")
+    logging.basicConfig(
+        level=getattr(logging, str(level_name).upper(), logging.INFO),
+        format="%(asctime)s %(levelname)s %(name)s: %(message)s",
+    )
+    try:
+        return int(args.func(args))
+    except SimbridgeError as exc:
+        print(f"simbridge: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        return 130
+    except BrokenPipeError:  # e.g. `simbridge urdf fk ... | head`
+        sys.stderr.close()
+        return 0

@@ -1,0 +1,7 @@
+"""`python -m simbridge.cli`."""
+
+import sys
+
+from simbridge.cli import main
+
+sys.exit(main())

@@ -1,0 +1,57 @@
+"""Helpers shared by the subcommands: endpoint addresses, connecting, printing messages."""
+
+from __future__ import annotations
+
+import argparse
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from simbridge.connector import Connector
+    from simbridge.messages import MessageRegistry
+
+__all__ = ["add_endpoint_arg", "connect", "endpoint_address", "print_msg"]
+
+
+def endpoint_address(text: str) -> tuple[str, int]:
+    host, sep, port = text.rpartition(":")
+    if not sep or not port.isdigit():
+        raise argparse.ArgumentTypeError(
+            f"--endpoint {text!r}: expected HOST:PORT, e.g. 127.0.0.1:10000"
+        )
+    return host or "127.0.0.1", int(port)
+
+
+def add_endpoint_arg(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--endpoint",
+        type=endpoint_address,
+        default=("127.0.0.1", 10000),
+        metavar="HOST:PORT",
+        help="endpoint to connect to (default 127.0.0.1:10000)",
+    )
+
+
+def connect(args: argparse.Namespace) -> Connector:
+    from simbridge.connector import Connector
+
+    host, port = args.endpoint
+    return Connector(host, port).connect(wait=args.connect_timeout)
+
+
+def print_msg(registry: MessageRegistry, msg: object, no_arr: bool) -> None:
+    import yaml
+
+    data = registry.to_dict(msg)
+    shown = strip_arrays(data) if no_arr else data
+    print(yaml.safe_dump(shown, sort_keys=False, default_flow_style=None).rstrip())
+    print("---", flush=True)
+
+
+def strip_arrays(value: object) -> object:
+    if isinstance(value, dict):
+        return {k: strip_arrays(v) for k, v in value.items()}
+    if isinstance(value, list | bytes) and len(value) > 8:
+        return f"<array of {len(value)}>"
+    if isinstance(value, list):
+        return [strip_arrays(v) for v in value]
+    return value

@@ -1,0 +1,63 @@
+"""`simbridge demo`: the demos end to end."""
+
+from __future__ import annotations
+
+import argparse
+
+__all__ = ["add_parser"]
+
+
+def run_demo(args: argparse.Namespace) -> int:
+    if args.name == "bridge":
+        from simbridge.apps.bridge_demo import run_bridge_demo
+
+        return 0 if run_bridge_demo() else 1
+    if args.name == "mobile-robot":
+        from simbridge.apps.mobile_robot import main as mobile_robot_main
+
+        forwarded = ["--side", str(args.side), "--realtime", str(args.realtime or 0.0)]
+        return mobile_robot_main([*forwarded, "--json"] if args.json else forwarded)
+    from simbridge.apps import pick_and_place_main
+
+    forwarded = ["--backend", args.backend]
+    if args.json:
+        forwarded.append("--json")
+    if args.video:
+        forwarded += ["--video", args.video]
+    if args.seed is not None:
+        forwarded += ["--seed", str(args.seed)]
+    return pick_and_place_main(forwarded)
+
+
+def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    demo = sub.add_parser("demo", help="run a demo end to end on the embedded backend")
+    demo.add_argument(
+        "name",
+        nargs="?",
+        default="pick-and-place",
+        choices=["pick-and-place", "mobile-robot", "bridge"],
+        help="pick-and-place (default): a Niryo One arm planned by a MoverService; "
+        "mobile-robot: a diff-drive robot with lidar, camera, IMU and odometry drives a square; "
+        "bridge: two connectors exchange Twist messages and a service call",
+    )
+    demo.add_argument(
+        "--backend",
+        choices=["local", "ros1"],
+        default="local",
+        help="pick-and-place: where the planner node runs",
+    )
+    demo.add_argument(
+        "--json",
+        action="store_true",
+        help='pick-and-place: print {"success", "cube_error_m", "phases"} last',
+    )
+    demo.add_argument("--video", metavar="PATH", help="pick-and-place: write a .gif (or .mp4)")
+    demo.add_argument("--seed", type=int, help="pick-and-place: random cube and target")
+    demo.add_argument("--side", type=float, default=1.0, help="mobile-robot: square side (m)")
+    demo.add_argument(
+        "--realtime",
+        type=float,
+        default=0.0,
+        help="mobile-robot: pace at this real-time factor (0 = flat out)",
+    )
+    demo.set_defaults(func=run_demo)

@@ -1,0 +1,87 @@
+"""`simbridge endpoint`: the ROS-TCP server on the ROS side."""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import contextlib
+
+__all__ = ["add_parser"]
+
+
+def run_endpoint(args: argparse.Namespace) -> int:
+    from simbridge.endpoint import EndpointOptions, EndpointServer, make_backend
+
+    if args.msg_path:
+        from simbridge.messages import default_registry
+
+        default_registry().load_packages(*args.msg_path)
+    backend = make_backend(args.backend, node_name=args.node_name, ros_args=args.ros_args)
+
+    async def run() -> None:
+        # Precedence: command-line flag, then the original node's ~tcp_ip/~tcp_port, then default.
+        host, port = args.host, args.port
+        if args.backend == "ros1":
+            from simbridge.endpoint.backends.ros1_node import read_drop_in_params
+
+            await backend.start()
+            param_host, param_port = read_drop_in_params()
+            host = host if host is not None else param_host
+            port = port if port is not None else param_port
+        options = EndpointOptions(
+            host=host if host is not None else "127.0.0.1",
+            port=port if port is not None else 10000,
+            max_frame_size=int(args.max_frame_mb * 1024 * 1024),
+            idle_timeout=args.idle_timeout,
+            max_clients=args.max_clients,
+        )
+        server = EndpointServer(options, backend)
+        await server.start()
+        print(
+            f"simbridge endpoint listening on {options.host}:{server.port} "
+            f"(backend {backend.name})",
+            flush=True,
+        )
+        try:
+            await server.serve_forever()
+        finally:
+            await server.close()
+
+    with contextlib.suppress(KeyboardInterrupt):
+        asyncio.run(run())
+    return 0
+
+
+def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    ep = sub.add_parser("endpoint", help="run the ROS-TCP endpoint (TCP server on the ROS side)")
+    ep.add_argument(
+        "--host",
+        default=None,
+        help="address to bind (default: ros1 param ~tcp_ip, else 127.0.0.1)",
+    )
+    ep.add_argument(
+        "--port",
+        type=int,
+        default=None,
+        help="TCP port (default: ros1 param ~tcp_port, else 10000; 0 = any free port)",
+    )
+    ep.add_argument("--backend", choices=["local", "ros1"], default="local")
+    ep.add_argument("--node-name", default="/simbridge_endpoint", help="ROS node name (ros1)")
+    ep.add_argument("--max-frame-mb", type=float, default=64.0, help="largest accepted frame")
+    ep.add_argument(
+        "--max-clients", type=int, default=1000, help="connections served at once (default 1000)"
+    )
+    ep.add_argument(
+        "--idle-timeout",
+        type=float,
+        default=10.0,
+        help="close clients silent this long (s); 0 disables",
+    )
+    ep.add_argument(
+        "--msg-path",
+        action="append",
+        default=[],
+        metavar="DIR",
+        help="directory of .msg/.srv/.action packages (repeatable)",
+    )
+    ep.set_defaults(func=run_endpoint)

@@ -1,0 +1,53 @@
+"""`simbridge msg`: inspect message types, md5sums and generate ROS 1 Python modules."""
+
+from __future__ import annotations
+
+import argparse
+
+__all__ = ["add_parser"]
+
+
+def run_msg(args: argparse.Namespace) -> int:
+    from simbridge.messages import default_registry
+
+    registry = default_registry()
+    if args.msg_path:
+        registry.load_packages(*args.msg_path)
+    if args.action == "genpy":
+        from pathlib import Path
+
+        from simbridge.endpoint.backends.ros1_genpy import generate_python_messages
+
+        services = [t for t in args.types if registry.has_service(t)]
+        messages = [t for t in args.types if not registry.has_service(t)]
+        env = generate_python_messages(registry, services, Path(args.out).resolve(), messages)
+        print(f"export ROS_PACKAGE_PATH={env['ROS_PACKAGE_PATH']}:$ROS_PACKAGE_PATH")
+        print(f"export PYTHONPATH={env['PYTHONPATH']}:$PYTHONPATH")
+    elif args.action == "md5":
+        print(registry.md5(args.type))
+    elif args.action == "show":
+        print(registry.show(args.type).rstrip())
+    else:
+        for name in registry.service_names() if args.services else registry.names():
+            print(name)
+    return 0
+
+
+def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    msg = sub.add_parser("msg", help="inspect message types")
+    msub = msg.add_subparsers(dest="action", required=True)
+    m_show = msub.add_parser("show", help="fields of a message or service type")
+    m_show.add_argument("type")
+    m_md5 = msub.add_parser("md5", help="genmsg md5sum of a type")
+    m_md5.add_argument("type")
+    m_list = msub.add_parser("list", help="every known type")
+    m_list.add_argument("--services", action="store_true")
+    m_genpy = msub.add_parser(
+        "genpy",
+        help="generate ROS 1 Python modules (for rostopic/rosservice) for types Debian lacks",
+    )
+    m_genpy.add_argument("out", help="output directory")
+    m_genpy.add_argument("types", nargs="+", help="message or service types")
+    for p in (m_show, m_md5, m_list, m_genpy):
+        p.add_argument("--msg-path", action="append", default=[], metavar="DIR")
+        p.set_defaults(func=run_msg)
