@@ -81,11 +81,17 @@ def test_decoding_a_mutable_buffer_does_not_alias_it(registry: MessageRegistry) 
 def test_encode_errors_are_message_errors(registry: MessageRegistry) -> None:
     twist = registry.new("geometry_msgs/Twist")
     twist.linear.x = "fast"
-    with pytest.raises(MessageError, match="cannot encode geometry_msgs/Twist"):
+    with pytest.raises(
+        MessageError,
+        match=r"cannot encode geometry_msgs/Twist as ROS 1: geometry_msgs/Twist\.linear\.x: "
+        r"expected a number \(float64\), got 'fast'",
+    ):
         registry.encode(twist)
     image = registry.new("sensor_msgs/Image")
     image.data = [1, 2, 3]
-    with pytest.raises(MessageError, match="numeric arrays must be numpy arrays"):
+    with pytest.raises(
+        MessageError, match=r"Image\.data: expected a numpy array of uint8, got list"
+    ):
         registry.encode(image)
     with pytest.raises(MessageError, match="expected a geometry_msgs/Twist message, got"):
         registry.encode(registry.new("std_msgs/String"), "geometry_msgs/Twist")

@@ -32,8 +32,12 @@ Messages are rosbags' generated (mutable) dataclasses. Numeric array fields hold
 arrays (`new`/`from_dict` convert lists; assigning a plain list fails at encode time);
 arrays in decoded messages are read-only views of the input bytes. Time and duration
 fields are `builtin_interfaces` Time/Duration objects (`sec`, `nanosec`); dicts spell
-them `{secs, nsecs}` like rospy. CDR uses the registry's layouts: ROS 1 noetic by
-default (Header with seq); `MessageRegistry(store=Stores.ROS2_HUMBLE)` gives ROS 2 ones.
+them `{secs, nsecs}` (or `[secs, nsecs]`, or float seconds) like rospy. ROS 1 binary
+follows ROS 1: `time` is uint32 secs/nsecs (stamps past 2038 are valid), `duration`
+int32 secs/nsecs; CDR keeps builtin_interfaces' `int32 sec, uint32 nanosec`. A value a
+format cannot carry raises MessageError naming the field, the value and the range.
+CDR uses the registry's layouts: ROS 1 noetic by default (Header with seq);
+`MessageRegistry(store=Stores.ROS2_HUMBLE)` gives ROS 2 ones.
 """
 
 from __future__ import annotations

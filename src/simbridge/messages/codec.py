@@ -6,6 +6,7 @@ from typing import TYPE_CHECKING, Any, Literal
 
 from simbridge.errors import MessageError
 
+from .diagnose import find_unencodable
 from .schema import canonical_of
 
 if TYPE_CHECKING:
@@ -89,7 +90,7 @@ class Codec:
             buf = bytearray(size)
             self._ser_ros1(memoryview(buf), 0, msg, self._store)
         except Exception as exc:
-            raise MessageError(f"cannot encode {self.name} as ROS 1: {exc} {_ENCODE_HINT}") from exc
+            raise MessageError(self._encode_error("ros1", msg, exc)) from exc
         return buf
 
     def decode_ros1(self, data: bytes | bytearray | memoryview) -> Any:
@@ -115,7 +116,7 @@ class Codec:
             buf[:4] = _CDR_LE
             self._ser_cdr(memoryview(buf)[4:], 0, msg, self._store)
         except Exception as exc:
-            raise MessageError(f"cannot encode {self.name} as CDR: {exc} {_ENCODE_HINT}") from exc
+            raise MessageError(self._encode_error("cdr", msg, exc)) from exc
         return buf
 
     def decode_cdr(self, data: bytes | bytearray | memoryview) -> Any:
@@ -136,6 +137,17 @@ class Codec:
             msg_ = f"malformed CDR {self.name}: {len(data) - pos - 4} trailing byte(s)"
             raise MessageError(msg_)
         return msg
+
+    def _encode_error(self, fmt: WireFormat, msg: object, exc: Exception) -> str:
+        """Name the offending field, value and accepted range where it can be found."""
+        shown = "ROS 1" if fmt == "ros1" else "CDR"
+        try:
+            problem = find_unencodable(self._store, self._key, msg, fmt, self.name)
+        except Exception:  # a diagnosis must never hide the original error
+            problem = None
+        if problem is None:
+            return f"cannot encode {self.name} as {shown}: {exc} {_ENCODE_HINT}"
+        return f"cannot encode {self.name} as {shown}: {problem}"
 
     def _check_type(self, msg: object) -> None:
         # Same-named classes from another registry have the same layout: accept them.

@@ -24,7 +24,6 @@ _INT_RANGES: dict[str, tuple[int, int]] = {
 }
 _FLOATS = ("float32", "float64")
 _BYTE_LIKE = ("uint8", "char", "int8", "byte")
-_TIME_RANGES = {"time": (0, 2**31 - 1), "duration": (-(2**31), 2**31 - 1)}
 
 
 class TypeSource(Protocol):
@@ -45,8 +44,10 @@ Maker = Callable[[], Any]
 class Builder:
     """Creates message objects; per-type default factories are compiled once and cached."""
 
-    def __init__(self, source: TypeSource) -> None:
+    def __init__(self, source: TypeSource, time_ranges: Mapping[str, tuple[int, int]]) -> None:
+        """`time_ranges`: the seconds `time` and `duration` may hold (ROS 1: uint32 time)."""
         self._source = source
+        self._time_ranges = dict(time_ranges)
         self._factories: dict[str, Maker] = {}
         self._fields: dict[str, dict[str, FieldSpec]] = {}
 
@@ -175,6 +176,12 @@ class Builder:
             return value
         if isinstance(value, str) and value == "now" and typ == "time":
             value = time.time()
+        if (
+            isinstance(value, Sequence)
+            and not isinstance(value, str | bytes | bytearray)
+            and len(value) == 2
+        ):
+            value = dict(zip(("secs", "nsecs"), value, strict=True))  # positional, as rostopic
         if isinstance(value, Mapping):
             keys = set(value)
             if keys <= {"secs", "nsecs"}:
@@ -195,10 +202,11 @@ class Builder:
             secs = math.floor(value)
             nsecs = round((value - secs) * 1e9)
         else:
-            msg = f"{path}: expected a {typ} ({{secs, nsecs}} or seconds), got {value!r}"
+            shapes = "{secs, nsecs}, [secs, nsecs] or seconds"
+            msg = f"{path}: expected a {typ} ({shapes}), got {value!r}"
             raise MessageError(msg)
         secs, nsecs = secs + nsecs // 1_000_000_000, nsecs % 1_000_000_000
-        low, high = _TIME_RANGES[typ]
+        low, high = self._time_ranges[typ]
         if not low <= secs <= high:
             msg = f"{path}: {typ} seconds {secs} out of range [{low}, {high}]"
             raise MessageError(msg)

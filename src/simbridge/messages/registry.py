@@ -24,6 +24,7 @@ from .construct import Builder
 from .export import Exporter
 from .loader import InterfaceSources, load_interface_dirs, split_sections
 from .names import parse_type_name, store_name
+from .rostime import ROS1_TIME_RANGES, ROS2_TIME_RANGES, use_ros1_layout
 from .schema import MessageSchema, build_schema, canonical_of
 from .service_info import ServiceInfo
 
@@ -52,6 +53,7 @@ class MessageRegistry:
         """Start from rosbags' `store` (ROS 1 noetic; a ROS 2 store gives ROS 2 layouts,
         e.g. Header without seq, for CDR peers), plus the shipped definitions."""
         self._store = get_typestore(store)
+        use_ros1_layout(self._store)  # ROS 1 binary: uint32 time secs, int32 duration nsecs
         self._lock = threading.RLock()
         self._texts: dict[str, str] = {}
         self._constant_texts: dict[str, dict[str, str]] = {}
@@ -59,10 +61,11 @@ class MessageRegistry:
         self._schemas: dict[str, MessageSchema] = {}
         self._md5s: dict[str, str] = {}
         self._codecs: dict[str, Codec] = {}
-        self._builder = Builder(self)
+        ros1 = store == Stores.ROS1_NOETIC
+        self._builder = Builder(self, ROS1_TIME_RANGES if ros1 else ROS2_TIME_RANGES)
         self._exporter = Exporter(self.schema)
         if shipped:
-            self._load_shipped(strict=store == Stores.ROS1_NOETIC)
+            self._load_shipped(strict=ros1)
 
     # -- adding types -----------------------------------------------------------------------
 
