@@ -8,9 +8,10 @@ __all__ = ["add_parser"]
 
 
 def run_msg(args: argparse.Namespace) -> int:
-    from simbridge.messages import default_registry
+    from simbridge.messages import MessageRegistry, default_registry
 
-    registry = default_registry()
+    # Extra packages go into a private registry: the shared one stays as shipped.
+    registry = MessageRegistry() if args.msg_path else default_registry()
     if args.msg_path:
         registry.load_packages(*args.msg_path)
     if args.action == "genpy":

@@ -199,8 +199,23 @@ class MessageRegistry:
     def _unknown(self, name: str, kind: str) -> NoReturn:
         close = self._close_matches(str(name))
         hint = f"; did you mean {', '.join(close)}?" if close else ""
-        msg = f"unknown {kind} type {name!r}{hint} (names look like pkg/Type)"
+        parsed = parse_type_name(name) if isinstance(name, str) else None
+        if parsed is None:
+            msg = f"unknown {kind} type {name!r}{hint} (names look like pkg/Type)"
+        elif parsed.package not in self.packages():
+            msg = (
+                f"unknown {kind} type {name!r}: package {parsed.package!r} is unknown{hint} "
+                "Load the package's .msg/.srv files with --msg-path DIR (a package directory "
+                "or a directory of packages; MessageRegistry.load_packages in Python)"
+            )
+        else:
+            msg = f"unknown {kind} type {name!r}: {parsed.package} has no {parsed.name!r}{hint}"
         raise UnknownMessageTypeError(msg)
+
+    def packages(self) -> list[str]:
+        """Every package with a known message or service type, sorted."""
+        found = {name.partition("/")[0] for name in (*self.names(), *self._services)}
+        return sorted(found)
 
     def _close_matches(self, name: str) -> list[str]:
         candidates = [*self.names(), *self._services]
