@@ -189,14 +189,20 @@ class Ros1Backend(Backend):
         return server
 
     def topics(self) -> list[TopicInfo]:
-        """Every topic the master knows, with its type, sorted by name."""
+        """The topics that have a publisher or a subscriber now, with their types, by name.
+
+        Like `rostopic list`: the master's getTopicTypes alone also remembers every topic
+        of nodes long gone, so the live ones come from getSystemState.
+        """
         self._started()
         try:
             master = rosgraph.Master(rospy.get_name(), master_uri=self.identity.master_uri)
-            pairs = master.getTopicTypes()
+            publishers, subscribers, _ = master.getSystemState()
+            types = dict(master.getTopicTypes())
         except (rosgraph.MasterException, OSError) as exc:
             raise EndpointError(f"cannot list topics from the ROS master: {exc}") from exc
-        return [TopicInfo(name, msg_type) for name, msg_type in sorted(pairs)]
+        live = {name for name, nodes in (*publishers, *subscribers) if nodes}
+        return [TopicInfo(name, types.get(name, "*")) for name in sorted(live)]
 
     def _topic_class(self, topic: str, msg_type: str) -> type[RawMessage]:
         """The raw class of `msg_type`, refusing a topic this node already uses with

@@ -1,0 +1,156 @@
+"""The ROS 1 graph as ROS tools see it, through `simbridge endpoint --backend ros1` subprocesses.
+
+Each test that may disturb the graph (name collisions, signals) starts its own
+endpoint process on the module's private roscore.
+"""
+
+from __future__ import annotations
+
+import re
+import subprocess
+import sys
+import textwrap
+import threading
+import time
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
+import pytest
+from tests.ros1support import SYSTEM_PYTHON, RosMaster, free_port, require_ros, terminate
+
+from simbridge.connector import Connector, ConnectorOptions
+
+require_ros(module_level=True)
+
+import rosgraph  # noqa: E402
+
+pytestmark = [pytest.mark.ros1, pytest.mark.timeout(180)]
+
+FAST = ConnectorOptions(
+    keepalive_interval=0.2,
+    dead_timeout=1.0,
+    connect_timeout=1.0,
+    reconnect_initial=0.1,
+    reconnect_max=0.5,
+    service_timeout=10.0,
+    request_timeout=5.0,
+)
+
+
+def wait_until(predicate: Callable[[], bool], timeout: float, what: str) -> None:
+    deadline = time.monotonic() + timeout
+    while not predicate():
+        if time.monotonic() > deadline:
+            raise AssertionError(f"timed out waiting for {what}")
+        time.sleep(0.05)
+
+
+class EndpointProcess:
+    """`simbridge endpoint --backend ros1` in its own session; its output is collected."""
+
+    def __init__(self, master: RosMaster, node_name: str, *extra: str) -> None:
+        self.port = free_port()
+        self.node_name = node_name
+        command = [sys.executable, "-m", "simbridge.cli", "endpoint", "--backend", "ros1"]
+        options = ["--port", str(self.port), "--idle-timeout", "0", "--node-name", node_name]
+        self.process = subprocess.Popen(
+            [*command, *options, *extra],
+            env=master.env,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT,
+            stdin=subprocess.DEVNULL,
+            text=True,
+            start_new_session=True,
+        )
+        assert self.process.stdout is not None
+        self.lines: list[str] = []
+        deadline = time.monotonic() + 30
+        while time.monotonic() < deadline:
+            line = self.process.stdout.readline()
+            if not line:
+                break
+            self.lines.append(line)
+            if re.search(r"listening on \S+:\d+", line):
+                break
+        if not self.lines or "listening on" not in self.lines[-1]:
+            self.stop()
+            raise AssertionError("the endpoint did not start:\n" + "".join(self.lines))
+        self._reader = threading.Thread(target=self._read, daemon=True)
+        self._reader.start()
+
+    def _read(self) -> None:
+        assert self.process.stdout is not None
+        for line in self.process.stdout:
+            self.lines.append(line)
+
+    def output(self) -> str:
+        return "".join(self.lines)
+
+    def stop(self) -> None:
+        terminate(self.process)
+
+
+@pytest.fixture(scope="module")
+def master() -> Iterator[RosMaster]:
+    require_ros()
+    with RosMaster() as master:
+        yield master
+
+
+def system_state(master: RosMaster) -> list[list[tuple[str, list[str]]]]:
+    state: list[list[tuple[str, list[str]]]] = rosgraph.Master(
+        "/e2e_graph_test", master_uri=master.uri
+    ).getSystemState()
+    return state
+
+
+def node_registrations(master: RosMaster, node: str) -> list[str]:
+    """Every topic or service `node` is registered for, as `kind:name`."""
+    kinds = ("pub", "sub", "srv")
+    return [
+        f"{kind}:{name}"
+        for kind, entries in zip(kinds, system_state(master), strict=True)
+        for name, nodes in entries
+        if node in nodes
+    ]
+
+
+def test_simbridge_topic_list_matches_rostopic_list(master: RosMaster, tmp_path: Path) -> None:
+    """`simbridge topic list` shows what is published or subscribed now, as `rostopic list`
+    does, not every topic the master ever saw (here: those of a node that exited)."""
+    script = tmp_path / "ephemeral.py"
+    script.write_text(
+        textwrap.dedent(
+            """
+            import rospy
+            from std_msgs.msg import String
+
+            rospy.init_node("e2e_ephemeral")
+            rospy.Publisher("/e2e/ephemeral", String, queue_size=1)
+            rospy.sleep(0.5)
+            """
+        )
+    )
+    endpoint = EndpointProcess(master, "/e2e_topic_list")
+    try:
+        done = master.run([SYSTEM_PYTHON, str(script)])
+        assert done.returncode == 0, done.stderr
+        remembered = rosgraph.Master("/t", master_uri=master.uri).getTopicTypes()
+        assert ["/e2e/ephemeral", "std_msgs/String"] in remembered  # the master never forgets
+        with Connector("127.0.0.1", endpoint.port, FAST).connect(wait=10) as conn:
+            conn.register_publisher("/e2e/live", "std_msgs/String")
+            wait_until(lambda: "/e2e/live" in conn.topic_list(), 10, "/e2e/live in the list")
+            listed = conn.topic_list()
+            address = f"127.0.0.1:{endpoint.port}"
+            cli = [sys.executable, "-m", "simbridge.cli"]
+            tool = master.run([*cli, "topic", "list", "-v", "--endpoint", address])
+            rostopic = master.run(["rostopic", "list"])
+        assert tool.returncode == 0, tool.stderr
+        assert rostopic.returncode == 0, rostopic.stderr
+        assert "/e2e/ephemeral" not in listed
+        assert set(listed) == set(rostopic.stdout.split())
+        shown = dict(line.split() for line in tool.stdout.splitlines())
+        assert shown == listed
+        assert shown["/e2e/live"] == "std_msgs/String"
+    finally:
+        endpoint.stop()

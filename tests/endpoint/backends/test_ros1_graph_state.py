@@ -1,0 +1,109 @@
+"""The ROS 1 backend reports the graph as ROS tools see it now, not as the master remembers it."""
+
+from __future__ import annotations
+
+import asyncio
+import subprocess
+import textwrap
+from collections.abc import Awaitable, Callable
+from pathlib import Path
+from typing import TypeVar
+
+import pytest
+from tests.ros1support import SYSTEM_PYTHON, RosMaster, require_ros, shared_master
+
+from simbridge.endpoint.backends.base import TopicInfo
+
+require_ros(module_level=True)
+
+from simbridge.endpoint.backends.ros1 import Ros1Backend  # noqa: E402
+
+T = TypeVar("T")
+
+pytestmark = [
+    pytest.mark.ros1,
+    pytest.mark.timeout(120),
+    pytest.mark.filterwarnings("ignore:notifyAll:DeprecationWarning"),
+]
+
+
+@pytest.fixture(scope="module")
+def master() -> RosMaster:
+    require_ros()
+    return shared_master()
+
+
+def with_backend(scenario: Callable[[Ros1Backend], Awaitable[T]]) -> T:
+    """Run `scenario` on a fresh event loop with a started backend, closing it after."""
+
+    async def main() -> T:
+        backend = Ros1Backend()
+        await backend.start()
+        try:
+            return await scenario(backend)
+        finally:
+            await backend.close()
+
+    return asyncio.run(main())
+
+
+def rostopic_list(master: RosMaster) -> set[str]:
+    result = master.run(["rostopic", "list"])
+    assert result.returncode == 0, result.stderr
+    return set(result.stdout.split())
+
+
+def test_topic_list_forgets_topics_of_a_node_that_exited(
+    master: RosMaster, tmp_path: Path
+) -> None:
+    """A node publishes /sb/ephemeral and exits: the master still has its type, but
+    the topic list (like `rostopic list`) no longer shows it."""
+    script = tmp_path / "ephemeral_node.py"
+    script.write_text(
+        textwrap.dedent(
+            """
+            import sys, rospy
+            from std_msgs.msg import String
+
+            rospy.init_node("sb_ephemeral_talker")
+            pub = rospy.Publisher("/sb/ephemeral", String, queue_size=1)
+            sub = rospy.Subscriber("/sb/ephemeral_listened", String, lambda m: None)
+            print("up", flush=True)
+            sys.stdin.readline()  # runs until the test closes stdin, then exits cleanly
+            """
+        )
+    )
+
+    async def scenario(backend: Ros1Backend) -> tuple[list[TopicInfo], list[TopicInfo]]:
+        backend.advertise("/sb/staying", "std_msgs/String", queue_size=1, latch=False)
+        node = subprocess.Popen(
+            [SYSTEM_PYTHON, str(script)],
+            env=master.env,
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            text=True,
+        )
+        try:
+            assert node.stdout is not None
+            assert node.stdin is not None
+            assert await asyncio.to_thread(node.stdout.readline) == "up\n"
+            during = backend.topics()
+            node.stdin.close()
+            assert await asyncio.to_thread(node.wait, 30) == 0
+        finally:
+            if node.poll() is None:
+                node.kill()
+                node.wait()
+        after = backend.topics()
+        assert {t.name for t in after} == await asyncio.to_thread(rostopic_list, master)
+        return during, after
+
+    during, after = with_backend(scenario)
+    assert TopicInfo("/sb/ephemeral", "std_msgs/String") in during
+    assert TopicInfo("/sb/ephemeral_listened", "std_msgs/String") in during  # subscribed only
+    names_after = {t.name for t in after}
+    assert "/sb/ephemeral" not in names_after
+    assert "/sb/ephemeral_listened" not in names_after
+    assert "/sb/staying" in names_after
+    assert TopicInfo("/rosout", "rosgraph_msgs/Log") in after
+    assert after == sorted(after, key=lambda t: t.name)
