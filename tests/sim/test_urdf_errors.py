@@ -118,7 +118,7 @@ LIMIT = '<limit lower="-1" upper="1" effort="1" velocity="1"/>'
 )
 def test_malformed_urdf_names_the_problem(urdf: str, message: str) -> None:
     with pytest.raises(UrdfError, match=message):
-        parse_urdf(urdf)
+        parse_urdf(urdf, strict=True)
 
 
 def test_every_joint_type_parses() -> None:

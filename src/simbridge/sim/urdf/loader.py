@@ -63,23 +63,30 @@ def load_urdf(
     *,
     search_paths: Sequence[str | Path] = (),
     xacro_args: Mapping[str, str] | None = None,
+    strict: bool = False,
 ) -> Robot:
     """Parse a .urdf or .xacro file; meshes resolve via the file's folder, `search_paths`
-    and ROS_PACKAGE_PATH (the file's own folder and its parents count as package roots)."""
+    and ROS_PACKAGE_PATH (the file's own folder and its parents count as package roots).
+    `strict` turns tolerated defects (duplicate definitions...) into errors."""
     file = Path(path)
     if not file.is_file():
         raise UrdfError(f"URDF file '{file}' does not exist")
     here = file.resolve()
     resolver = ResourceResolver.create(here.parent, search_paths, here.parents[:3])
     text = file.read_text()
-    if is_xacro(file, text):
+    expanded = is_xacro(file, text)
+    if expanded:
         text = expand_xacro(file, xacro_args, resolver)
-    return parse_urdf(text, source=file, resolver=resolver)
+    return parse_urdf(text, source=file, resolver=resolver, strict=strict, lines_valid=not expanded)
 
 
 def load_urdf_string(
-    text: str, *, base_dir: str | Path | None = None, search_paths: Sequence[str | Path] = ()
+    text: str,
+    *,
+    base_dir: str | Path | None = None,
+    search_paths: Sequence[str | Path] = (),
+    strict: bool = False,
 ) -> Robot:
     """Parse URDF text (e.g. a `robot_description` parameter); relative meshes use `base_dir`."""
     resolver = ResourceResolver.create(Path(base_dir) if base_dir else None, search_paths)
-    return parse_urdf(text, resolver=resolver)
+    return parse_urdf(text, resolver=resolver, strict=strict)

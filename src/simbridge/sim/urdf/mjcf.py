@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from simbridge.errors import UrdfError
+from simbridge.sim.urdf.diagnostics import UrdfWarning
 from simbridge.sim.urdf.document import MjcfDocument, fmt
 from simbridge.sim.urdf.inertia import InertiaPolicy, resolve_inertial
 from simbridge.sim.urdf.kinematics import plane_basis
@@ -47,10 +48,6 @@ VISUAL_GROUP = 1
 """MuJoCo geom group of visual geometry (drawn, never collides)."""
 COLLISION_GROUP = 3
 """MuJoCo geom group of collision geometry (hidden by default in the viewer)."""
-
-
-class UrdfWarning(UserWarning):
-    """Something in a URDF was replaced or ignored (e.g. an invalid inertial); names the link."""
 
 
 @dataclass(frozen=True)

@@ -201,8 +201,13 @@ class Joint:
 
     @property
     def limited(self) -> bool:
-        """Whether the position range applies (revolute and prismatic joints)."""
-        return self.limit is not None and self.type in (JointType.REVOLUTE, JointType.PRISMATIC)
+        """Whether the position range applies: revolute and prismatic joints with a non-empty
+        range (an empty one, e.g. a `<limit>` without lower/upper, is simulated unlimited)."""
+        return (
+            self.limit is not None
+            and self.type in (JointType.REVOLUTE, JointType.PRISMATIC)
+            and self.limit.lower < self.limit.upper
+        )
 
 
 @dataclass(frozen=True)

@@ -1,12 +1,20 @@
-"""Parse URDF XML into a validated `Robot`; malformed input raises `UrdfError` naming it."""
+"""Parse URDF XML into a validated `Robot`; malformed input raises `UrdfError` naming it.
+
+Conventions real files use but the URDF spec frowns on (a joint defined twice, a mimic
+of a joint that does not exist, a material named before it is defined) load with a
+warning naming the file, line and element; `strict=True` turns them into errors.
+"""
 
 from __future__ import annotations
 
 import math
+import warnings
 import xml.etree.ElementTree as ET
+from dataclasses import replace
 from pathlib import Path
 
 from simbridge.errors import UrdfError
+from simbridge.sim.urdf.diagnostics import UrdfWarning
 from simbridge.sim.urdf.model import (
     Box,
     Collision,
@@ -28,10 +36,15 @@ from simbridge.sim.urdf.model import (
 )
 from simbridge.sim.urdf.resources import ResourceResolver
 from simbridge.sim.urdf.transforms import Vec3
+from simbridge.sim.urdf.xmllines import SourceTree, parse_with_lines
 
 __all__ = ["parse_urdf"]
 
 _JOINT_TYPES = {t.value: t for t in JointType}
+
+
+class _LocatedError(UrdfError):
+    """An error whose text already names the file and line (not prefixed again)."""
 
 
 def _floats(text: str | None, count: int, where: str, attr: str) -> tuple[float, ...]:
@@ -77,9 +90,26 @@ def _origin(parent: ET.Element, where: str) -> Origin:
 class _Parser:
     """One parse of one document; collects warnings as it goes."""
 
-    def __init__(self, resolver: ResourceResolver | None) -> None:
-        self.resolver = resolver
+    def __init__(self, tree: SourceTree, resolver: ResourceResolver | None, strict: bool) -> None:
+        self.tree, self.resolver, self.strict = tree, resolver, strict
         self.warnings: list[str] = []
+        self.materials: dict[str, Material] = {}
+
+    def lenient(self, elem: ET.Element | None, message: str) -> None:
+        """A defect real files carry: a warning, or an error in strict mode."""
+        text = f"{self.tree.at(elem)}{message}"
+        if self.strict:
+            raise _LocatedError(f"{text} (strict mode)")
+        self.warn(text)
+
+    def warn(self, text: str) -> None:
+        """Record and emit a warning (text already names the file)."""
+        self.warnings.append(text)
+        warnings.warn(text, UrdfWarning, stacklevel=4)
+
+    def fail(self, elem: ET.Element | None, message: str) -> UrdfError:
+        """An error naming the file and line of `elem`."""
+        return _LocatedError(f"{self.tree.at(elem)}{message}")
 
     def material(self, elem: ET.Element, where: str) -> Material:
         name = elem.get("name", "")
@@ -123,7 +153,7 @@ class _Parser:
                 try:
                     path = self.resolver.resolve(filename, what)
                 except UrdfError as exc:
-                    self.warnings.append(str(exc))
+                    self.warn(f"{self.tree.at(shape)}{exc}")
             return Mesh(filename, scale, path)
         raise UrdfError(
             f"{where}: unknown geometry <{shape.tag}> (valid: box, cylinder, sphere, mesh)"
@@ -140,10 +170,36 @@ class _Parser:
                 values[key] = _float(inertia, key, what, 0.0)
         return Inertial(mass, _origin(elem, what), **values)
 
-    def link(self, elem: ET.Element, materials: dict[str, Material]) -> Link:
+    def link(self, elem: ET.Element) -> Link:
         name = elem.get("name")
         if not name:
-            raise UrdfError("<link> without a 'name' attribute")
+            raise self.fail(elem, "<link> without a 'name' attribute")
+        try:
+            return self._link(elem, name)
+        except _LocatedError:
+            raise
+        except UrdfError as exc:
+            raise self.fail(elem, str(exc)) from None
+
+    def visual_material(self, mat_elem: ET.Element, where: str) -> Material | None:
+        """The material of a visual: its own colour/texture, or a named one defined earlier
+        (at robot level or, as urdfdom allows, in an earlier visual)."""
+        local = self.material(mat_elem, where)
+        if local.rgba is None and local.texture is None:
+            if local.name in self.materials:
+                return self.materials[local.name]
+            self.lenient(
+                mat_elem,
+                f"{where}: material '{local.name}' is not defined "
+                f"(defined: {', '.join(sorted(self.materials)) or 'none'}); "
+                "drawing it in the default colour",
+            )
+            return None
+        if local.name and local.name not in self.materials:
+            self.materials[local.name] = local
+        return local
+
+    def _link(self, elem: ET.Element, name: str) -> Link:
         where = f"link '{name}'"
         inertial_elem = elem.find("inertial")
         inertial = self.inertial(inertial_elem, where) if inertial_elem is not None else None
@@ -153,16 +209,7 @@ class _Parser:
             mat_elem = vis.find("material")
             material: Material | None = None
             if mat_elem is not None:
-                local = self.material(mat_elem, vwhere)
-                if local.rgba is None and local.texture is None:
-                    if local.name not in materials:
-                        raise UrdfError(
-                            f"{vwhere}: material '{local.name}' is not defined "
-                            f"(defined: {', '.join(sorted(materials)) or 'none'})"
-                        )
-                    material = materials[local.name]
-                else:
-                    material = local
+                material = self.visual_material(mat_elem, vwhere)
             visuals.append(
                 Visual(self.geometry(vis, vwhere), _origin(vis, vwhere), material, vis.get("name"))
             )
@@ -179,7 +226,15 @@ class _Parser:
     def joint(self, elem: ET.Element) -> Joint:
         name = elem.get("name")
         if not name:
-            raise UrdfError("<joint> without a 'name' attribute")
+            raise self.fail(elem, "<joint> without a 'name' attribute")
+        try:
+            return self._joint(elem, name)
+        except _LocatedError:
+            raise
+        except UrdfError as exc:
+            raise self.fail(elem, str(exc)) from None
+
+    def _joint(self, elem: ET.Element, name: str) -> Joint:
         where = f"joint '{name}'"
         type_name = elem.get("type")
         if type_name not in _JOINT_TYPES:
@@ -216,6 +271,12 @@ class _Parser:
                 raise UrdfError(f"{lw}: lower={limit.lower} is above upper={limit.upper}")
             if limit.effort < 0 or limit.velocity < 0:
                 raise UrdfError(f"{lw}: effort and velocity must not be negative")
+            if jtype in (JointType.REVOLUTE, JointType.PRISMATIC) and limit.lower == limit.upper:
+                given = "no lower/upper" if limit_elem.get("lower") is None else "lower == upper"
+                self.warn(
+                    f"{self.tree.at(limit_elem)}{lw}: {given} (range [{limit.lower:g}, "
+                    f"{limit.upper:g}]); simulating the joint without position limits"
+                )
         elif jtype in (JointType.REVOLUTE, JointType.PRISMATIC):
             raise UrdfError(f"{where}: a {jtype.value} joint needs a <limit> element")
         dyn_elem = elem.find("dynamics")
@@ -254,76 +315,126 @@ class _Parser:
         )
 
 
+def _cycle(parent_of: dict[str, str], joints: dict[str, Joint], start: str) -> list[str]:
+    """The links of the loop reached by walking up parent joints from `start`."""
+    seen: list[str] = []
+    link = start
+    while link not in seen:
+        seen.append(link)
+        link = joints[parent_of[link]].parent
+    return seen[seen.index(link) :]
+
+
 def parse_urdf(
-    text: str, *, source: Path | None = None, resolver: ResourceResolver | None = None
+    text: str,
+    *,
+    source: Path | None = None,
+    resolver: ResourceResolver | None = None,
+    strict: bool = False,
+    lines_valid: bool = True,
 ) -> Robot:
     """Parse and validate URDF `text`; `resolver` (if given) resolves mesh files.
 
-    Missing mesh files are recorded as warnings (the mesh keeps `path=None`).
+    Missing mesh files are recorded as warnings (the mesh keeps `path=None`). Messages
+    start with `source` and the element's line (`lines_valid=False` for xacro output,
+    whose lines are not the file's).
     """
-    try:
-        root = ET.fromstring(text)
-    except ET.ParseError as exc:
-        raise UrdfError(f"not well-formed XML{f' in {source}' if source else ''}: {exc}") from None
+    tree = parse_with_lines(text, source, lines_valid)
+    root = tree.root
     if root.tag != "robot":
-        raise UrdfError(f"root element is <{root.tag}>, expected <robot>")
+        raise UrdfError(f"{tree.at(root)}root element is <{root.tag}>, expected <robot>")
     robot_name = root.get("name")
     if not robot_name:
-        raise UrdfError("<robot> is missing attribute 'name'")
-    parser = _Parser(resolver)
-    materials: dict[str, Material] = {}
+        raise UrdfError(f"{tree.at(root)}<robot> is missing attribute 'name'")
+    parser = _Parser(tree, resolver, strict)
     for elem in root.findall("material"):
         mat = parser.material(elem, "robot")
         if not mat.name:
-            raise UrdfError("robot <material> without a 'name' attribute")
-        materials[mat.name] = mat
+            raise parser.fail(elem, "robot <material> without a 'name' attribute")
+        if mat.name in parser.materials:
+            parser.lenient(elem, f"material '{mat.name}' is defined twice; keeping the first")
+        else:
+            parser.materials[mat.name] = mat
+    first_line: dict[str, int | None] = {}
+
+    def duplicate(kind: str, name: str, elem: ET.Element) -> None:
+        first = first_line[f"{kind} {name}"]
+        where = f" (line {first})" if first is not None else ""
+        parser.lenient(
+            elem, f"{kind} '{name}' is defined twice; keeping the first definition{where}"
+        )
+
     links: dict[str, Link] = {}
     for elem in root.findall("link"):
-        link = parser.link(elem, materials)
+        link = parser.link(elem)
         if link.name in links:
-            raise UrdfError(f"link '{link.name}' is defined twice")
+            duplicate("link", link.name, elem)
+            continue
+        first_line[f"link {link.name}"] = tree.line(elem)
         links[link.name] = link
     if not links:
-        raise UrdfError(f"robot '{robot_name}' has no <link>")
+        raise UrdfError(f"{tree.at(root)}robot '{robot_name}' has no <link>")
     joints: dict[str, Joint] = {}
     parent_of: dict[str, str] = {}
+    joint_elems: dict[str, ET.Element] = {}
     for elem in root.findall("joint"):
         joint = parser.joint(elem)
         if joint.name in joints:
-            raise UrdfError(f"joint '{joint.name}' is defined twice")
+            duplicate("joint", joint.name, elem)
+            continue
+        first_line[f"joint {joint.name}"] = tree.line(elem)
         for role, link_name in (("parent", joint.parent), ("child", joint.child)):
             if link_name not in links:
-                raise UrdfError(
+                raise parser.fail(
+                    elem,
                     f"joint '{joint.name}': {role} link '{link_name}' is not defined "
-                    f"(links: {', '.join(sorted(links))})"
+                    f"(links: {', '.join(sorted(links))})",
                 )
         if joint.child in parent_of:
-            raise UrdfError(
+            raise parser.fail(
+                elem,
                 f"joint '{joint.name}': link '{joint.child}' already has parent joint "
-                f"'{parent_of[joint.child]}' (a link has one parent)"
+                f"'{parent_of[joint.child]}' (a link has one parent)",
             )
         parent_of[joint.child] = joint.name
         joints[joint.name] = joint
-    for joint in joints.values():
-        if joint.mimic is not None:
-            leader = joints.get(joint.mimic.joint)
-            if leader is None:
-                raise UrdfError(
-                    f"joint '{joint.name}' <mimic>: joint '{joint.mimic.joint}' is not defined"
-                )
-            if not leader.type.is_single_dof or leader.mimic is not None or leader is joint:
-                raise UrdfError(
-                    f"joint '{joint.name}' <mimic>: joint '{leader.name}' must be a revolute, "
-                    "continuous or prismatic joint that mimics nothing itself"
-                )
+        joint_elems[joint.name] = elem
+    for name, joint in list(joints.items()):
+        if joint.mimic is None:
+            continue
+        leader = joints.get(joint.mimic.joint)
+        mimic_elem = joint_elems[name].find("mimic")
+        if leader is None:
+            parser.lenient(
+                mimic_elem,
+                f"joint '{name}' <mimic>: joint '{joint.mimic.joint}' is not defined; "
+                "the joint moves on its own",
+            )
+            joints[name] = replace(joint, mimic=None)
+        elif not leader.type.is_single_dof or leader.mimic is not None or leader is joint:
+            raise parser.fail(
+                mimic_elem,
+                f"joint '{name}' <mimic>: joint '{leader.name}' must be a revolute, "
+                "continuous or prismatic joint that mimics nothing itself",
+            )
     roots = [name for name in links if name not in parent_of]
     if not roots:
-        raise UrdfError("the joints form a cycle: every link has a parent, so there is no root")
+        loop = _cycle(parent_of, joints, next(iter(links)))
+        raise UrdfError(
+            f"{tree.at(root)}the joints form a cycle through link(s) {' -> '.join(loop)}: "
+            "every link has a parent, so there is no root"
+        )
     if len(roots) > 1:
-        raise UrdfError(f"more than one root link: {', '.join(roots)} (connect them with joints)")
-    robot = Robot(robot_name, links, joints, roots[0], materials, source, ())
+        raise UrdfError(
+            f"{tree.at(root)}more than one root link: {', '.join(roots)} (connect them with joints)"
+        )
+    robot = Robot(robot_name, links, joints, roots[0], parser.materials, source, ())
     reached = set(robot.links_depth_first())
     unreached = [name for name in links if name not in reached]
     if unreached:
-        raise UrdfError(f"the joints form a cycle through link(s): {', '.join(unreached)}")
-    return Robot(robot_name, links, joints, roots[0], materials, source, tuple(parser.warnings))
+        loop = _cycle(parent_of, joints, unreached[0])
+        raise UrdfError(
+            f"{tree.at(root)}the joints form a cycle through link(s) {' -> '.join(loop)} "
+            f"(unreachable from root '{roots[0]}': {', '.join(unreached)})"
+        )
+    return replace(robot, warnings=tuple(parser.warnings))

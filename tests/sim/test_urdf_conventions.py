@@ -1,0 +1,193 @@
+"""Conventions of real URDF files: tolerated with a warning naming file, line and element;
+errors in strict mode. Each sample is a small file of our own reproducing the convention."""
+
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+
+import pytest
+
+from simbridge.errors import UrdfError
+from simbridge.sim.urdf import UrdfWarning, load_urdf, robot_to_mjcf
+
+# The Unity Robotics Hub's niryo_one.urdf defines hand_tool_joint twice (same child).
+DUPLICATE_JOINT = """<robot name="dup">
+  <link name="hand"><inertial><mass value="1"/>
+    <inertia ixx="0.01" iyy="0.01" izz="0.01"/></inertial></link>
+  <link name="tool"/>
+  <joint name="hand_tool_joint" type="fixed">
+    <parent link="hand"/><child link="tool"/>
+    <origin xyz="0 0 0.1"/>
+  </joint>
+  <joint name="hand_tool_joint" type="fixed">
+    <parent link="hand"/><child link="tool"/>
+    <origin xyz="0 0 0.5"/>
+  </joint>
+</robot>
+"""
+
+
+def _write(tmp_path: Path, text: str, name: str = "robot.urdf") -> Path:
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+def _load(path: Path, **kwargs: object) -> tuple[object, list[str]]:
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        robot = load_urdf(path, **kwargs)  # type: ignore[arg-type]
+    return robot, [str(w.message) for w in caught if issubclass(w.category, UrdfWarning)]
+
+
+def test_duplicate_joint_keeps_first_with_warning_naming_file_and_line(tmp_path: Path) -> None:
+    path = _write(tmp_path, DUPLICATE_JOINT)
+    robot, messages = _load(path)
+    assert len(messages) == 1
+    assert messages[0] == (
+        f"{path}:9: joint 'hand_tool_joint' is defined twice; keeping the first definition (line 5)"
+    )
+    joint = robot.joints["hand_tool_joint"]  # type: ignore[attr-defined]
+    assert joint.origin.xyz == (0.0, 0.0, 0.1)
+    doc, _ = robot_to_mjcf(robot)  # type: ignore[arg-type]
+    doc.compile()
+
+
+def test_duplicate_link_keeps_first(tmp_path: Path) -> None:
+    text = """<robot name="r">
+  <link name="a"/>
+  <link name="a"><visual><geometry><box size="1 1 1"/></geometry></visual></link>
+</robot>"""
+    robot, messages = _load(_write(tmp_path, text))
+    assert messages == [
+        f"{tmp_path / 'robot.urdf'}:3: link 'a' is defined twice; "
+        "keeping the first definition (line 2)"
+    ]
+    assert robot.links["a"].visuals == ()  # type: ignore[attr-defined]
+
+
+def test_strict_mode_refuses_duplicates(tmp_path: Path) -> None:
+    path = _write(tmp_path, DUPLICATE_JOINT)
+    with pytest.raises(UrdfError, match=rf"^{path}:9: joint 'hand_tool_joint' is defined twice"):
+        load_urdf(path, strict=True)
+
+
+def test_material_defined_in_an_earlier_visual_is_found(tmp_path: Path) -> None:
+    # urdfdom (and the Allegro hand's files) let a visual define a named colour that later
+    # visuals reference by name.
+    text = """<robot name="r">
+  <link name="a"><visual><geometry><box size="1 1 1"/></geometry>
+    <material name="black"><color rgba="0.1 0.1 0.1 1"/></material></visual></link>
+  <link name="b"><visual><geometry><box size="1 1 1"/></geometry>
+    <material name="black"/></visual></link>
+  <joint name="j" type="fixed"><parent link="a"/><child link="b"/></joint>
+</robot>"""
+    robot, messages = _load(_write(tmp_path, text))
+    assert messages == []
+    material = robot.links["b"].visuals[0].material  # type: ignore[attr-defined]
+    assert material.rgba == (0.1, 0.1, 0.1, 1.0)
+
+
+def test_undefined_material_warns_then_errors_in_strict_mode(tmp_path: Path) -> None:
+    text = """<robot name="r">
+  <link name="a"><visual><geometry><box size="1 1 1"/></geometry>
+    <material name="nope"/></visual></link>
+</robot>"""
+    path = _write(tmp_path, text)
+    robot, messages = _load(path)
+    assert len(messages) == 1
+    assert messages[0].startswith(f"{path}:3: link 'a' <visual> #0: material 'nope' is not")
+    assert robot.links["a"].visuals[0].material is None  # type: ignore[attr-defined]
+    with pytest.raises(UrdfError, match=r"robot.urdf:3: .*material 'nope'.*strict mode"):
+        load_urdf(path, strict=True)
+
+
+def test_mimic_of_missing_joint_moves_on_its_own(tmp_path: Path) -> None:
+    text = """<robot name="r">
+  <link name="a"/>
+  <link name="b"><inertial><mass value="1"/><inertia ixx="1" iyy="1" izz="1"/></inertial></link>
+  <joint name="finger" type="revolute"><parent link="a"/><child link="b"/>
+    <limit lower="-1" upper="1" effort="1" velocity="1"/>
+    <mimic joint="index_q1" multiplier="2"/>
+  </joint>
+</robot>"""
+    path = _write(tmp_path, text)
+    robot, messages = _load(path)
+    assert messages == [
+        f"{path}:6: joint 'finger' <mimic>: joint 'index_q1' is not defined; "
+        "the joint moves on its own"
+    ]
+    assert robot.joints["finger"].mimic is None  # type: ignore[attr-defined]
+    with pytest.raises(UrdfError, match="strict mode"):
+        load_urdf(path, strict=True)
+
+
+def test_limit_without_range_is_simulated_unlimited(tmp_path: Path) -> None:
+    # centauro's wheels: type="revolute" with <limit effort velocity/> ("actually continuous").
+    text = """<robot name="r">
+  <link name="a"/>
+  <link name="b"><inertial><mass value="1"/><inertia ixx="1" iyy="1" izz="1"/></inertial></link>
+  <joint name="wheel" type="revolute"><parent link="a"/><child link="b"/>
+    <limit effort="35" velocity="20"/>
+  </joint>
+</robot>"""
+    path = _write(tmp_path, text)
+    robot, messages = _load(path)
+    assert messages == [
+        f"{path}:5: joint 'wheel' <limit>: no lower/upper (range [0, 0]); "
+        "simulating the joint without position limits"
+    ]
+    assert not robot.joints["wheel"].limited  # type: ignore[attr-defined]
+    doc, _ = robot_to_mjcf(robot)  # type: ignore[arg-type]
+    assert doc.compile().jnt_limited[0] == 0
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        (
+            """<robot name="r">
+  <link name="a"/>
+  <link name="b"/>
+  <joint name="j1" type="fixed"><parent link="a"/><child link="b"/></joint>
+  <joint name="j2" type="fixed"><parent link="b"/><child link="a"/></joint>
+</robot>""",
+            r"robot.urdf:1: the joints form a cycle through link\(s\) a -> b",
+        ),
+        (
+            """<robot name="r">
+  <link name="root"/>
+  <link name="a"/>
+  <link name="b"/>
+  <joint name="j1" type="fixed"><parent link="a"/><child link="b"/></joint>
+  <joint name="j2" type="fixed"><parent link="b"/><child link="a"/></joint>
+</robot>""",
+            r"robot.urdf:1: the joints form a cycle through link\(s\) a -> b "
+            r"\(unreachable from root 'root'",
+        ),
+        (
+            """<robot name="r">
+  <link name="a"/>
+  <joint name="j" type="fixed"><parent link="a"/><child link="ghost"/></joint>
+</robot>""",
+            r"robot.urdf:3: joint 'j': child link 'ghost' is not defined",
+        ),
+        (
+            """<robot name="r">
+  <link name="a">
+    <inertial><mass value="heavy"/></inertial>
+  </link>
+</robot>""",
+            r"robot.urdf:2: link 'a' <inertial>: attribute value='heavy' is not a number",
+        ),
+        ("<robot name='r'>\n<link name='a'>", r"robot.urdf: not well-formed XML: .*line 2"),
+    ],
+)
+def test_structural_errors_name_file_line_and_element(
+    tmp_path: Path, text: str, message: str
+) -> None:
+    path = _write(tmp_path, text)
+    with pytest.raises(UrdfError, match=message) as info:
+        load_urdf(path)
+    assert str(info.value).count(str(path)) == 1  # the file is named once
