@@ -36,20 +36,36 @@ them `{secs, nsecs}` (or `[secs, nsecs]`, or float seconds) like rospy. ROS 1 bi
 follows ROS 1: `time` is uint32 secs/nsecs (stamps past 2038 are valid), `duration`
 int32 secs/nsecs; CDR keeps builtin_interfaces' `int32 sec, uint32 nanosec`. A value a
 format cannot carry raises MessageError naming the field, the value and the range.
-CDR uses the registry's layouts: ROS 1 noetic by default (Header with seq);
-`MessageRegistry(store=Stores.ROS2_HUMBLE)` gives ROS 2 ones.
+CDR uses the registry's layouts: ROS 1 noetic by default (Header with seq).
+
+ROS 2 mode: `ros2_registry()` (or `registry_for("ROS2")`, `MessageRegistry(store=ROS2_STORE)`)
+holds Jazzy layouts: Header without seq, `builtin_interfaces/Time` (int32 sec, uint32
+nanosec, spelled `{sec, nanosec}` in dicts), CameraInfo with `d k r p`. Its `protocol` is
+"ROS2" and its `wire_format` (the default of encode/decode) is "cdr". Packages load from
+the same `pkg/msg`, `pkg/srv`, `pkg/action` layout; actions expand as rosidl does
+(`pkg/FooGoal`, `pkg/FooFeedbackMessage`, services `pkg/FooSendGoal`, `pkg/FooGetResult`).
+`ros2_name(name)` gives the rosidl spelling (`pkg/msg/Type`, `pkg/srv/Srv_Request`,
+`pkg/action/Foo_Goal`); every such spelling is accepted as input.
 """
 
 from __future__ import annotations
 
 from .codec import Codec, WireFormat
-from .loader import InterfaceSources, expand_action, load_interface_dirs
+from .loader import InterfaceSources, expand_action, expand_action_ros2, load_interface_dirs
 from .names import TypeName, parse_type_name
-from .registry import SHIPPED_DEFINITIONS, MessageRegistry, default_registry
+from .registry import (
+    ROS2_STORE,
+    SHIPPED_DEFINITIONS,
+    MessageRegistry,
+    default_registry,
+    registry_for,
+    ros2_registry,
+)
 from .schema import ConstantSpec, FieldSpec, MessageSchema
 from .service_info import ServiceInfo
 
 __all__ = [
+    "ROS2_STORE",
     "SHIPPED_DEFINITIONS",
     "Codec",
     "ConstantSpec",
@@ -62,9 +78,12 @@ __all__ = [
     "WireFormat",
     "default_registry",
     "expand_action",
+    "expand_action_ros2",
     "load_interface_dirs",
     "md5",
     "parse_type_name",
+    "registry_for",
+    "ros2_registry",
     "show",
 ]
 

@@ -22,11 +22,16 @@ _BYTES_TYPES = ("uint8", "char")
 class Exporter:
     """Converts message objects into dicts of Python primitives, JSON and MessagePack."""
 
-    def __init__(self, schema_of: Callable[[str], MessageSchema]) -> None:
+    def __init__(
+        self, schema_of: Callable[[str], MessageSchema], *, ros2_time: bool = False
+    ) -> None:
+        """`ros2_time`: spell time and duration as ROS 2 does ({sec, nanosec})."""
         self._schema_of = schema_of
+        self._time_keys = ("sec", "nanosec") if ros2_time else ("secs", "nsecs")
 
     def to_dict(self, msg: object) -> dict[str, Any]:
-        """Fields by ROS name; time as {secs, nsecs}, uint8[]/char[] as bytes, arrays as lists."""
+        """Fields by ROS name; time as {secs, nsecs} (ROS 2: {sec, nanosec}), uint8[]/char[]
+        as bytes, arrays as lists."""
         msgtype = getattr(msg, "__msgtype__", None)
         if not isinstance(msgtype, str):
             raise MessageError(f"not a message object: {type(msg).__name__}")
@@ -54,7 +59,8 @@ class Exporter:
         if spec.is_message:
             return self.to_dict(value)
         if spec.type in ("time", "duration"):
-            return {"secs": int(value.sec), "nsecs": int(value.nanosec)}
+            secs, nsecs = self._time_keys
+            return {secs: int(value.sec), nsecs: int(value.nanosec)}
         if isinstance(value, np.generic):
             return value.item()
         return value

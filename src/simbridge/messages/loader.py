@@ -8,7 +8,13 @@ from pathlib import Path
 
 from simbridge.errors import MessageError
 
-__all__ = ["InterfaceSources", "expand_action", "load_interface_dirs", "split_sections"]
+__all__ = [
+    "InterfaceSources",
+    "expand_action",
+    "expand_action_ros2",
+    "load_interface_dirs",
+    "split_sections",
+]
 
 _INTERFACE_DIRS = ("msg", "srv", "action")
 _SEPARATOR = re.compile(r"^---[ \t]*$", re.MULTILINE)
@@ -21,11 +27,24 @@ class InterfaceSources:
 
     messages: dict[str, str] = field(default_factory=dict)
     services: dict[str, tuple[str, str]] = field(default_factory=dict)
+    ros2_names: dict[str, str] = field(default_factory=dict)
+    """ROS 2 (rosidl) names of service and action types and their parts, by canonical
+    name (`pkg/FooRequest` -> `pkg/srv/Foo_Request`); plain messages are `pkg/msg/Type`."""
 
     def update(self, other: InterfaceSources) -> None:
         """Merge another set into this one (later definitions win)."""
         self.messages.update(other.messages)
         self.services.update(other.services)
+        self.ros2_names.update(other.ros2_names)
+
+    def add_service(self, base: str, request: str, response: str, ros2_name: str) -> None:
+        """Add service `base` (canonical `pkg/Srv`) from its two section texts."""
+        names = (f"{base}Request", f"{base}Response")
+        self.messages[names[0]], self.messages[names[1]] = request, response
+        self.services[base] = names
+        self.ros2_names[base] = ros2_name
+        self.ros2_names[names[0]] = f"{ros2_name}_Request"
+        self.ros2_names[names[1]] = f"{ros2_name}_Response"
 
 
 def split_sections(text: str, count: int, what: str) -> list[str]:
@@ -63,19 +82,50 @@ def expand_action(package: str, name: str, text: str) -> dict[str, str]:
     }
 
 
-def _load_package(package_dir: Path) -> InterfaceSources:
+def expand_action_ros2(package: str, name: str, text: str) -> InterfaceSources:
+    """The types rosidl generates for ROS 2 action `package/name`: Goal, Result, Feedback,
+    FeedbackMessage and the SendGoal and GetResult services (canonical `pkg/NameGoal`,
+    `pkg/NameSendGoal`, ...; ROS 2 names `pkg/action/Name_Goal`, ...)."""
+    goal, result, feedback = split_sections(text, 3, f"{package}/action/{name}.action")
+    base, ros2 = f"{package}/{name}", f"{package}/action/{name}"
+    uuid = "unique_identifier_msgs/UUID goal_id\n"
+    sources = InterfaceSources(
+        messages={
+            f"{base}Goal": goal,
+            f"{base}Result": result,
+            f"{base}Feedback": feedback,
+            f"{base}FeedbackMessage": f"{uuid}{name}Feedback feedback\n",
+        }
+    )
+    for part in ("Goal", "Result", "Feedback", "FeedbackMessage"):
+        sources.ros2_names[f"{base}{part}"] = f"{ros2}_{part}"
+    sources.add_service(
+        f"{base}SendGoal",
+        f"{uuid}{name}Goal goal\n",
+        "bool accepted\nbuiltin_interfaces/Time stamp\n",
+        f"{ros2}_SendGoal",
+    )
+    sources.add_service(
+        f"{base}GetResult", uuid, f"int8 status\n{name}Result result\n", f"{ros2}_GetResult"
+    )
+    return sources
+
+
+def _load_package(package_dir: Path, ros2: bool) -> InterfaceSources:
     package = package_dir.name
     sources = InterfaceSources()
     for path in sorted((package_dir / "msg").glob("*.msg")):
         sources.messages[f"{package}/{path.stem}"] = _read(path)
     for path in sorted((package_dir / "srv").glob("*.srv")):
         request, response = split_sections(_read(path), 2, str(path))
-        base = f"{package}/{path.stem}"
-        sources.messages[f"{base}Request"] = request
-        sources.messages[f"{base}Response"] = response
-        sources.services[base] = (f"{base}Request", f"{base}Response")
+        sources.add_service(
+            f"{package}/{path.stem}", request, response, f"{package}/srv/{path.stem}"
+        )
     for path in sorted((package_dir / "action").glob("*.action")):
-        sources.messages.update(expand_action(package, path.stem, _read(path)))
+        if ros2:
+            sources.update(expand_action_ros2(package, path.stem, _read(path)))
+        else:
+            sources.messages.update(expand_action(package, path.stem, _read(path)))
     return sources
 
 
@@ -91,8 +141,11 @@ def _is_package(path: Path) -> bool:
     return any((path / sub).is_dir() for sub in _INTERFACE_DIRS)
 
 
-def load_interface_dirs(*paths: str | Path) -> InterfaceSources:
-    """Load every package found in `paths`; each is a package dir or a dir of packages."""
+def load_interface_dirs(*paths: str | Path, ros2: bool = False) -> InterfaceSources:
+    """Load every package found in `paths`; each is a package dir or a dir of packages.
+
+    `.action` files expand like genmsg's (ROS 1) or, with `ros2`, like rosidl's.
+    """
     sources = InterfaceSources()
     for raw in paths:
         path = Path(raw)
@@ -108,5 +161,5 @@ def load_interface_dirs(*paths: str | Path) -> InterfaceSources:
             )
             raise MessageError(msg)
         for package_dir in found:
-            sources.update(_load_package(package_dir))
+            sources.update(_load_package(package_dir, ros2))
     return sources

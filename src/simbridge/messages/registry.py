@@ -9,7 +9,7 @@ import re
 import threading
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any, NoReturn
+from typing import Any, Literal, NoReturn
 
 import msgpack
 import yaml
@@ -28,10 +28,20 @@ from .rostime import ROS1_TIME_RANGES, ROS2_TIME_RANGES, use_ros1_layout
 from .schema import MessageSchema, build_schema, canonical_of
 from .service_info import ServiceInfo
 
-__all__ = ["SHIPPED_DEFINITIONS", "MessageRegistry", "default_registry"]
+__all__ = [
+    "ROS2_STORE",
+    "SHIPPED_DEFINITIONS",
+    "MessageRegistry",
+    "default_registry",
+    "registry_for",
+    "ros2_registry",
+]
 
 SHIPPED_DEFINITIONS = Path(__file__).parent / "definitions"
 """Definitions shipped with simbridge (moveit_msgs subset, niryo_moveit, tf2_msgs, std_srvs ...)."""
+
+ROS2_STORE = Stores.ROS2_JAZZY
+"""The ROS 2 distribution whose layouts ROS 2 mode uses (Jazzy, the current LTS)."""
 
 _TIME_KEYS = {"time": "builtin_interfaces/msg/Time", "duration": "builtin_interfaces/msg/Duration"}
 _ALIASES = {"Header": "std_msgs/Header"}
@@ -54,6 +64,11 @@ class MessageRegistry:
         e.g. Header without seq, for CDR peers), plus the shipped definitions."""
         self._store = get_typestore(store)
         use_ros1_layout(self._store)  # ROS 1 binary: uint32 time secs, int32 duration nsecs
+        self.protocol: Literal["ROS1", "ROS2"] = "ROS1" if store == Stores.ROS1_NOETIC else "ROS2"
+        """The ROS generation of the store's layouts ("ROS2" for every store but noetic)."""
+        self.wire_format: WireFormat = "ros1" if self.protocol == "ROS1" else "cdr"
+        """The serialization encode/decode use by default: ROS 1 binary or CDR."""
+        self._ros2_names: dict[str, str] = {}
         self._lock = threading.RLock()
         self._texts: dict[str, str] = {}
         self._constant_texts: dict[str, dict[str, str]] = {}
@@ -61,9 +76,9 @@ class MessageRegistry:
         self._schemas: dict[str, MessageSchema] = {}
         self._md5s: dict[str, str] = {}
         self._codecs: dict[str, Codec] = {}
-        ros1 = store == Stores.ROS1_NOETIC
+        ros1 = self.protocol == "ROS1"
         self._builder = Builder(self, ROS1_TIME_RANGES if ros1 else ROS2_TIME_RANGES)
-        self._exporter = Exporter(self.schema)
+        self._exporter = Exporter(self.schema, ros2_time=not ros1)
         if shipped:
             self._load_shipped(strict=ros1)
 
@@ -71,7 +86,7 @@ class MessageRegistry:
 
     def load_packages(self, *paths: str | Path) -> list[str]:
         """Add the packages under `paths` (package dirs or dirs of packages); returns new types."""
-        return self.add_sources(load_interface_dirs(*paths))
+        return self.add_sources(load_interface_dirs(*paths, ros2=self.protocol == "ROS2"))
 
     def _load_shipped(self, *, strict: bool) -> None:
         """Shipped packages are written for noetic; other stores get those whose
@@ -101,12 +116,10 @@ class MessageRegistry:
         """Add one service type from its `.srv` text (request `---` response)."""
         canonical = self._parse_new(name)
         request, response = split_sections(text, 2, canonical)
-        names = (f"{canonical}Request", f"{canonical}Response")
-        self.add_sources(
-            InterfaceSources(
-                messages={names[0]: request, names[1]: response}, services={canonical: names}
-            )
-        )
+        sources = InterfaceSources()
+        package, _, srv = canonical.partition("/")
+        sources.add_service(canonical, request, response, f"{package}/srv/{srv}")
+        self.add_sources(sources)
         return self.service(canonical)
 
     def add_sources(self, sources: InterfaceSources) -> list[str]:
@@ -129,6 +142,7 @@ class MessageRegistry:
                 self._texts[canonical] = text
                 self._constant_texts[canonical] = _constant_texts(text)
             self._services.update(sources.services)
+            self._ros2_names.update(sources.ros2_names)
             return sorted(sources.messages)
 
     def _parse_new(self, name: str) -> str:
@@ -173,6 +187,14 @@ class MessageRegistry:
         """Whether `name` is a known service type."""
         return self._service_lookup(name) is not None
 
+    def ros2_name(self, name: str) -> str:
+        """The ROS 2 (rosidl) name of a message or service type: `pkg/msg/Type`,
+        `pkg/srv/Srv`, `pkg/srv/Srv_Request`, `pkg/action/Act_Goal`, ..."""
+        canonical = self._lookup(name) or self._service_lookup(name)
+        if canonical is None:
+            self._unknown(name, "message or service")
+        return self._ros2_names.get(canonical) or store_name(canonical)
+
     def resolve(self, name: str) -> str:
         """The canonical `pkg/Type` of a message type; UnknownMessageTypeError if unknown."""
         canonical = self._lookup(name)
@@ -192,7 +214,7 @@ class MessageRegistry:
 
     def _service_lookup(self, name: str) -> str | None:
         parsed = parse_type_name(name) if isinstance(name, str) else None
-        if parsed is None or parsed.kind not in ("msg", "srv"):
+        if parsed is None:
             return None
         return parsed.canonical if parsed.canonical in self._services else None
 
@@ -398,19 +420,21 @@ class MessageRegistry:
             self._codecs[name] = codec
         return codec
 
-    def encode(self, msg: object, name: str | None = None, fmt: WireFormat = "ros1") -> bytes:
-        """Serialize `msg` (type taken from the message when `name` is None)."""
+    def encode(self, msg: object, name: str | None = None, fmt: WireFormat | None = None) -> bytes:
+        """Serialize `msg` (type taken from the message when `name` is None) in `fmt`
+        (the registry's `wire_format` unless given)."""
         if name is None:
             name = getattr(msg, "__msgtype__", None)  # `pkg/msg/Type`, a valid spelling
             if not isinstance(name, str):
                 raise MessageError(f"not a message object: {type(msg).__name__}")
-        return self.codec(name).encode(msg, fmt)
+        return self.codec(name).encode(msg, fmt or self.wire_format)
 
     def decode(
-        self, data: bytes | bytearray | memoryview, name: str, fmt: WireFormat = "ros1"
+        self, data: bytes | bytearray | memoryview, name: str, fmt: WireFormat | None = None
     ) -> Any:
-        """Deserialize one `name` message; malformed bytes raise MessageError."""
-        return self.codec(name).decode(data, fmt)
+        """Deserialize one `name` message (in the registry's `wire_format` unless `fmt`
+        is given); malformed bytes raise MessageError."""
+        return self.codec(name).decode(data, fmt or self.wire_format)
 
     def transcode(
         self, data: bytes | bytearray | memoryview, name: str, src: WireFormat, dst: WireFormat
@@ -447,15 +471,29 @@ def _constant_texts(text: str) -> dict[str, str]:
     return found
 
 
-_default: MessageRegistry | None = None
-_default_lock = threading.Lock()
+_shared: dict[str, MessageRegistry] = {}
+_shared_lock = threading.Lock()
+
+
+def registry_for(protocol: Literal["ROS1", "ROS2"]) -> MessageRegistry:
+    """The shared registry of one ROS generation (noetic or ROS2_STORE layouts, plus
+    the shipped definitions), built on first use."""
+    found = _shared.get(protocol)
+    if found is None:
+        with _shared_lock:
+            found = _shared.get(protocol)
+            if found is None:
+                store = Stores.ROS1_NOETIC if protocol == "ROS1" else ROS2_STORE
+                found = _shared[protocol] = MessageRegistry(store=store)
+    return found
 
 
 def default_registry() -> MessageRegistry:
-    """The shared registry (ROS 1 noetic + shipped definitions), built on first use."""
-    global _default
-    if _default is None:
-        with _default_lock:
-            if _default is None:
-                _default = MessageRegistry()
-    return _default
+    """The shared ROS 1 registry (noetic + shipped definitions), built on first use."""
+    return registry_for("ROS1")
+
+
+def ros2_registry() -> MessageRegistry:
+    """The shared ROS 2 registry (Jazzy layouts + shipped definitions): Header without
+    seq, CameraInfo with d/k/r/p, actions as rosidl expands them."""
+    return registry_for("ROS2")
