@@ -55,7 +55,7 @@ class SensorPublisher:
         """Publish every message due at the current sim time, for outputs someone reads."""
         for topic, publisher in self._lazy.items():
             self.suite.set_wanted(topic, publisher.has_subscribers)
-        for publication in self.suite.poll(self.world.model, self.world.data):
+        for publication in self.suite.poll(self.world.model, self.world.data, self.world.refresh):
             self.connector.publish(publication.topic, publication.message)
 
     def close(self) -> None:

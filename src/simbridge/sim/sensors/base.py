@@ -72,18 +72,20 @@ class Sensor(ABC):
         """True when at least one output is wanted; inactive sensors cost nothing."""
         return any(self._wanted.values())
 
-    def poll(self, model: mujoco.MjModel, data: mujoco.MjData) -> list[Publication]:
-        """Messages due at `data.time` (empty between ticks or when inactive).
-
-        A clock that went backwards (a simulation reset) restarts the sensor first.
-        """
+    def due(self, model: mujoco.MjModel, data: mujoco.MjData) -> bool:
+        """Whether a reading falls due at the step `data.time` is at, and some output is
+        wanted; advances the schedule either way. A clock that went backwards (a
+        simulation reset) restarts the sensor first."""
         now = float(data.time)
         if now < self._last_time:
             self.reset()
         self._last_time = now
-        if not self.schedule.due(now) or not self.active:
-            return []
-        return self.measure(model, data)
+        return self.schedule.due(now) and self.active
+
+    def poll(self, model: mujoco.MjModel, data: mujoco.MjData) -> list[Publication]:
+        """Messages due at `data.time` (empty between ticks or when inactive). `data`'s
+        derived quantities must match its state (`mj_forward` after `mj_step`)."""
+        return self.measure(model, data) if self.due(model, data) else []
 
     def reset(self) -> None:
         """Restart the schedule (after the simulation clock went back to zero)."""

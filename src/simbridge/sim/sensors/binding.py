@@ -14,11 +14,15 @@ __all__ = ["SteppedWorld", "attach_sensors"]
 
 
 class SteppedWorld(Protocol):
-    """What the sensors need from a world: its model and data, and a per-step hook
-    (`simbridge.sim.world.World` fits)."""
+    """What the sensors need from a world: its model and data, a per-step hook and a
+    refresh of derived quantities after a step (`simbridge.sim.world.World` fits)."""
 
     model: mujoco.MjModel
     data: mujoco.MjData
+
+    def refresh(self) -> None:
+        """Bring derived quantities (poses, velocities) up to the current state."""
+        ...
 
     def add_step_callback(self, fn: Callable[[Any], None], period: float | None = None) -> int:
         """Call `fn(world)` after every step."""
@@ -39,7 +43,7 @@ def attach_sensors(
     suite = SensorSuite.from_config(world.model, configs)
 
     def on_step(stepped: SteppedWorld) -> None:
-        for publication in suite.poll(stepped.model, stepped.data):
+        for publication in suite.poll(stepped.model, stepped.data, stepped.refresh):
             publish(publication)
 
     world.add_step_callback(on_step)

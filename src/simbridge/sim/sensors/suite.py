@@ -120,9 +120,28 @@ class SensorSuite:
             for parent, child, pose in (frame for frame in frames if frame is not None)
         ]
 
-    def poll(self, model: mujoco.MjModel, data: mujoco.MjData) -> list[Publication]:
-        """Messages from every sensor due at `data.time`."""
-        return [pub for sensor in self.sensors for pub in sensor.poll(model, data)]
+    def poll(
+        self,
+        model: mujoco.MjModel,
+        data: mujoco.MjData,
+        refresh: Callable[[], None] | None = None,
+    ) -> list[Publication]:
+        """Messages from every sensor due at `data.time`.
+
+        After `mj_step` MuJoCo's derived quantities (body poses, velocities,
+        accelerations) still describe the state before the step, one step behind
+        `data.time`. So when a reading is due `refresh()` runs first to bring them up
+        to date (`mj_forward` by default; a `World` passes its own, which runs at most
+        once per step), and every reading describes the state at its stamp.
+        """
+        due = [sensor for sensor in self.sensors if sensor.due(model, data)]
+        if not due:
+            return []
+        if refresh is None:
+            mujoco.mj_forward(model, data)
+        else:
+            refresh()
+        return [pub for sensor in due for pub in sensor.measure(model, data)]
 
     def reset(self) -> None:
         """Restart every schedule after the simulation was reset."""

@@ -84,6 +84,7 @@ class World:
         self._pending_steps = 0
         self._reset_requested = False
         self._stop = threading.Event()
+        self._derived_stale = False
         self.reset()
 
     @classmethod
@@ -110,6 +111,20 @@ class World:
     def timestep(self) -> float:
         """Seconds of sim time per step."""
         return float(self.model.opt.timestep)
+
+    def refresh(self) -> None:
+        """Bring MuJoCo's derived quantities (body poses, velocities, accelerations,
+        actuator forces) up to the current state.
+
+        `mj_step` integrates positions and velocities to the new time but leaves what it
+        derived from them describing the state one step earlier. Reading poses after a
+        step without this would pair the new stamp with the old pose. Runs `mj_forward`
+        at most once per step, and only when something reads derived state; it changes
+        no state, so the trajectory is the same with or without it.
+        """
+        if self._derived_stale:
+            mujoco.mj_forward(self.model, self.data)
+            self._derived_stale = False
 
     def robot(self, name: str | None = None) -> RobotHandle:
         """The robot called `name` (or the only one)."""
@@ -144,10 +159,12 @@ class World:
 
     def joint_efforts(self, names: Sequence[str] | None = None) -> dict[str, float]:
         """Force or torque the drives apply to each joint (N or N m)."""
+        self.refresh()
         return {n: float(self.data.qfrc_actuator[d]) for n, _, d in self._slots(names)}
 
     def link_pose(self, name: str) -> Transform:
         """World pose of body `name` (a URDF link name with its robot's prefix, or an object)."""
+        self.refresh()
         body = self._body_ids.get(name)
         if body is None:
             try:
@@ -172,6 +189,7 @@ class World:
                 self.drives.set_position(name, values[name])
         self._sync_mimics()
         mujoco.mj_forward(self.model, self.data)
+        self._derived_stale = False
 
     def _sync_mimics(self) -> None:
         for robot in self.robots.values():
@@ -254,6 +272,7 @@ class World:
                 self.data.qpos[robot.joints[robot.prefix + name].qpos] = value
         self._sync_mimics()
         mujoco.mj_forward(self.model, self.data)
+        self._derived_stale = False
         self.drives.hold_current()
         self.follower.cancel()
         self.rng = np.random.default_rng(self.scene.physics.seed)
@@ -263,11 +282,13 @@ class World:
             fn(self)
 
     def step(self, count: int = 1) -> None:
-        """Advance `count` physics steps, running posted work and due callbacks."""
+        """Advance `count` physics steps, running posted work and due callbacks (those
+        that read poses get them for the new time: see `refresh`)."""
         for _ in range(count):
             self.process_posted()
             self.follower.update(self.time)
             mujoco.mj_step(self.model, self.data)
+            self._derived_stale = True
             now = self.time
             for cb in list(self._callbacks.values()):
                 if cb.period is None:
