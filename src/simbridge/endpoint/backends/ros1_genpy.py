@@ -4,6 +4,12 @@ ROS 1 command-line tools (`rosservice call`, `rostopic echo`) import a type's Py
 module. For types simbridge knows but Debian ships no module for (e.g. niryo_moveit),
 this writes their .msg/.srv texts from the registry into a package tree and runs
 Debian's genpy generators on it; the returned environment lets the tools import them.
+
+`rosmsg show` / `rossrv show` read `.msg` files instead, found through rospack, and
+Debian ships none for the standard packages (geometry_msgs, std_msgs, ...). So the
+tree holds the `.msg` files of every type used, each package with a package.xml, and
+the returned ROS_PACKAGE_PATH entry must come first so rospack finds it before any
+same-named system package.
 """
 
 from __future__ import annotations
@@ -52,7 +58,8 @@ def generate_python_messages(
     """Generate Python modules for ``services``, ``messages`` and the types they use that
     Debian lacks, under ``root``.
 
-    Returns the ROS_PACKAGE_PATH and PYTHONPATH entries to add to a ROS tool's environment.
+    Returns the ROS_PACKAGE_PATH and PYTHONPATH entries to put first in a ROS tool's
+    environment (rosmsg/rossrv show need the ROS_PACKAGE_PATH one ahead of system packages).
     """
     sources, python = root / "src", root / "python"
     types: set[str] = set()
@@ -80,9 +87,10 @@ def generate_python_messages(
         (folder / f"{base}.srv").write_text(text)
     includes = [f"-I{p}:{sources / p / 'msg'}" for p in sorted({*packages})]
     for package in sorted({*packages, *(s.split("/")[0] for s in services)}):
-        if (DEBIAN_PYTHON / package).is_dir():
-            continue
+        # Every package gets a manifest, so rospack (rosmsg/rossrv show) finds its files.
         (sources / package / "package.xml").write_text(_PACKAGE_XML.format(name=package))
+        if (DEBIAN_PYTHON / package).is_dir():
+            continue  # Debian's Python modules serve the tools; do not shadow them
         (python / package).mkdir(parents=True, exist_ok=True)
         (python / package / "__init__.py").write_text("")
         for kind, script in (("msg", "genmsg_py.py"), ("srv", "gensrv_py.py")):
