@@ -6,7 +6,7 @@ STAMP := $(VENV)/.installed
 export MUJOCO_GL ?= osmesa
 export PYOPENGL_PLATFORM ?= osmesa
 
-.PHONY: all demo test lint typecheck pytest bench sysdeps constraints clean
+.PHONY: all demo test lint typecheck pytest bench sysdeps constraints clean ros2 constraints-ros2
 
 all: test
 
@@ -24,6 +24,21 @@ $(STAMP): pyproject.toml constraints.txt | sysdeps
 	@$(BIN)/python -c "import site, pathlib; pathlib.Path(site.getsitepackages()[0], 'zz_debian_dist_packages.pth').write_text('/usr/lib/python3/dist-packages\n')"
 	@touch $(STAMP)
 
+# The ROS 2 venv: Jazzy wheels from PyPI, no Debian dist-packages (rclpy and rospy cannot
+# share an interpreter); see scripts/install-ros2.sh.
+VENV_ROS2 := .venv-ros2
+STAMP_ROS2 := $(VENV_ROS2)/.installed
+
+$(STAMP_ROS2): requirements-ros2.txt constraints-ros2.txt pyproject.toml constraints.txt scripts/install-ros2.sh
+	@bash scripts/install-ros2.sh $(VENV_ROS2)
+
+ros2: $(STAMP_ROS2)
+
+constraints-ros2: $(STAMP_ROS2)
+	{ echo "# Pinned versions of the ROS 2 venv (.venv-ros2); regenerate with \`make constraints-ros2\`."; \
+	  $(VENV_ROS2)/bin/pip freeze --path $$($(VENV_ROS2)/bin/python -c "import site; print(site.getsitepackages()[0])") \
+	  | grep -v -e '^-e' -e '^#' -e '^simbridge' -e '^pip==' -e '^setuptools=='; } > constraints-ros2.txt
+
 demo: sysdeps $(STAMP)
 	$(BIN)/simbridge demo
 
@@ -36,7 +51,7 @@ typecheck: $(STAMP)
 pytest: $(STAMP)
 	$(BIN)/pytest
 
-test: sysdeps $(STAMP)
+test: sysdeps $(STAMP) ros2
 	$(BIN)/ruff check src tests benchmarks
 	$(BIN)/mypy
 	$(BIN)/pytest
@@ -49,4 +64,4 @@ constraints: $(STAMP)
 	  | grep -v -e '^-e' -e '^#' -e '^simbridge' -e '^pip==' -e '^setuptools==' > constraints.txt
 
 clean:
-	rm -rf $(VENV) .mypy_cache .ruff_cache .pytest_cache
+	rm -rf $(VENV) $(VENV_ROS2) .mypy_cache .ruff_cache .pytest_cache
