@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 
 import pytest
 from hypothesis import given
@@ -156,17 +157,90 @@ def test_fuzz_connection_yields_only_events(data: bytes) -> None:
         )
 
 
-@given(st.text(max_size=40), st.text(max_size=40), st.integers(0, 2**31), st.booleans())
+_NAME_ORACLE = re.compile(r"[~/A-Za-z_][A-Za-z0-9_/]*", re.ASCII)
+_TYPE_ORACLE = re.compile(r"[A-Za-z]\w*(/[A-Za-z]\w*){0,2}", re.ASCII)
+
+
+def _valid_name(text: str) -> bool:
+    return (
+        bool(_NAME_ORACLE.fullmatch(text))
+        and "//" not in text
+        and text not in ("/", "~")
+        and len(text) <= 256
+    )
+
+
+@given(
+    st.text(max_size=40) | st.from_regex(r"/[a-z_]{1,10}(/[a-z0-9]{1,5})?", fullmatch=True),
+    st.text(max_size=40) | st.from_regex(r"[a-z]{1,8}/[A-Z][a-z]{0,8}", fullmatch=True),
+    st.integers(-(2**40), 2**40),
+    st.booleans(),
+)
 def test_fuzz_publish_json(topic: str, msg: str, queue: int, latch: bool) -> None:
     body = json.dumps({"topic": topic, "message_name": msg, "queue_size": queue, "latch": latch})
+    topic, msg = topic.rstrip("\x00"), msg.rstrip("\x00")
+    valid = (
+        _valid_name(topic)
+        and bool(_TYPE_ORACLE.fullmatch(msg))
+        and len(msg) <= 256
+        and 0 <= queue <= 10_000
+    )
     try:
         cmd = decode_command("__publish", body.encode(), sender="client")
     except ProtocolError:
-        assert (
-            not topic.strip()
-            or not msg.strip()
-            or any(c.isspace() for c in topic + msg)
-            or "\x00" in topic + msg
-        )
+        assert not valid
         return
-    assert cmd == Publish(topic.rstrip("\x00"), msg.rstrip("\x00"), queue, latch)
+    assert valid
+    assert cmd == Publish(topic, msg, queue, latch)
+
+
+# Input that used to escape as an exception (and drop the connection without an __error).
+_CLIENT_TOPIC_COMMANDS = [
+    "__subscribe",
+    "__publish",
+    "__ros_service",
+    "__unity_service",
+    "__remove_subscriber",
+    "__remove_publisher",
+    "__remove_ros_service",
+    "__remove_unity_service",
+]
+
+
+@pytest.mark.parametrize("name", _CLIENT_TOPIC_COMMANDS)
+@pytest.mark.parametrize("topic", ["/\ud800", "/caf\u00e9", "/a b", "/a//b", "/", "/" + "a" * 300])
+def test_invalid_names_refused_at_decode_in_every_command(name: str, topic: str) -> None:
+    body = json.dumps({"topic": topic, "message_name": "std_msgs/String"}).encode()
+    with pytest.raises(ProtocolError, match=re.escape(name)) as info:
+        decode_command(name, body, sender="client")
+    assert len(str(info.value)) < 400  # the echoed name is shortened
+
+
+@pytest.mark.parametrize(
+    ("body", "needle"),
+    [
+        (b"[" * 100_000, "nested too deeply"),
+        (b'{"a": ' * 100_000, "nested too deeply"),
+        (b'{"topic": "/a", "message_name": "x/Y", "queue_size": ' + b"9" * 5000 + b"}", "digits"),
+        (b'{"topic": "/a", "message_name": "x/Y", "queue_size": 1000000000}', "0..10000"),
+        (b'{"topic": "/a", "message_name": "x/Y", "queue_size": -1}', "0..10000"),
+        (b'{"topic": "/a", "message_name": "x y/Z"}', "whitespace"),
+        (b'{"topic": "/a", "message_name": "' + b"x/Y" * 100 + b'"}', "longer than 256"),
+        (b'{"topic": "/a", "message_name": "\\ud800/X"}', "surrogate"),
+        (b'{"topic": "/a", "message_name": "' + b"x" * (1 << 20) + b'"}', "exceeds"),
+    ],
+)
+def test_hostile_json_is_a_protocol_error(body: bytes, needle: str) -> None:
+    with pytest.raises(ProtocolError, match=re.escape(needle)):
+        decode_command("__subscribe", body, sender="client")
+
+
+def test_hostile_command_in_stream_is_a_violation_and_stream_continues() -> None:
+    conn = ProtocolConnection("endpoint")
+    bad = encode_frame("__subscribe", b"[" * 100_000)
+    good = Subscribe("/ok", "std_msgs/String").encode()
+    events = conn.receive_data(bad + good)
+    assert isinstance(events[0], ProtocolViolation)
+    assert not events[0].fatal
+    assert "__subscribe" in events[0].text
+    assert events[1] == CommandReceived(Subscribe("/ok", "std_msgs/String"))

@@ -46,6 +46,7 @@ from simbridge.protocol import (
     TopicListRequest,
     UnityService,
     WarnMessage,
+    shorten,
 )
 from simbridge.protocol.commands import Command
 
@@ -62,6 +63,9 @@ _WRITE_ALONE = 64 * 1024
 
 _MAX_REMEMBERED = 1024
 """Unregistered topics remembered (to rate-limit their errors) before forgetting all."""
+
+_MAX_ERROR_TEXT = 1000
+"""Longest `__error` text (and log line) sent; every echoed name is already shortened."""
 
 FIRST_SRV_ID = 1001
 """Ids of endpoint-initiated service requests start here, as in the original endpoint."""
@@ -167,16 +171,34 @@ class ClientSession(asyncio.BufferedProtocol):
         publishers = self.publishers
         for event in self.proto.buffer_updated(nbytes):
             stats.frames_in += 1
-            if type(event) is MessageReceived:
-                entry = publishers.get(event.topic)
-                if entry is not None:
-                    entry[1].publish(event.payload)
+            try:
+                if type(event) is MessageReceived:
+                    entry = publishers.get(event.topic)
+                    if entry is not None:
+                        entry[1].publish(event.payload)
+                    else:
+                        self._unregistered(event.topic)
+                elif type(event) is KeepaliveReceived:
+                    pass
                 else:
-                    self._unregistered(event.topic)
-            elif type(event) is KeepaliveReceived:
-                pass
-            else:
-                self._handle_event(event)
+                    self._handle_event(event)
+            except Exception as exc:  # one bad request must not drop the client
+                self._internal_error(event, exc)
+
+    def _internal_error(self, event: object, exc: Exception) -> None:
+        """An unexpected exception while handling `event`: an `__error` naming the
+        request, the full traceback in the log; the connection stays up."""
+        if isinstance(event, CommandReceived):
+            what = event.command.NAME
+        elif isinstance(event, MessageReceived):
+            what = f"message on {shorten(event.topic)}"
+        elif isinstance(event, ServiceRequestReceived | ServiceResponseReceived):
+            what = f"service frame {shorten(event.service)} (srv_id {event.srv_id})"
+        else:
+            what = type(event).__name__
+        log.error("client %s: %s failed", self.peer, what, exc_info=exc)
+        srv_id = event.srv_id if isinstance(event, ServiceRequestReceived) else None
+        self.send_error(f"{what} failed: {type(exc).__name__}: {shorten(str(exc), 200)}", srv_id)
 
     # ---- output ---------------------------------------------------------------------
 
@@ -282,7 +304,9 @@ class ClientSession(asyncio.BufferedProtocol):
         )
 
     def send_error(self, text: str, srv_id: int | None = None) -> None:
-        """Report a bad request to the client and the log."""
+        """Report a bad request to the client and the log (cut to `_MAX_ERROR_TEXT`)."""
+        if len(text) > _MAX_ERROR_TEXT:
+            text = f"{text[:_MAX_ERROR_TEXT]}... ({len(text):,} characters, truncated)"
         self.stats.errors_sent += 1
         log.warning("client %s: %s", self.peer, text)
         self._send_control(ErrorMessage(text, srv_id).encode())
@@ -311,7 +335,9 @@ class ClientSession(asyncio.BufferedProtocol):
             hint = "a service frame must follow a __request or __response header"
         else:
             hint = "send __publish for it first"
-        self.send_error(f"message on {topic!r}, which is not registered for publishing; {hint}")
+        self.send_error(
+            f"message on {shorten(topic)}, which is not registered for publishing; {hint}"
+        )
 
     def _handle_event(self, event: object) -> None:
         if isinstance(event, CommandReceived):
@@ -322,7 +348,7 @@ class ClientSession(asyncio.BufferedProtocol):
         elif isinstance(event, ServiceRequestReceived):
             if len(self._tasks) >= self.options.max_inflight_calls:
                 self.send_error(
-                    f"call of {event.service!r} (srv_id {event.srv_id}) refused: "
+                    f"call of {shorten(event.service)} (srv_id {event.srv_id}) refused: "
                     f"{len(self._tasks)} calls already in flight (limit "
                     f"{self.options.max_inflight_calls}); wait for answers first",
                     event.srv_id,
@@ -332,7 +358,9 @@ class ClientSession(asyncio.BufferedProtocol):
         elif isinstance(event, ServiceResponseReceived):
             future = self._pending.pop(event.srv_id, None)
             if future is None:
-                self.send_error(f"__response for unknown srv_id {event.srv_id} ({event.service!r})")
+                self.send_error(
+                    f"__response for unknown srv_id {event.srv_id} ({shorten(event.service)})"
+                )
             elif not future.done():
                 future.set_result(event.payload)
         elif isinstance(event, ProtocolViolation):
@@ -353,7 +381,7 @@ class ClientSession(asyncio.BufferedProtocol):
         limit = self.options.max_registrations
         if topic not in held and self._registrations() >= limit:
             raise EndpointError(
-                f"{topic!r} not registered: this client already holds {limit} registrations "
+                f"{shorten(topic)} not registered: this client already holds {limit} registrations "
                 "(the limit); remove some with __remove_* first"
             )
 
@@ -436,7 +464,7 @@ class ClientSession(asyncio.BufferedProtocol):
         srv_type = self.ros_services.get(event.service)
         if srv_type is None:
             self.send_error(
-                f"service {event.service!r} was not registered with __ros_service; "
+                f"service {shorten(event.service)} was not registered with __ros_service; "
                 "register it before calling",
                 event.srv_id,
             )
@@ -447,12 +475,13 @@ class ClientSession(asyncio.BufferedProtocol):
             )
         except SimbridgeError as exc:
             self.send_error(
-                f"call of {event.service!r} (srv_id {event.srv_id}) failed: {exc}", event.srv_id
+                f"call of {shorten(event.service)} (srv_id {event.srv_id}) failed: {exc}",
+                event.srv_id,
             )
             return
         except Exception as exc:
             log.exception("service %s failed", event.service)
-            self.send_error(f"call of {event.service!r} failed: {exc!r}", event.srv_id)
+            self.send_error(f"call of {shorten(event.service)} failed: {exc!r}", event.srv_id)
             return
         self._send_control(
             ProtocolConnection.service_response(event.srv_id, event.service, response)
@@ -466,7 +495,7 @@ class ClientSession(asyncio.BufferedProtocol):
 
     async def _call_client(self, service: str, request: bytes) -> bytes:
         if self._closing:
-            raise ServiceError(f"the client implementing {service!r} has disconnected")
+            raise ServiceError(f"the client implementing {shorten(service)} has disconnected")
         srv_id = next(self._srv_ids)
         future: asyncio.Future[bytes] = self.server.loop.create_future()
         self._pending[srv_id] = future
@@ -475,7 +504,7 @@ class ClientSession(asyncio.BufferedProtocol):
             return await asyncio.wait_for(future, self.options.service_timeout)
         except TimeoutError:
             raise ServiceError(
-                f"client {self.peer} did not answer {service!r} within "
+                f"client {self.peer} did not answer {shorten(service)} within "
                 f"{self.options.service_timeout:g} s"
             ) from None
         finally:

@@ -153,6 +153,10 @@ class MessageRegistry:
         return parsed.canonical
 
     def _check_references(self, typs: Mapping[str, Any]) -> None:
+        self._check_unknown_references(typs)
+        _check_no_cycles(typs)
+
+    def _check_unknown_references(self, typs: Mapping[str, Any]) -> None:
         for key, (_, fields) in typs.items():
             for field_name, desc in fields:
                 sub = desc[1][0] if desc[0] in (Nodetype.ARRAY, Nodetype.SEQUENCE) else desc
@@ -444,6 +448,51 @@ class MessageRegistry:
             self.decode(data, name, src)
             return bytes(data)
         return self.encode(self.decode(data, name, src), name, dst)
+
+
+def _message_refs(fields: Any) -> list[str]:
+    refs = []
+    for _, desc in fields:
+        sub = desc[1][0] if desc[0] in (Nodetype.ARRAY, Nodetype.SEQUENCE) else desc
+        if sub[0] == Nodetype.NAME:
+            refs.append(sub[1])
+    return refs
+
+
+def _check_no_cycles(typs: Mapping[str, Any]) -> None:
+    """Refuse a type that contains itself (directly or through others): genmsg cannot give
+    it an md5sum, and building a default value would never end."""
+    refs = {key: _message_refs(fields) for key, (_, fields) in typs.items()}
+    done: set[str] = set()
+    for root in refs:
+        if root in done:
+            continue
+        path: list[str] = []
+        on_path: set[str] = set()
+        stack: list[tuple[str, int]] = [(root, 0)]
+        while stack:
+            node, index = stack.pop()
+            if index == 0:
+                path.append(node)
+                on_path.add(node)
+            children = refs.get(node, [])
+            if index < len(children):
+                stack.append((node, index + 1))
+                child = children[index]
+                if child in on_path:
+                    cycle = [*path[path.index(child) :], child]
+                    chain = " -> ".join(canonical_of(c) for c in cycle)
+                    msg = (
+                        f"{canonical_of(child)} is recursive ({chain}); ROS message types "
+                        "cannot contain themselves"
+                    )
+                    raise MessageError(msg)
+                if child not in done and child in refs:
+                    stack.append((child, 0))
+            else:
+                path.pop()
+                on_path.discard(node)
+                done.add(node)
 
 
 def _check_field_lines(canonical: str, text: str) -> None:

@@ -8,6 +8,9 @@ from __future__ import annotations
 
 from simbridge.protocol.commands import (
     EXTENSIONS,
+    MAX_COMMAND_SIZE,
+    MAX_NAME_LENGTH,
+    MAX_QUEUE_SIZE,
     PROTOCOL_VERSION,
     ClientCommand,
     Command,
@@ -33,6 +36,7 @@ from simbridge.protocol.commands import (
     UnityService,
     WarnMessage,
     decode_command,
+    shorten,
 )
 from simbridge.protocol.connection import (
     CommandReceived,
@@ -60,7 +64,10 @@ __all__ = [
     "DEFAULT_MAX_FRAME_SIZE",
     "EXTENSIONS",
     "KEEPALIVE",
+    "MAX_COMMAND_SIZE",
     "MAX_DESTINATION_SIZE",
+    "MAX_NAME_LENGTH",
+    "MAX_QUEUE_SIZE",
     "PROTOCOL_VERSION",
     "ClientCommand",
     "Command",
@@ -100,4 +107,5 @@ __all__ = [
     "decode_command",
     "encode_frame",
     "frame_header",
+    "shorten",
 ]

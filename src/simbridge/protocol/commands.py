@@ -7,6 +7,7 @@ turns a received frame into one, checking every field and naming the bad value.
 from __future__ import annotations
 
 import json
+import re
 from dataclasses import dataclass, field
 from typing import Any, ClassVar, Literal, get_args
 
@@ -15,6 +16,9 @@ from simbridge.protocol.framing import encode_frame
 
 __all__ = [
     "EXTENSIONS",
+    "MAX_COMMAND_SIZE",
+    "MAX_NAME_LENGTH",
+    "MAX_QUEUE_SIZE",
     "PROTOCOL_VERSION",
     "ClientCommand",
     "Command",
@@ -41,6 +45,7 @@ __all__ = [
     "UnityService",
     "WarnMessage",
     "decode_command",
+    "shorten",
 ]
 
 PROTOCOL_VERSION = "v0.7.0"
@@ -49,47 +54,123 @@ EXTENSIONS = ("keepalive", "error_srv_id", "stats", "subscribers", "service_erro
 DEFAULT_SUBSCRIBE_QUEUE = 100
 """Per-client send queue bound for a subscription that names none (simbridge extension)."""
 
+MAX_NAME_LENGTH = 256
+"""Longest topic, service or type name accepted (characters); longer ones are refused
+before any work (close-match suggestions, registration) is spent on them."""
+MAX_QUEUE_SIZE = 10_000
+"""Largest `queue_size` a client may ask for (0 ..= this)."""
+MAX_COMMAND_SIZE = 1024 * 1024
+"""Largest system-command payload (JSON) accepted, in bytes."""
+_MAX_DIGITS = 20
+"""Longest integer literal parsed from a command (int64 needs 19 digits and a sign)."""
+_MAX_INT = 2**63 - 1
+_NAME = re.compile(r"[~/A-Za-z_][A-Za-z0-9_/]*\Z", re.ASCII)
+_TYPE = re.compile(r"[A-Za-z][A-Za-z0-9_]*(?:/[A-Za-z][A-Za-z0-9_]*){0,2}\Z", re.ASCII)
+
 Sender = Literal["client", "endpoint"]
 
 
+def shorten(value: object, limit: int = 80) -> str:
+    """`repr(value)` cut to about `limit` characters, for echoing untrusted text safely.
+
+    Errors and logs quote names a client sent; a megabyte name must not become a
+    megabyte log line, and lone surrogates come out escaped.
+    """
+    if isinstance(value, str | bytes) and len(value) > limit:
+        return f"{value[:limit]!r}... ({len(value):,} characters)"
+    text = repr(value)
+    return text if len(text) <= limit + 20 else f"{text[:limit]}... ({len(text):,} characters)"
+
+
+def _parse_int(text: str) -> int:
+    if len(text) > _MAX_DIGITS:
+        raise ProtocolError(f"integer literal of {len(text):,} digits; at most {_MAX_DIGITS}")
+    return int(text)
+
+
 def _json_payload(name: str, payload: bytes) -> dict[str, Any]:
+    if len(payload) > MAX_COMMAND_SIZE:
+        raise ProtocolError(
+            f"{name}: payload of {len(payload):,} bytes exceeds {MAX_COMMAND_SIZE:,} bytes"
+        )
     text_bytes = payload.rstrip(b"\x00")
     if not text_bytes.strip():
         return {}
     try:
-        obj = json.loads(text_bytes)
-    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        obj = json.loads(text_bytes, parse_int=_parse_int)
+    except ProtocolError as exc:
+        raise ProtocolError(f"{name}: {exc}") from None
+    except RecursionError:
+        raise ProtocolError(f"{name}: payload JSON is nested too deeply") from None
+    except (UnicodeDecodeError, ValueError) as exc:
         preview = text_bytes[:80].decode("utf-8", "replace")
-        raise ProtocolError(f"{name}: payload is not valid JSON ({exc}): {preview!r}") from None
+        reason = shorten(str(exc), 120)
+        raise ProtocolError(f"{name}: payload is not valid JSON ({reason}): {preview!r}") from None
     if not isinstance(obj, dict):
         raise ProtocolError(f"{name}: payload must be a JSON object, got {type(obj).__name__}")
     return obj
 
 
-def _get_str(name: str, obj: dict[str, Any], key: str, *, topic: bool = False) -> str:
+def _get_str(name: str, obj: dict[str, Any], key: str) -> str:
     value = obj.get(key)
     if not isinstance(value, str):
-        raise ProtocolError(f"{name}: field {key!r} must be a string, got {value!r}")
-    value = value.rstrip("\x00")
-    if topic:
-        if not value.strip():
-            raise ProtocolError(f"{name}: {key!r} is blank; expected a name such as '/cmd_vel'")
-        if any(c.isspace() for c in value):
-            raise ProtocolError(f"{name}: {key!r} {value!r} contains whitespace")
+        raise ProtocolError(f"{name}: field {key!r} must be a string, got {shorten(value)}")
+    try:
+        value.encode()
+    except UnicodeEncodeError:
+        raise ProtocolError(
+            f"{name}: field {key!r} {shorten(value)} holds a lone surrogate; not valid Unicode"
+        ) from None
+    return value.rstrip("\x00")
+
+
+def _get_name(name: str, obj: dict[str, Any], key: str, *, kind: str = "ros") -> str:
+    """A topic/service name (`kind` "ros") or a type name (`kind` "type"), validated."""
+    value = _get_str(name, obj, key)
+    if not value.strip():
+        example = "'/cmd_vel'" if kind == "ros" else "'std_msgs/String'"
+        raise ProtocolError(f"{name}: {key!r} is blank; expected a name such as {example}")
+    if len(value) > MAX_NAME_LENGTH:
+        raise ProtocolError(
+            f"{name}: {key!r} {shorten(value)} is longer than {MAX_NAME_LENGTH} characters"
+        )
+    if any(c.isspace() for c in value):
+        raise ProtocolError(f"{name}: {key!r} {shorten(value)} contains whitespace")
+    if kind == "ros":
+        if not _NAME.match(value) or "//" in value or value in ("/", "~"):
+            raise ProtocolError(
+                f"{name}: {key!r} {shorten(value)} is not a valid ROS name; expected ASCII "
+                "letters, digits, '_' and '/' (no '//'), starting with a letter, '_', '/' or '~'"
+            )
+    elif not _TYPE.match(value):
+        raise ProtocolError(
+            f"{name}: {key!r} {shorten(value)} is not a valid type name; expected "
+            "pkg/Type or pkg/msg/Type (ASCII letters, digits and '_')"
+        )
     return value
 
 
-def _get_int(name: str, obj: dict[str, Any], key: str, default: int | None = None) -> int:
+def _get_int(
+    name: str,
+    obj: dict[str, Any],
+    key: str,
+    default: int | None = None,
+    *,
+    low: int = -_MAX_INT - 1,
+    high: int = _MAX_INT,
+) -> int:
     value = obj.get(key, default)
     if isinstance(value, bool) or not isinstance(value, int):
-        raise ProtocolError(f"{name}: field {key!r} must be an integer, got {value!r}")
+        raise ProtocolError(f"{name}: field {key!r} must be an integer, got {shorten(value)}")
+    if not low <= value <= high:
+        raise ProtocolError(f"{name}: field {key!r} must be in {low}..{high}, got {value}")
     return value
 
 
 def _get_bool(name: str, obj: dict[str, Any], key: str, default: bool) -> bool:
     value = obj.get(key, default)
     if not isinstance(value, bool):
-        raise ProtocolError(f"{name}: field {key!r} must be true or false, got {value!r}")
+        raise ProtocolError(f"{name}: field {key!r} must be true or false, got {shorten(value)}")
     return value
 
 
@@ -123,8 +204,8 @@ class _TopicTyped(Command):
     @classmethod
     def from_json(cls, obj: dict[str, Any]) -> Command:
         return cls(
-            _get_str(cls.NAME, obj, "topic", topic=True),
-            _get_str(cls.NAME, obj, "message_name", topic=True),
+            _get_name(cls.NAME, obj, "topic"),
+            _get_name(cls.NAME, obj, "message_name", kind="type"),
         )
 
 
@@ -142,10 +223,12 @@ class Subscribe(Command):
 
     @classmethod
     def from_json(cls, obj: dict[str, Any]) -> Command:
-        queue = _get_int(cls.NAME, obj, "queue_size", DEFAULT_SUBSCRIBE_QUEUE)
+        queue = _get_int(
+            cls.NAME, obj, "queue_size", DEFAULT_SUBSCRIBE_QUEUE, low=0, high=MAX_QUEUE_SIZE
+        )
         return cls(
-            _get_str(cls.NAME, obj, "topic", topic=True),
-            _get_str(cls.NAME, obj, "message_name", topic=True),
+            _get_name(cls.NAME, obj, "topic"),
+            _get_name(cls.NAME, obj, "message_name", kind="type"),
             queue if queue > 0 else DEFAULT_SUBSCRIBE_QUEUE,
         )
 
@@ -175,12 +258,10 @@ class Publish(Command):
 
     @classmethod
     def from_json(cls, obj: dict[str, Any]) -> Command:
-        queue = _get_int(cls.NAME, obj, "queue_size", 10)
-        if queue < 0:
-            raise ProtocolError(f"{cls.NAME}: field 'queue_size' must be >= 0, got {queue}")
+        queue = _get_int(cls.NAME, obj, "queue_size", 10, low=0, high=MAX_QUEUE_SIZE)
         return cls(
-            _get_str(cls.NAME, obj, "topic", topic=True),
-            _get_str(cls.NAME, obj, "message_name", topic=True),
+            _get_name(cls.NAME, obj, "topic"),
+            _get_name(cls.NAME, obj, "message_name", kind="type"),
             queue,
             _get_bool(cls.NAME, obj, "latch", False),
             _get_bool(cls.NAME, obj, "report_subscribers", False),
@@ -210,7 +291,7 @@ class _TopicOnly(Command):
 
     @classmethod
     def from_json(cls, obj: dict[str, Any]) -> Command:
-        return cls(_get_str(cls.NAME, obj, "topic", topic=True))
+        return cls(_get_name(cls.NAME, obj, "topic"))
 
 
 @dataclass(frozen=True, slots=True)
@@ -252,7 +333,7 @@ class ServiceHeader(Command):
 
     @classmethod
     def from_json(cls, obj: dict[str, Any]) -> Command:
-        return cls(_get_int(cls.NAME, obj, "srv_id"))
+        return cls(_get_int(cls.NAME, obj, "srv_id", low=-(2**31), high=2**32 - 1))
 
 
 @dataclass(frozen=True, slots=True)
@@ -298,9 +379,13 @@ class TopicListReply(Command):
     def from_json(cls, obj: dict[str, Any]) -> Command:
         topics, types = obj.get("topics", []), obj.get("types", [])
         if not isinstance(topics, list) or not all(isinstance(t, str) for t in topics):
-            raise ProtocolError(f"{cls.NAME}: 'topics' must be a list of strings, got {topics!r}")
+            raise ProtocolError(
+                f"{cls.NAME}: 'topics' must be a list of strings, got {shorten(topics)}"
+            )
         if not isinstance(types, list) or not all(isinstance(t, str) for t in types):
-            raise ProtocolError(f"{cls.NAME}: 'types' must be a list of strings, got {types!r}")
+            raise ProtocolError(
+                f"{cls.NAME}: 'types' must be a list of strings, got {shorten(types)}"
+            )
         if len(topics) != len(types):
             raise ProtocolError(
                 f"{cls.NAME}: {len(topics)} topics but {len(types)} types; they must pair up"
@@ -326,11 +411,13 @@ class Handshake(Command):
         meta: Any = raw
         if isinstance(raw, str):
             try:
-                meta = json.loads(raw) if raw.strip() else {}
-            except json.JSONDecodeError:
-                raise ProtocolError(f"{cls.NAME}: metadata {raw!r} is not a JSON string") from None
+                meta = json.loads(raw, parse_int=_parse_int) if raw.strip() else {}
+            except (ProtocolError, RecursionError, ValueError):
+                raise ProtocolError(
+                    f"{cls.NAME}: metadata {shorten(raw)} is not a JSON string"
+                ) from None
         if not isinstance(meta, dict):
-            raise ProtocolError(f"{cls.NAME}: metadata must be a JSON object, got {raw!r}")
+            raise ProtocolError(f"{cls.NAME}: metadata must be a JSON object, got {shorten(raw)}")
         return cls(version, meta)
 
     @property
@@ -355,7 +442,7 @@ class _Text(Command):
     def from_json(cls, obj: dict[str, Any]) -> Command:
         srv_id = obj.get("srv_id")
         if srv_id is not None:
-            srv_id = _get_int(cls.NAME, obj, "srv_id")
+            srv_id = _get_int(cls.NAME, obj, "srv_id", low=-(2**31), high=2**32 - 1)
         return cls(_get_str(cls.NAME, obj, "text"), srv_id)
 
 
@@ -393,7 +480,7 @@ class SubscriberCount(Command):
 
     @classmethod
     def from_json(cls, obj: dict[str, Any]) -> Command:
-        return cls(_get_str(cls.NAME, obj, "topic", topic=True), _get_int(cls.NAME, obj, "count"))
+        return cls(_get_name(cls.NAME, obj, "topic"), _get_int(cls.NAME, obj, "count", low=-1))
 
 
 @dataclass(frozen=True, slots=True)
@@ -410,7 +497,10 @@ class ServiceFailure(Command):
 
     @classmethod
     def from_json(cls, obj: dict[str, Any]) -> Command:
-        return cls(_get_int(cls.NAME, obj, "srv_id"), _get_str(cls.NAME, obj, "text"))
+        return cls(
+            _get_int(cls.NAME, obj, "srv_id", low=-(2**31), high=2**32 - 1),
+            _get_str(cls.NAME, obj, "text"),
+        )
 
 
 @dataclass(frozen=True, slots=True)
@@ -480,6 +570,6 @@ def decode_command(name: str, payload: bytes, *, sender: Sender) -> Command:
     if cls is None:
         known = ", ".join(sorted(table))
         raise ProtocolError(
-            f"unknown system command {name!r} from the {sender}; expected one of {known}"
+            f"unknown system command {shorten(name)} from the {sender}; expected one of {known}"
         )
     return cls.from_json(_json_payload(name, payload))

@@ -16,6 +16,7 @@ from simbridge.protocol.commands import (
     ServiceRequestHeader,
     ServiceResponseHeader,
     decode_command,
+    shorten,
 )
 from simbridge.protocol.framing import (
     DEFAULT_MAX_FRAME_SIZE,
@@ -164,11 +165,14 @@ class ProtocolConnection:
             except ProtocolError as exc:
                 append(ProtocolViolation(str(exc)))
                 continue
+            except Exception as exc:  # any input that trips the decoder is reported, not raised
+                append(ProtocolViolation(f"{shorten(dest)}: cannot decode: {exc!r}"[:500]))
+                continue
             if self._pending is not None:
                 append(
                     ProtocolViolation(
                         f"{self._pending.NAME} srv_id={self._pending.srv_id} must be "
-                        f"followed by its service frame, got {dest!r}; request dropped"
+                        f"followed by its service frame, got {shorten(dest)}; request dropped"
                     )
                 )
                 self._pending = None
