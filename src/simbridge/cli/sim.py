@@ -3,10 +3,48 @@
 from __future__ import annotations
 
 import argparse
+import sys
+import warnings
+from collections.abc import Iterator
+from contextlib import contextmanager
+from typing import TextIO
 
 from .common import endpoint_address
 
 __all__ = ["add_parser"]
+
+
+@contextmanager
+def _plain_warnings(show: bool = True) -> Iterator[None]:
+    """Print simbridge's load warnings as `simbridge: warning: ...` (or not at all)."""
+    from simbridge.sim.urdf import UrdfWarning
+
+    def show_warning(  # noqa: PLR0917 (the signature warnings.showwarning has)
+        message: Warning | str,
+        category: type[Warning],
+        filename: str,
+        lineno: int,
+        file: TextIO | None = None,
+        line: str | None = None,
+    ) -> None:
+        if issubclass(category, UrdfWarning):
+            if show:
+                print(f"simbridge: warning: {message}", file=sys.stderr)
+            return
+        original(message, category, filename, lineno, file, line)
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("always", UrdfWarning)
+        original = warnings.showwarning
+        warnings.showwarning = show_warning
+        yield
+
+
+def _xacro_args(args: argparse.Namespace) -> dict[str, str]:
+    """`NAME:=VALUE` words (set aside by the top-level parser) and `--arg NAME=VALUE`."""
+    from simbridge.sim.urdf import parse_xacro_args
+
+    return parse_xacro_args([*getattr(args, "ros_args", ()), *args.arg])
 
 
 def run_urdf(args: argparse.Namespace) -> int:
@@ -14,10 +52,14 @@ def run_urdf(args: argparse.Namespace) -> int:
 
     from simbridge.sim.urdf import urdf_check, urdf_fk
 
+    xacro_args = _xacro_args(args)
     if args.action == "check":
-        print(urdf_check(args.file, search_paths=args.search_path).rstrip())
+        with _plain_warnings(show=False):  # the report lists them
+            report = urdf_check(args.file, args.search_path, xacro_args, args.strict)
+        print(report.rstrip())
         return 0
-    poses = urdf_fk(args.file, args.set, search_paths=args.search_path)
+    with _plain_warnings():
+        poses = urdf_fk(args.file, args.set, args.search_path, xacro_args, args.strict)
     if args.json:
         print(json.dumps(poses, indent=None if args.compact else 2))
     else:
@@ -31,15 +73,18 @@ def run_urdf(args: argparse.Namespace) -> int:
 
 def run_sim(args: argparse.Namespace) -> int:
     from simbridge.sim.ros import run_scene
+    from simbridge.sim.scene import load_scene, with_overrides
 
+    scene = with_overrides(load_scene(args.scene), _xacro_args(args), strict=args.strict)
     endpoint = f"{args.endpoint[0]}:{args.endpoint[1]}" if args.endpoint else None
-    stats = run_scene(
-        args.scene,
-        endpoint=endpoint,
-        duration=args.duration,
-        realtime_factor=args.realtime,
-        viewer=args.viewer,
-    )
+    with _plain_warnings():
+        stats = run_scene(
+            scene,
+            endpoint=endpoint,
+            duration=args.duration,
+            realtime_factor=args.realtime,
+            viewer=args.viewer,
+        )
     print(
         f"simulated {stats.sim_time:.3f} s in {stats.wall_time:.3f} s wall "
         f"({stats.steps} steps, {stats.realtime_factor:.2f}x real time)"
@@ -47,10 +92,27 @@ def run_sim(args: argparse.Namespace) -> int:
     return 0
 
 
+def _load_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--arg",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="xacro argument (repeatable); NAME:=VALUE after the file works too",
+    )
+    p.add_argument(
+        "--strict",
+        action="store_true",
+        help="refuse tolerated defects (duplicate definitions, out-of-range initial positions)",
+    )
+
+
 def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     urdf = sub.add_parser("urdf", help="check a URDF or print its forward kinematics")
     usub = urdf.add_subparsers(dest="action", required=True)
-    u_check = usub.add_parser("check", help="tree, joints, limits and warnings (like check_urdf)")
+    u_check = usub.add_parser(
+        "check", help="tree, joints, limits and warnings (like check_urdf); loads every mesh"
+    )
     u_fk = usub.add_parser("fk", help="world pose of every link")
     u_fk.add_argument(
         "--set",
@@ -62,7 +124,7 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     u_fk.add_argument("--json", action="store_true", help='{"link": {"xyz", "quat_xyzw"}}')
     u_fk.add_argument("--compact", action="store_true", help="one-line JSON")
     for p in (u_check, u_fk):
-        p.add_argument("file", help="URDF or xacro file")
+        p.add_argument("file", help="URDF or xacro file (then NAME:=VALUE xacro args)")
         p.add_argument(
             "--search-path",
             action="append",
@@ -70,10 +132,11 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
             metavar="DIR",
             help="where package:// URIs are looked up (plus ROS_PACKAGE_PATH)",
         )
+        _load_options(p)
         p.set_defaults(func=run_urdf)
 
     sim = sub.add_parser("sim", help="run a scene file headless (or in MuJoCo's viewer)")
-    sim.add_argument("scene", help="scene YAML (see docs/scenes.md)")
+    sim.add_argument("scene", help="scene YAML (see docs/scenes.md), then NAME:=VALUE xacro args")
     sim.add_argument(
         "--endpoint",
         type=endpoint_address,
@@ -90,4 +153,5 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         help="pace at FACTOR x real time (default: as fast as possible)",
     )
     sim.add_argument("--viewer", action="store_true", help="open MuJoCo's viewer (needs a display)")
+    _load_options(sim)
     sim.set_defaults(func=run_sim)

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from simbridge.sim.scene.builder import BuiltRobot, BuiltScene, build_scene
-from simbridge.sim.scene.loader import SHAPES, load_scene, parse_scene
+from simbridge.sim.scene.loader import SHAPES, load_scene, parse_scene, with_overrides
 from simbridge.sim.scene.model import (
     CommandTopics,
     LightSpec,
@@ -30,4 +30,5 @@ __all__ = [
     "build_scene",
     "load_scene",
     "parse_scene",
+    "with_overrides",
 ]

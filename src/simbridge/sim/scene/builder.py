@@ -49,8 +49,10 @@ def _physics(doc: MjcfDocument, physics: PhysicsSettings) -> None:
     )
 
 
-def _robot(doc: MjcfDocument, spec: RobotSpec, meshes: MeshCache) -> BuiltRobot:
-    robot = load_urdf(spec.urdf, search_paths=spec.search_paths, xacro_args=spec.xacro_args)
+def _robot(doc: MjcfDocument, spec: RobotSpec, meshes: MeshCache, strict: bool) -> BuiltRobot:
+    robot = load_urdf(
+        spec.urdf, search_paths=spec.search_paths, xacro_args=spec.xacro_args, strict=strict
+    )
     name = spec.name or robot.name
     options = MjcfOptions(
         prefix=spec.prefix,
@@ -179,7 +181,7 @@ def build_scene(scene: Scene, meshes: MeshCache | None = None) -> BuiltScene:
         _light(doc, light, i)
     for obj in scene.objects:
         _object(doc, obj, cache)
-    robots = tuple(_robot(doc, spec, cache) for spec in scene.robots)
+    robots = tuple(_robot(doc, spec, cache, scene.strict) for spec in scene.robots)
     names = [r.name for r in robots]
     if len(set(names)) != len(names):
         raise SimError(f"scene robots: duplicate robot names {names} (set 'name' on each)")

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping
+from dataclasses import replace
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -23,9 +24,10 @@ from simbridge.sim.scene.model import (
     RosSettings,
     Scene,
 )
+from simbridge.sim.urdf.loader import is_xacro
 from simbridge.sim.urdf.transforms import Vec3
 
-__all__ = ["SHAPES", "load_scene", "parse_scene"]
+__all__ = ["SHAPES", "load_scene", "parse_scene", "with_overrides"]
 
 SHAPES = ("box", "sphere", "cylinder", "plane", "mesh")
 T = TypeVar("T")
@@ -394,8 +396,9 @@ def parse_scene(data: object, base_dir: Path, source: Path | None = None) -> Sce
         ros=_ros(root.sub("ros")),
         sensors=tuple(_sensor(s) for s in root.items("sensors")),
         source=source,
+        strict=root.get("strict", _bool, False),
     )
-    root.done(("physics", "robots", "objects", "lights", "ros", "sensors"))
+    root.done(("physics", "robots", "objects", "lights", "ros", "sensors", "strict"))
     names = [o.name for o in scene.objects]
     duplicates = sorted({n for n in names if names.count(n) > 1})
     if duplicates:
@@ -413,3 +416,28 @@ def load_scene(path: str | Path) -> Scene:
     except yaml.YAMLError as exc:
         raise SimError(f"scene file '{file}' is not valid YAML: {exc}") from None
     return parse_scene(data, file.resolve().parent, file)
+
+
+def _is_xacro_file(path: Path) -> bool:
+    try:
+        return is_xacro(path, path.read_text())
+    except OSError:  # a missing file is reported when the robot loads
+        return path.suffix == ".xacro"
+
+
+def with_overrides(scene: Scene, xacro_args: Mapping[str, str], strict: bool = False) -> Scene:
+    """`scene` with command-line xacro args set on every xacro robot (over the scene's own
+    `xacro_args`) and strict mode switched on if asked; args with no xacro robot are an error."""
+    robots = scene.robots
+    if xacro_args:
+        targets = {i for i, r in enumerate(robots) if _is_xacro_file(r.urdf)}
+        if not targets:
+            raise SimError(
+                f"xacro args {', '.join(sorted(xacro_args))} given, but no robot in the scene "
+                "is a xacro file"
+            )
+        robots = tuple(
+            replace(r, xacro_args={**r.xacro_args, **xacro_args}) if i in targets else r
+            for i, r in enumerate(robots)
+        )
+    return replace(scene, robots=robots, strict=scene.strict or strict)

@@ -139,3 +139,6 @@ class Scene:
     sensors: tuple[dict[str, Any], ...] = ()
     """Raw `sensors:` entries, each with a `type`; `simbridge.sim.sensors` interprets them."""
     source: Path | None = None
+    strict: bool = False
+    """Refuse what is otherwise tolerated with a warning (duplicate URDF definitions,
+    out-of-range initial positions...)."""

@@ -41,6 +41,7 @@ from simbridge.sim.urdf.report import (
     check_report,
     fk_poses,
     parse_joint_assignments,
+    parse_xacro_args,
     urdf_check,
     urdf_fk,
 )
@@ -88,6 +89,7 @@ __all__ = [
     "load_urdf_string",
     "parse_joint_assignments",
     "parse_urdf",
+    "parse_xacro_args",
     "robot_to_mjcf",
     "urdf_check",
     "urdf_fk",

@@ -32,7 +32,11 @@ def _find_through(resolver: ResourceResolver) -> Iterator[None]:
     def find(package: str) -> str:
         found = resolver.package_dir(package)
         if found is None:
-            raise UrdfError(f"xacro $(find {package}): package not found in search paths")
+            searched = ", ".join(str(p) for p in resolver.search_paths) or "none"
+            raise UrdfError(
+                f"$(find {package}): package '{package}' not found (search paths: {searched}; "
+                "add one with --search-path/search_paths or set ROS_PACKAGE_PATH)"
+            )
         return str(found)
 
     original = substitution_args._eval_find
@@ -43,18 +47,59 @@ def _find_through(resolver: ResourceResolver) -> Iterator[None]:
         substitution_args._eval_find = original
 
 
+class _ArgTable(dict[str, str]):
+    """xacro's `$(arg)` table; remembers every name a document declares or reads, so args
+    given on the command line that the document never mentions can be reported."""
+
+    def __init__(self, given: Mapping[str, str]) -> None:
+        super().__init__(given)
+        self.mentioned: set[str] = set()
+
+    def __contains__(self, key: object) -> bool:  # `<xacro:arg name=...>` asks this
+        self.mentioned.add(str(key))
+        return super().__contains__(key)
+
+    def __getitem__(self, key: str) -> str:  # `$(arg name)` reads this
+        self.mentioned.add(key)
+        return super().__getitem__(key)
+
+
+def _xacro_error(path: Path, exc: Exception) -> UrdfError:
+    """One plain message for what went wrong inside xacro: the innermost cause, once."""
+    inner: BaseException = exc
+    while isinstance(getattr(inner, "exc", None), BaseException):
+        inner = inner.exc  # type: ignore[attr-defined]
+    if isinstance(inner, UrdfError) or inner is exc:
+        text = str(inner)
+    else:  # xacro wraps causes as "<class 'X'>: text" + the cause again
+        head = str(exc.args[0]) if exc.args and exc.args[0] else ""
+        text = str(inner) if not head or head.startswith(str(type(inner))) else f"{head} {inner}"
+    stack = [str(f) for f in getattr(xacro, "filestack", None) or [] if f]
+    return UrdfError(f"{stack[-1] if stack else path}: xacro: {text}")
+
+
 def expand_xacro(
     path: Path, mappings: Mapping[str, str] | None = None, resolver: ResourceResolver | None = None
 ) -> str:
-    """The URDF text xacro produces from `path` with `mappings` as its `$(arg ...)` values."""
+    """The URDF text xacro produces from `path` with `mappings` as its `$(arg ...)` values.
+
+    An arg in `mappings` that the document neither declares nor reads is an error (a typo
+    would otherwise be ignored silently).
+    """
     resolver = resolver or ResourceResolver.create(path.parent)
+    table = _ArgTable(mappings or {})
     with _XACRO_LOCK, _find_through(resolver):
         try:
-            doc = xacro.process_file(str(path), mappings=dict(mappings or {}))
-        except UrdfError:
-            raise
+            doc = xacro.process_file(str(path), mappings=table)
         except Exception as exc:  # xacro raises XacroException, ExpatError, NameError...
-            raise UrdfError(f"xacro failed on {path}: {exc}") from None
+            raise _xacro_error(path, exc) from None
+    unknown = sorted(set(mappings or {}) - table.mentioned)
+    if unknown:
+        declared = sorted(table.mentioned)
+        raise UrdfError(
+            f"{path}: unknown xacro arg(s) {', '.join(unknown)} "
+            f"(the file declares: {', '.join(declared) or 'none'})"
+        )
     return str(doc.toprettyxml(indent="  "))
 
 
@@ -77,6 +122,11 @@ def load_urdf(
     expanded = is_xacro(file, text)
     if expanded:
         text = expand_xacro(file, xacro_args, resolver)
+    elif xacro_args:
+        raise UrdfError(
+            f"{file}: xacro args {', '.join(sorted(xacro_args))} given, but the file is not "
+            "xacro (no .xacro suffix, no xmlns:xacro)"
+        )
     return parse_urdf(text, source=file, resolver=resolver, strict=strict, lines_valid=not expanded)
 
 

@@ -14,7 +14,14 @@ from simbridge.sim.urdf.loader import load_urdf
 from simbridge.sim.urdf.meshes import MeshCache
 from simbridge.sim.urdf.model import Joint, JointType, Robot
 
-__all__ = ["check_report", "fk_poses", "parse_joint_assignments", "urdf_check", "urdf_fk"]
+__all__ = [
+    "check_report",
+    "fk_poses",
+    "parse_joint_assignments",
+    "parse_xacro_args",
+    "urdf_check",
+    "urdf_fk",
+]
 
 
 def _joint_line(joint: Joint) -> str:
@@ -68,9 +75,27 @@ def check_report(robot: Robot) -> str:
     return "\n".join(lines) + "\n"
 
 
-def urdf_check(path: str | Path, search_paths: Sequence[str | Path] = ()) -> str:
+def urdf_check(
+    path: str | Path,
+    search_paths: Sequence[str | Path] = (),
+    xacro_args: Mapping[str, str] | None = None,
+    strict: bool = False,
+) -> str:
     """Load `path` (URDF or xacro) and return its check report; raises `UrdfError` if malformed."""
-    return check_report(load_urdf(path, search_paths=search_paths))
+    robot = load_urdf(path, search_paths=search_paths, xacro_args=xacro_args, strict=strict)
+    return check_report(robot)
+
+
+def parse_xacro_args(items: Sequence[str]) -> dict[str, str]:
+    """Parse CLI xacro args, `NAME:=VALUE` (as roslaunch and xacro take them) or `NAME=VALUE`."""
+    values: dict[str, str] = {}
+    for item in items:
+        sep = ":=" if ":=" in item else "="
+        name, found, value = item.partition(sep)
+        if not found or not name.strip():
+            raise UrdfError(f"xacro arg '{item}': expected NAME:=VALUE (or --arg NAME=VALUE)")
+        values[name.strip()] = value
+    return values
 
 
 def parse_joint_assignments(items: Sequence[str]) -> dict[str, JointValue]:
@@ -101,8 +126,12 @@ def fk_poses(
 
 
 def urdf_fk(
-    path: str | Path, assignments: Sequence[str] = (), search_paths: Sequence[str | Path] = ()
+    path: str | Path,
+    assignments: Sequence[str] = (),
+    search_paths: Sequence[str | Path] = (),
+    xacro_args: Mapping[str, str] | None = None,
+    strict: bool = False,
 ) -> dict[str, dict[str, list[float]]]:
     """`simbridge urdf fk FILE --set J=V ...`: every link's pose as a JSON-ready dict."""
-    robot = load_urdf(path, search_paths=search_paths)
+    robot = load_urdf(path, search_paths=search_paths, xacro_args=xacro_args, strict=strict)
     return fk_poses(robot, parse_joint_assignments(assignments))
