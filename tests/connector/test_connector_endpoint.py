@@ -1,4 +1,9 @@
-"""Connectors talking through the real simbridge endpoint (local backend) over TCP."""
+"""Connectors talking through the real simbridge endpoint (local backend) over TCP.
+
+Tests taking the `endpoint` fixture run once per protocol: the local bus in ROS 1 mode
+and in ROS 2 mode (CDR, ROS 2 layouts), where connectors pick the protocol from the
+handshake and messages come from `reg`, the registry of that protocol.
+"""
 
 from __future__ import annotations
 
@@ -14,26 +19,33 @@ import pytest
 from simbridge.connector import Connector, ConnectorOptions
 from simbridge.endpoint import EndpointOptions, EndpointThread, LocalBus, Node
 from simbridge.errors import ServiceError
-from simbridge.messages import default_registry
+from simbridge.messages import MessageRegistry, default_registry, registry_for
 from tests.connector.conftest import FAST, wait_until
 
 REG = default_registry()
 
 
-@pytest.fixture
-def endpoint() -> Iterator[EndpointThread]:
-    with EndpointThread(EndpointOptions(port=0, keepalive_interval=0.2)) as ep:
+@pytest.fixture(params=["ROS1", "ROS2"])
+def endpoint(request: pytest.FixtureRequest) -> Iterator[EndpointThread]:
+    bus = LocalBus(request.param)
+    with EndpointThread(EndpointOptions(port=0, keepalive_interval=0.2), bus) as ep:
         yield ep
 
 
-def twist(x: float, z: float) -> Any:
-    msg = REG.new("geometry_msgs/Twist")
+@pytest.fixture
+def reg(endpoint: EndpointThread) -> MessageRegistry:
+    """The registry of the endpoint's protocol (what auto-mode connectors use)."""
+    return registry_for(endpoint.backend.protocol)
+
+
+def twist(reg: MessageRegistry, x: float, z: float) -> Any:
+    msg = reg.new("geometry_msgs/Twist")
     msg.linear.x = x
     msg.angular.z = z
     return msg
 
 
-def test_topic_between_two_connectors_with_message_objects(endpoint, make_connector):
+def test_topic_between_two_connectors_with_message_objects(endpoint, make_connector, reg):
     sim = make_connector(endpoint.port).connect()
     ros = make_connector(endpoint.port).connect()
     got: queue.Queue[Any] = queue.Queue()
@@ -41,17 +53,17 @@ def test_topic_between_two_connectors_with_message_objects(endpoint, make_connec
     assert wait_until(lambda: "/cmd_vel" in sim.topic_list())
     pub = sim.register_publisher("/cmd_vel", "geometry_msgs/Twist")
     for i in range(5):
-        pub.publish(twist(0.5 * i, -0.25))
+        pub.publish(twist(reg, 0.5 * i, -0.25))
     received = [got.get(timeout=5) for _ in range(5)]
     assert [m.linear.x for m in received] == [0.0, 0.5, 1.0, 1.5, 2.0]
     assert {m.angular.z for m in received} == {-0.25}
     assert type(received[0]).__name__ == "geometry_msgs__msg__Twist"
 
 
-def test_latched_topic_reaches_a_late_subscriber(endpoint, make_connector):
+def test_latched_topic_reaches_a_late_subscriber(endpoint, make_connector, reg):
     sim = make_connector(endpoint.port).connect()
     pub = sim.register_publisher("/map_name", "std_msgs/String", latch=True)
-    pub.publish(REG.new("std_msgs/String", data="warehouse"))
+    pub.publish(reg.new("std_msgs/String", data="warehouse"))
     assert sim.flush(2.0)
     time.sleep(0.2)
     late = make_connector(endpoint.port).connect()
@@ -60,56 +72,56 @@ def test_latched_topic_reaches_a_late_subscriber(endpoint, make_connector):
     assert got.get(timeout=5).data == "warehouse"
 
 
-def test_services_both_ways(endpoint, make_connector):
+def test_services_both_ways(endpoint, make_connector, reg):
     server = make_connector(endpoint.port).connect()
     client = make_connector(endpoint.port).connect()
 
     def flip(req: Any) -> Any:
-        return REG.new("std_srvs/SetBoolResponse", success=not req.data, message="flipped")
+        return reg.new("std_srvs/SetBoolResponse", success=not req.data, message="flipped")
 
     server.implement_service("/flip", "std_srvs/SetBool", flip)
     client.register_ros_service("/flip", "std_srvs/SetBool")
     server.endpoint_stats()  # a barrier: the endpoint handled the registration before it
-    response = client.call("/flip", REG.new("std_srvs/SetBoolRequest", data=True), timeout=5)
+    response = client.call("/flip", reg.new("std_srvs/SetBoolRequest", data=True), timeout=5)
     assert (response.success, response.message) == (False, "flipped")
     raw = client.call_service(
-        "/flip", REG.encode(REG.new("std_srvs/SetBoolRequest", data=False)), timeout=5
+        "/flip", reg.encode(reg.new("std_srvs/SetBoolRequest", data=False)), timeout=5
     ).result(5)
-    assert REG.decode(raw, "std_srvs/SetBoolResponse").success is True
+    assert reg.decode(raw, "std_srvs/SetBoolResponse").success is True
 
 
-def test_services_with_an_in_process_node(endpoint, make_connector):
+def test_services_with_an_in_process_node(endpoint, make_connector, reg):
     sim = make_connector(endpoint.port).connect()
     sim.implement_service(
         "/sim/step",
         "std_srvs/Trigger",
-        lambda _req: REG.new("std_srvs/TriggerResponse", success=True, message="stepped"),
+        lambda _req: reg.new("std_srvs/TriggerResponse", success=True, message="stepped"),
     )
     assert isinstance(endpoint.backend, LocalBus)
     with Node(endpoint.backend, "/ros_side") as node:
         node.serve(
             "/ros/double",
             "std_srvs/SetBool",
-            lambda req: REG.new("std_srvs/SetBoolResponse", success=req.data, message="ok"),
+            lambda req: reg.new("std_srvs/SetBoolResponse", success=req.data, message="ok"),
         )
         sim.register_ros_service("/ros/double", "std_srvs/SetBool")
-        answer = sim.call("/ros/double", REG.new("std_srvs/SetBoolRequest", data=True), 5.0)
+        answer = sim.call("/ros/double", reg.new("std_srvs/SetBoolRequest", data=True), 5.0)
         assert (answer.success, answer.message) == (True, "ok")
         sim.endpoint_stats()  # a barrier: `/sim/step` is advertised once this returns
-        reply = node.call("/sim/step", "std_srvs/Trigger", REG.new("std_srvs/TriggerRequest"))
+        reply = node.call("/sim/step", "std_srvs/Trigger", reg.new("std_srvs/TriggerRequest"))
         assert (reply.success, reply.message) == (True, "stepped")
 
 
-def test_call_to_a_service_nobody_serves_fails_fast(endpoint, make_connector):
+def test_call_to_a_service_nobody_serves_fails_fast(endpoint, make_connector, reg):
     sim = make_connector(endpoint.port).connect()
     sim.register_ros_service("/nobody", "std_srvs/Trigger")
     t0 = time.monotonic()
     with pytest.raises(ServiceError, match="/nobody"):
-        sim.call("/nobody", REG.new("std_srvs/TriggerRequest"), timeout=5.0)
+        sim.call("/nobody", reg.new("std_srvs/TriggerRequest"), timeout=5.0)
     assert time.monotonic() - t0 < 2.0
 
 
-def test_topic_list_names_types(endpoint, make_connector):
+def test_topic_list_names_types(endpoint, make_connector, reg):
     sim = make_connector(endpoint.port).connect()
     sim.register_publisher("/joint_states", "sensor_msgs/JointState")
     sim.subscribe("/cmd_vel", "geometry_msgs/Twist", lambda _m: None)
@@ -119,7 +131,7 @@ def test_topic_list_names_types(endpoint, make_connector):
     assert topics["/cmd_vel"] == "geometry_msgs/Twist"
 
 
-def test_twenty_concurrent_clients(endpoint, make_connector):
+def test_twenty_concurrent_clients(endpoint, make_connector, reg):
     clients = [make_connector(endpoint.port).connect(wait=None) for _ in range(20)]
     assert all(c.wait_connected(5) for c in clients)
     inboxes: list[list[int]] = [[] for _ in clients]
@@ -140,11 +152,11 @@ def test_twenty_concurrent_clients(endpoint, make_connector):
     source = make_connector(endpoint.port).connect()
     pub = source.register_publisher("/broadcast", "std_msgs/Int32")
     for n in range(50):
-        pub.publish(REG.new("std_msgs/Int32", data=n))
+        pub.publish(reg.new("std_msgs/Int32", data=n))
 
     def report(i: int) -> None:
         for n in range(10):
-            clients[i].publish("/reports", REG.new("std_msgs/Int32", data=i * 100 + n))
+            clients[i].publish("/reports", reg.new("std_msgs/Int32", data=i * 100 + n))
 
     threads = [threading.Thread(target=report, args=(i,)) for i in range(20)]
     for t in threads:
@@ -219,7 +231,7 @@ def test_dead_endpoint_detected_within_dead_timeout(make_connector):
         assert sim.wait_connected(3.0)
 
 
-def test_messages_published_right_before_close_are_delivered(endpoint):
+def test_messages_published_right_before_close_are_delivered(endpoint, reg):
     got: queue.Queue[Any] = queue.Queue()
     assert isinstance(endpoint.backend, LocalBus)
     with Node(endpoint.backend, "/listener") as node:
@@ -227,12 +239,12 @@ def test_messages_published_right_before_close_are_delivered(endpoint):
         with Connector(port=endpoint.port, options=FAST) as sim:
             pub = sim.register_publisher("/last_words", "std_msgs/Int32")
             for n in range(300):
-                pub.publish(REG.new("std_msgs/Int32", data=n))
+                pub.publish(reg.new("std_msgs/Int32", data=n))
         received = [got.get(timeout=5) for _ in range(300)]
     assert received == list(range(300))
 
 
-def test_subscriber_counts_follow_subscriptions(endpoint, make_connector):
+def test_subscriber_counts_follow_subscriptions(endpoint, make_connector, reg):
     sim = make_connector(endpoint.port).connect()
     scan = sim.register_publisher("/scan", "sensor_msgs/LaserScan", report_subscribers=True)
     plain = sim.register_publisher("/plain", "std_msgs/String")

@@ -12,11 +12,13 @@ __all__ = ["add_parser"]
 def run_endpoint(args: argparse.Namespace) -> int:
     from simbridge.endpoint import EndpointOptions, EndpointServer, make_backend
 
+    backend = make_backend(
+        args.backend, node_name=args.node_name, ros_args=args.ros_args, protocol=args.protocol
+    )
     if args.msg_path:
-        from simbridge.messages import default_registry
+        from simbridge.messages import registry_for
 
-        default_registry().load_packages(*args.msg_path)
-    backend = make_backend(args.backend, node_name=args.node_name, ros_args=args.ros_args)
+        registry_for(backend.protocol).load_packages(*args.msg_path)
 
     async def run() -> None:
         # Precedence: command-line flag, then the original node's ~tcp_ip/~tcp_port, then default.
@@ -67,6 +69,14 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     )
     ep.add_argument("--backend", choices=["local", "ros1"], default="local")
     ep.add_argument("--node-name", default="/simbridge_endpoint", help="ROS node name (ros1)")
+    ep.add_argument(
+        "--protocol",
+        type=str.upper,
+        choices=["ROS1", "ROS2"],
+        default=None,
+        help="local backend: serialization clients are told to use (ROS2: CDR with ROS 2 "
+        "layouts, to test a sim's ROS 2 path without ROS 2 installed; default ROS1)",
+    )
     ep.add_argument("--max-frame-mb", type=float, default=64.0, help="largest accepted frame")
     ep.add_argument(
         "--max-clients", type=int, default=1000, help="connections served at once (default 1000)"

@@ -2,7 +2,8 @@
 
 Raw payloads (bytes, bytearray, memoryview) pass through untouched, so the connector
 works with types no registry knows; objects are serialized as ROS 1 binary or CDR
-according to the connector's protocol mode.
+according to the connector's protocol mode, with that generation's message layouts
+(the shared ROS 1 or ROS 2 registry unless one was given).
 """
 
 from __future__ import annotations
@@ -29,21 +30,31 @@ class PayloadCodec:
     """Per-type codecs looked up once and cached; the registry loads on first use."""
 
     def __init__(self, registry: MessageRegistry | None, protocol: Literal["ROS1", "ROS2"]) -> None:
+        self._given = registry
         self._registry = registry
-        self._fmt: WireFormat = "cdr" if protocol == "ROS2" else "ros1"
         self._codecs: dict[str, Codec] = {}
         self._services: dict[str, tuple[str, str]] = {}
         self._lock = threading.Lock()
+        self.protocol = protocol
+        self._fmt: WireFormat = "cdr" if protocol == "ROS2" else "ros1"
+
+    def set_protocol(self, protocol: Literal["ROS1", "ROS2"]) -> None:
+        """Switch serialization (and, unless a registry was given, layouts) to `protocol`."""
+        with self._lock:
+            self.protocol = protocol
+            self._fmt = "cdr" if protocol == "ROS2" else "ros1"
+            self._registry = self._given
+            self._codecs, self._services = {}, {}
 
     @property
     def registry(self) -> MessageRegistry:
-        """The registry in use (the shared default one unless another was given)."""
+        """The registry in use: the one given, else the shared one of the protocol."""
         if self._registry is None:
             with self._lock:
                 if self._registry is None:
-                    from simbridge.messages import default_registry  # noqa: PLC0415 - lazy
+                    from simbridge.messages import registry_for  # noqa: PLC0415 - lazy
 
-                    self._registry = default_registry()
+                    self._registry = registry_for(self.protocol)
         return self._registry
 
     def _codec(self, type_name: str) -> Codec:

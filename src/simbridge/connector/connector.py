@@ -13,7 +13,7 @@ from collections import deque
 from concurrent.futures import Future
 from concurrent.futures import TimeoutError as FutureTimeoutError
 from types import TracebackType
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from simbridge.connector.calls import PendingCall, ServiceHandler, ServiceImpl
 from simbridge.connector.codec import is_raw
@@ -34,6 +34,9 @@ from simbridge.protocol import (
     TopicListRequest,
     UnityService,
 )
+
+if TYPE_CHECKING:
+    from simbridge.messages import MessageRegistry
 
 __all__ = ["Connector"]
 
@@ -123,6 +126,13 @@ class Connector(ConnectorEngine):
     def connected(self) -> bool:
         """True while a TCP connection to the endpoint is up."""
         return self._connected.is_set()
+
+    @property
+    def registry(self) -> MessageRegistry:
+        """The registry message objects come from and go through: the one given, else the
+        shared registry of the protocol in use (ROS 2 layouts once a ROS 2 endpoint's
+        handshake arrived). Build messages with it to match the endpoint."""
+        return self._codec.registry
 
     def wait_connected(self, timeout: float | None = None) -> bool:
         """Block until connected; False when `timeout` passed first."""

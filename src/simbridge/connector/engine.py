@@ -17,7 +17,7 @@ import threading
 import time
 from collections import deque
 from concurrent.futures import Future
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Literal
 
 from simbridge.connector.calls import PendingCall, ServiceImpl, resolve_future
 from simbridge.connector.codec import PayloadCodec
@@ -78,8 +78,11 @@ class ConnectorEngine:
         self.host = host
         self.port = port
         self.options = options if options is not None else ConnectorOptions()
-        self._codec = PayloadCodec(registry, self.options.protocol)
-        self._framer = Framer(self.options.protocol)
+        forced = self.options.protocol
+        self.protocol: Literal["ROS1", "ROS2"] = "ROS1" if forced == "auto" else forced
+        """The serialization in use: forced by the options, or the endpoint's (auto)."""
+        self._codec = PayloadCodec(registry, self.protocol)
+        self._framer = Framer(self.protocol)
         self._counters = StatsCounters()
         self._out: BoundedFifo[OutTopic, bytes] = BoundedFifo()
         self._writer = FrameWriter(self._out, self._counters, self.options.keepalive_interval)
@@ -413,6 +416,24 @@ class ConnectorEngine:
                     resolve_future(waiter, value)
                     return
 
+    def _switch_protocol(self, protocol: Literal["ROS1", "ROS2"]) -> None:
+        """Follow the endpoint's serialization (auto mode). Messages serialized before
+        the handshake told it are dropped and counted, never sent in the wrong format."""
+        with self._lock:
+            _log.info("endpoint speaks %s; switching serialization to it", protocol)
+            self.protocol = protocol
+            self._codec.set_protocol(protocol)
+            self._framer = Framer(protocol)
+            registry = self._codec.registry
+            if registry.protocol != protocol:
+                _log.error("the connector's registry has %s layouts", registry.protocol)
+            stale = {pub.out for pub in self._publishers.values()}
+            for pub in self._publishers.values():
+                pub.out.prefix = self._framer.prefix(pub.topic)
+                pub.forget_last()
+            for topic in self._out.discard_keys(stale):
+                self._counters.publish_dropped(topic.topic)
+
     def _on_handshake(self, handshake: Handshake) -> None:
         self.handshake = handshake
         self._handshaken = True
@@ -423,12 +444,17 @@ class ConnectorEngine:
             _log.error(
                 "endpoint speaks ROS-TCP %s; this connector expects v0.7.x", handshake.version
             )
-        if handshake.protocol != self.options.protocol:
-            _log.error(
-                "endpoint uses %s serialization but this connector is set to %s",
-                handshake.protocol,
-                self.options.protocol,
-            )
+        if handshake.protocol != self.protocol:
+            if self.options.protocol == "auto" and handshake.protocol == "ROS2":
+                self._switch_protocol("ROS2")
+            elif self.options.protocol == "auto" and handshake.protocol == "ROS1":
+                self._switch_protocol("ROS1")
+            else:
+                _log.error(
+                    "endpoint uses %s serialization but this connector is set to %s",
+                    handshake.protocol,
+                    self.protocol,
+                )
         keepalive = handshake.metadata.get("keepalive")
         if isinstance(keepalive, int | float) and not isinstance(keepalive, bool) and keepalive > 0:
             self._peer_keepalive = float(keepalive)

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import threading
 from collections import deque
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Collection, Iterable, Sequence
 from typing import Generic, TypeVar
 
 __all__ = ["BoundedFifo"]
@@ -140,6 +140,20 @@ class BoundedFifo(Generic[K, T]):
                 else:
                     kept.append(slot)
             self._order = kept
+        return removed
+
+    def discard_keys(self, keys: Collection[K]) -> list[K]:
+        """Remove every item queued under `keys`; returns one key per removed item."""
+        removed: list[K] = []
+        with self._lock:
+            for key in keys:
+                queue = self._by_key.pop(key, None)
+                while queue:
+                    slot = queue.popleft()
+                    if slot.live:
+                        slot.live = False
+                        self._count -= 1
+                        removed.append(key)
         return removed
 
     def clear(self) -> None:

@@ -83,6 +83,10 @@ class Publisher:
         """The latest payload of a latched publisher (re-sent after a reconnect)."""
         return self._last
 
+    def forget_last(self) -> None:
+        """Drop the remembered latched payload (its serialization went stale)."""
+        self._last = None
+
     def publish(self, msg: object) -> None:
         """Queue one message (an object of `msg_type` or its serialized bytes).
 

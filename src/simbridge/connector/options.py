@@ -9,7 +9,7 @@ from simbridge.errors import ConnectorError
 
 __all__ = ["ConnectorOptions"]
 
-_PROTOCOLS = ("ROS1", "ROS2")
+_PROTOCOLS = ("ROS1", "ROS2", "auto")
 
 
 @dataclass(frozen=True, slots=True)
@@ -35,8 +35,9 @@ class ConnectorOptions:
     """Messages per topic waiting to be written; the oldest is dropped (and counted) beyond."""
     subscribe_queue_size: int = 1000
     """Default bound of received messages per subscription waiting for their callback."""
-    protocol: Literal["ROS1", "ROS2"] = "ROS1"
-    """ROS1: binary serialization; ROS2: CDR and NUL-terminated names, like Unity."""
+    protocol: Literal["ROS1", "ROS2", "auto"] = "auto"
+    """ROS1: binary serialization; ROS2: CDR and NUL-terminated names, like Unity; auto:
+    what the endpoint's handshake says (ROS1 until it arrives, or when it never does)."""
     max_frame_size: int = 64 * 1024 * 1024
     """Largest incoming payload accepted; a larger length prefix drops the connection."""
     recv_size: int = 1024 * 1024

@@ -32,11 +32,25 @@ BACKENDS = ("local", "ros1")
 
 
 def make_backend(
-    name: str, *, node_name: str = "/simbridge_endpoint", ros_args: tuple[str, ...] = ()
+    name: str,
+    *,
+    node_name: str = "/simbridge_endpoint",
+    ros_args: tuple[str, ...] = (),
+    protocol: str | None = None,
 ) -> Backend:
-    """The backend called `name` ("local" or "ros1"); `ros_args` are ROS `a:=b` arguments."""
+    """The backend called `name` ("local" or "ros1"); `ros_args` are ROS `a:=b` arguments.
+
+    `protocol` ("ROS1" or "ROS2") picks the local bus's serialization; other backends
+    have their own and refuse a different one.
+    """
     if name == "local":
+        if protocol == "ROS2":
+            return LocalBus("ROS2")
+        if protocol not in (None, "ROS1"):
+            raise EndpointError(f"protocol {protocol!r} is not one of ROS1, ROS2")
         return LocalBus()
+    if protocol not in (None, "ROS1") and name == "ros1":
+        raise EndpointError(f"the ros1 backend speaks ROS1, not {protocol}")
     if name == "ros1":
         from simbridge.endpoint.backends.ros1 import (  # noqa: PLC0415 - rospy is optional
             Ros1Backend,

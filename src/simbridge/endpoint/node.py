@@ -21,7 +21,7 @@ from simbridge.endpoint.backends.base import (
 )
 from simbridge.endpoint.backends.local import LocalBus
 from simbridge.errors import EndpointError, ServiceError
-from simbridge.messages import MessageRegistry, default_registry
+from simbridge.messages import MessageRegistry, WireFormat, registry_for
 
 __all__ = ["Node", "NodePublisher"]
 
@@ -38,19 +38,22 @@ class NodePublisher:
 
     def publish(self, msg: Any) -> None:
         """Serialize in the caller's thread, deliver on the bus loop."""
-        payload = msg if isinstance(msg, bytes) else self._codec.encode(msg)
+        payload = msg if isinstance(msg, bytes) else self._codec.encode(msg, self._node.fmt)
         self._node._on_loop(self._backend.publish, payload)
 
 
 class Node:
-    """A named participant in a LocalBus graph."""
+    """A named participant in a LocalBus graph. Messages use the bus's protocol: ROS 1
+    binary, or CDR with ROS 2 layouts (the shared registry of it unless one is given)."""
 
     def __init__(self, bus: LocalBus, name: str, registry: MessageRegistry | None = None) -> None:
         if bus.loop is None:
             raise EndpointError("the local bus is not running; start its endpoint first")
         self.bus, self.name = bus, name
         self.loop = bus.loop
-        self.registry = registry or default_registry()
+        self.registry = registry or registry_for(bus.protocol)
+        self.fmt: WireFormat = "cdr" if bus.protocol == "ROS2" else "ros1"
+        """The serialization on the bus."""
         self._worker = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix=f"node{name}")
         self._handles: list[BackendPublisher | BackendSubscription | BackendServiceServer] = []
         self._closed = False
@@ -84,7 +87,7 @@ class Node:
         codec = self.registry.codec(msg_type)
 
         def deliver(payload: bytes) -> None:
-            self._worker.submit(self._guard, callback, lambda: codec.decode_ros1(payload))
+            self._worker.submit(self._guard, callback, lambda: codec.decode(payload, self.fmt))
 
         canonical = self.registry.resolve(msg_type)
         self._handles.append(self._sync(lambda: self.bus.subscribe(topic, canonical, deliver)))
@@ -103,8 +106,10 @@ class Node:
         resp_codec = self.registry.codec(info.response)
 
         def run(payload: bytes) -> bytes:
-            response = handler(req_codec.decode_ros1(payload))
-            return response if isinstance(response, bytes) else resp_codec.encode(response)
+            response = handler(req_codec.decode(payload, self.fmt))
+            if isinstance(response, bytes):
+                return response
+            return resp_codec.encode(response, self.fmt)
 
         async def handle(payload: bytes) -> bytes:
             future = self._worker.submit(run, payload)
@@ -122,11 +127,11 @@ class Node:
         payload = (
             request
             if isinstance(request, bytes)
-            else self.registry.codec(info.request).encode(request)
+            else self.registry.codec(info.request).encode(request, self.fmt)
         )
         coro = self.bus.call_service(service, info.name, payload, timeout=timeout)
         raw = asyncio.run_coroutine_threadsafe(coro, self.loop).result(timeout + 1)
-        return self.registry.codec(info.response).decode_ros1(raw)
+        return self.registry.codec(info.response).decode(raw, self.fmt)
 
     def close(self) -> None:
         """Withdraw every registration and stop the worker."""

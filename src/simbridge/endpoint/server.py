@@ -14,6 +14,7 @@ from simbridge.endpoint.options import EndpointOptions
 from simbridge.endpoint.session import ClientSession
 from simbridge.endpoint.typecheck import RegistryTypeCheck, TypeCheck
 from simbridge.errors import EndpointError
+from simbridge.messages import registry_for
 
 __all__ = ["EndpointServer"]
 
@@ -34,7 +35,11 @@ class EndpointServer:
     ) -> None:
         self.options = options or EndpointOptions()
         self.backend = backend if backend is not None else LocalBus()
-        self.types: TypeCheck = types if types is not None else RegistryTypeCheck()
+        self.types: TypeCheck = (
+            types
+            if types is not None
+            else RegistryTypeCheck(registry_for(self.backend.protocol))
+        )
         self._sessions: set[ClientSession] = set()
         self._server: asyncio.Server | None = None
         self._timer: asyncio.Task[None] | None = None

@@ -11,6 +11,7 @@ from __future__ import annotations
 import abc
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
+from typing import Literal
 
 __all__ = [
     "Backend",
@@ -76,8 +77,8 @@ class Backend(abc.ABC):
     """A ROS graph the endpoint bridges its TCP clients into."""
 
     name: str = "abstract"
-    protocol: str = "ROS1"
-    """Serialization its payloads use: "ROS1" (binary) or "ROS2" (CDR)."""
+    protocol: Literal["ROS1", "ROS2"] = "ROS1"
+    """Serialization its payloads use: "ROS1" (binary) or "ROS2" (CDR, ROS 2 layouts)."""
 
     async def start(self) -> None:  # noqa: B027 - optional hook
         """Connect to the graph; called once on the event loop before any other call."""

@@ -2,6 +2,9 @@
 
 Topics (latched too), services and a typed topic list, living on the endpoint's
 event loop. Payloads stay serialized; subscribers get the publisher's bytes as they are.
+In ROS 2 mode (`LocalBus("ROS2")`) the handshake announces ROS2, so clients send CDR
+with ROS 2 layouts, and in-process nodes use them too: the ROS 2 path of a client can
+be exercised without any ROS 2 install.
 """
 
 from __future__ import annotations
@@ -11,6 +14,7 @@ import itertools
 import logging
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Literal
 
 from simbridge.endpoint.backends.base import (
     Backend,
@@ -123,9 +127,11 @@ class LocalBus(Backend):
     """An in-process graph; every method must run on the loop that started it."""
 
     name = "local"
-    protocol = "ROS1"
 
-    def __init__(self) -> None:
+    def __init__(self, protocol: Literal["ROS1", "ROS2"] = "ROS1") -> None:
+        if protocol not in ("ROS1", "ROS2"):
+            raise EndpointError(f"protocol {protocol!r} is not one of ROS1, ROS2")
+        self.protocol = protocol
         self._topics: dict[str, _Topic] = {}
         self._services: dict[str, _Service] = {}
         self._ids = itertools.count(1)
