@@ -7,6 +7,9 @@ PACKAGES=(
   ros-core rosbash python3-rospy python3-rostopic python3-rosservice python3-genpy
   python3-std-msgs python3-std-srvs python3-sensor-msgs python3-geometry-msgs
   python3-tf2-msgs python3-rosgraph-msgs libosmesa6
+  # every Debian message package whose types the sim and the demos publish or subscribe
+  # (tests/e2e/test_ros1_topics_echo.py checks `rostopic echo` of each): odometry, trajectories
+  python3-nav-msgs python3-trajectory-msgs
   # rosmsg/rossrv (and rospack-tools): `rosmsg show` of `simbridge msg genpy` output
   python3-rosmsg rospack-tools
 )
