@@ -14,10 +14,13 @@ import simbridge
 SRC = Path(simbridge.__file__).parent
 
 # Each layer may import itself and the layers listed after it (errors and assets anywhere).
-LAYERS = ["cli", "apps", "planning", "sim", "connector", "endpoint", "protocol", "messages"]
+LAYERS = ["cli", "apps", "gym", "planning", "sim", "connector", "endpoint", "protocol", "messages"]
 ALLOWED: dict[str, set[str]] = {
     "cli": set(LAYERS),
     "apps": {"apps", "planning", "sim", "connector", "endpoint", "protocol", "messages"},
+    # Learning envs sit beside apps: scenes from sim (apps' scene files by path only), the
+    # connector for the policy node on the ROS side.
+    "gym": {"gym", "planning", "sim", "connector", "messages"},
     "planning": {"planning", "sim", "messages"},
     "sim": {"sim", "connector", "protocol", "messages"},
     "connector": {"connector", "protocol", "messages"},

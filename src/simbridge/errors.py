@@ -6,6 +6,7 @@ __all__ = [
     "AppError",
     "ConnectorError",
     "EndpointError",
+    "GymError",
     "MessageError",
     "PlanningError",
     "ProtocolError",
@@ -62,3 +63,7 @@ class PlanningError(SimbridgeError):
 
 class AppError(SimbridgeError):
     """An application (demo) failed."""
+
+
+class GymError(SimbridgeError):
+    """A learning environment (simbridge.gym) was configured or used wrongly."""

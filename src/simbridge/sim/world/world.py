@@ -60,10 +60,11 @@ class World:
     `stop`, which other threads (e.g. ROS callbacks) use to reach the simulation thread.
     """
 
-    def __init__(self, built: BuiltScene) -> None:
+    def __init__(self, built: BuiltScene, model: mujoco.MjModel | None = None) -> None:
+        self._built = built
         self.scene: Scene = built.scene
         self.document = built.document
-        self.model: mujoco.MjModel = built.document.compile()
+        self.model: mujoco.MjModel = built.document.compile() if model is None else model
         self.data = mujoco.MjData(self.model)
         self.robots = {r.name: RobotHandle(r, self.model) for r in built.robots}
         self._slot_table = {
@@ -99,6 +100,12 @@ class World:
         for extend in extensions:
             extend(built.document)
         return cls(built)
+
+    def clone(self) -> World:
+        """Another world on the same compiled model (no recompile): its own MjData, drives,
+        RNG and callbacks, at time 0. Drive gains live in the model, so `drives.set_spec`
+        changes them for every clone (e.g. the worlds of a vectorised learning env)."""
+        return World(self._built, self.model)
 
     # ---- state -----------------------------------------------------------------------------
 

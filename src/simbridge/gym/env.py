@@ -1,0 +1,208 @@
+"""`SceneEnv`: a Gymnasium environment from any scene file, a task and an action adapter."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import mujoco
+import numpy as np
+from gymnasium import Env, spaces
+from numpy.typing import NDArray
+
+from simbridge.errors import GymError
+from simbridge.gym.actions import ActionAdapter
+from simbridge.gym.sensors import SensorObservation
+from simbridge.gym.task import Task
+from simbridge.sim.scene import Scene
+from simbridge.sim.sensors import OffscreenRenderer, Pose
+from simbridge.sim.world import World
+
+__all__ = ["MAX_JOINT_SPEED", "Observation", "SceneEnv", "look_at"]
+
+MAX_JOINT_SPEED = 100.0
+"""Bound of the "joint_vel" space, rad/s or m/s (drives keep joints far below it)."""
+
+Observation = dict[str, NDArray[Any]]
+"""An observation: named arrays (see `SceneEnv.observation_space`)."""
+
+
+def look_at(eye: Sequence[float], target: Sequence[float]) -> Pose:
+    """A camera pose at `eye` looking at `target` (camera +x forward, +z up)."""
+    position = np.asarray(eye, np.float64)
+    forward = np.asarray(target, np.float64) - position
+    forward /= np.linalg.norm(forward)
+    left = np.cross([0.0, 0.0, 1.0], forward)
+    left /= np.linalg.norm(left)
+    up = np.cross(forward, left)
+    return Pose(position, np.column_stack([forward, left, up]))
+
+
+class SceneEnv(Env[Observation, NDArray[np.float32]]):
+    """A MuJoCo world built from a scene, stepped `frame_skip` physics steps per action.
+
+    Observation (a `Dict` space): "joint_pos" (rad or m) and "joint_vel" (rad/s or m/s)
+    of `observe_joints` (default: the joints the action drives), the task's own entries,
+    "goal", and one entry per sensor. Reward, termination and the reset distribution come
+    from `task`; info carries "is_success". Same seed, same episode, bit for bit.
+    `render()` (render_mode "rgb_array") draws the scene from `render_camera`.
+    """
+
+    metadata: dict[str, Any] = {"render_modes": ["rgb_array"], "render_fps": 50}
+
+    def __init__(
+        self,
+        scene: Scene | str | Path,
+        task: Task,
+        action: ActionAdapter,
+        *,
+        frame_skip: int = 10,
+        observe_joints: Sequence[str] | None = None,
+        sensors: Sequence[SensorObservation] = (),
+        render_mode: str | None = None,
+        render_size: tuple[int, int] = (480, 640),
+        render_camera: Pose | None = None,
+        world: World | None = None,
+    ) -> None:
+        if frame_skip < 1:
+            raise GymError(f"frame_skip must be >= 1 physics step, got {frame_skip}")
+        if render_mode not in (None, "rgb_array"):
+            raise GymError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
+        self.world = world if world is not None else World.from_scene(scene, task.extensions())
+        self.task, self.action, self.frame_skip = task, action, frame_skip
+        self.sensors = list(sensors)
+        self.render_mode = render_mode
+        self.render_size = render_size
+        self.render_camera = render_camera or look_at((1.0, -1.0, 1.0), (0.0, 0.0, 0.2))
+        self.metadata = {**self.metadata, "render_fps": round(1 / self.dt)}
+        self.joints = tuple(action.joints if observe_joints is None else observe_joints)
+        self._qpos = [int(self.world.model.joint(j).qposadr[0]) for j in self.joints]
+        self._dofs = [int(self.world.model.joint(j).dofadr[0]) for j in self.joints]
+        task.bind(self.world)
+        action.bind(self.world)
+        for sensor in self.sensors:
+            sensor.bind(self.world)
+        self.action_space: spaces.Box = action.space  # type: ignore[assignment]
+        self._action_shape = action.space.shape
+        self._action_low, self._action_high = action.space.low, action.space.high
+        self.observation_space: spaces.Dict = spaces.Dict(self._spaces())  # type: ignore[assignment]
+        self.goal = np.zeros(task.goal_space.shape, np.float64)
+        self._renderer: OffscreenRenderer | None = None
+
+    @property
+    def dt(self) -> float:
+        """Simulated seconds per env step."""
+        return self.frame_skip * self.world.timestep
+
+    def _spaces(self) -> dict[str, spaces.Space[Any]]:
+        out: dict[str, spaces.Space[Any]] = {}
+        if self.joints:
+            model = self.world.model
+            low, high = [], []
+            for joint in self.joints:
+                jnt = model.joint(joint)
+                limited = bool(model.jnt_limited[jnt.id])
+                low.append(float(jnt.range[0]) - 0.1 if limited else -1e4)
+                high.append(float(jnt.range[1]) + 0.1 if limited else 1e4)
+            out["joint_pos"] = spaces.Box(
+                np.array(low, np.float32), np.array(high, np.float32), dtype=np.float32
+            )
+            speed = MAX_JOINT_SPEED
+            out["joint_vel"] = spaces.Box(-speed, speed, (len(low),), np.float32)
+        out.update(self.task.observation_spaces())
+        out["goal"] = self.task.goal_space
+        for sensor in self.sensors:
+            out[sensor.key] = sensor.space
+        return out
+
+    # ---- the Gymnasium API -----------------------------------------------------------------
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[Observation, dict[str, Any]]:
+        """Back to the scene's initial state, then the task draws the episode from the seed."""
+        super().reset(seed=seed)
+        world = self.world
+        world.reset()
+        self.goal = np.asarray(self.task.reset(world, self.np_random), np.float64)
+        world.drives.hold_current()
+        self.action.reset(world)
+        mujoco.mj_forward(world.model, world.data)
+        return self.observe(), {"is_success": self.task.success(world, self.goal)}
+
+    def step(
+        self, action: NDArray[np.float32]
+    ) -> tuple[Observation, float, bool, bool, dict[str, Any]]:
+        """Apply `action` (clipped to the action space) for `frame_skip` physics steps."""
+        clipped = self.clip_action(action)
+        self.simulate(self.action.controls(self.world, clipped, self.frame_skip))
+        return self.finish_step(clipped)
+
+    def render(self) -> NDArray[np.uint8] | None:  # type: ignore[override]
+        """An (height, width, 3) uint8 frame when render_mode is "rgb_array", else None."""
+        if self.render_mode != "rgb_array":
+            return None
+        if self._renderer is None:
+            height, width = self.render_size
+            self._renderer = OffscreenRenderer(self.world.model, width, height)
+        return self._renderer.render_rgb(self.world.data, self.render_camera, 0.9, 0.01, 50.0)
+
+    def close(self) -> None:
+        """Free renderers."""
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+        for sensor in self.sensors:
+            sensor.close()
+
+    # ---- the parts of a step (the vector env runs the physics of many at once) -------------
+
+    def clip_action(self, action: NDArray[Any]) -> NDArray[np.float32]:
+        """`action` as float32 within the action space; GymError for a wrong shape or NaN."""
+        array = np.asarray(action, dtype=np.float32)
+        if array.shape != self._action_shape or not math.isfinite(float(array.sum())):
+            raise GymError(
+                f"action must be a finite array of shape {self._action_shape}, got {action!r}"
+            )
+        return np.minimum(np.maximum(array, self._action_low), self._action_high)
+
+    def simulate(self, ctrl: NDArray[np.float64]) -> None:
+        """Run `frame_skip` physics steps with `ctrl` (one row, or one row per step), then
+        bring body, geom and site poses up to date (`mj_kinematics`) for observing."""
+        model, data = self.world.model, self.world.data
+        if ctrl.ndim == 1:
+            data.ctrl[:] = ctrl
+            mujoco.mj_step(model, data, nstep=self.frame_skip)
+        else:
+            for row in ctrl:
+                data.ctrl[:] = row
+                mujoco.mj_step(model, data)
+        mujoco.mj_kinematics(model, data)
+
+    def finish_step(
+        self, action: NDArray[np.float32]
+    ) -> tuple[Observation, float, bool, bool, dict[str, Any]]:
+        """Observation, reward, terminated, truncated (always False: time limits are a
+        wrapper's job) and info after the physics ran."""
+        world, goal = self.world, self.goal
+        reward = float(self.task.reward(world, goal, action))
+        if not math.isfinite(reward):
+            raise GymError(f"task {type(self.task).__name__} returned reward {reward}")
+        success = self.task.success(world, goal)
+        terminated = bool(self.task.terminated(world, goal))
+        return self.observe(), reward, terminated, False, {"is_success": success}
+
+    def observe(self) -> Observation:
+        """The observation for the world's current state."""
+        data = self.world.data
+        obs: Observation = {}
+        if self.joints:
+            obs["joint_pos"] = data.qpos[self._qpos].astype(np.float32)
+            obs["joint_vel"] = data.qvel[self._dofs].astype(np.float32)
+        obs.update(self.task.observe(self.world))
+        obs["goal"] = self.goal.astype(np.float32)
+        for sensor in self.sensors:
+            obs[sensor.key] = sensor.read(self.world)
+        return obs

@@ -1,0 +1,60 @@
+"""What a learning task adds to a scene: reset distribution, goal, reward and termination."""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+from gymnasium import spaces
+from numpy.typing import NDArray
+
+from simbridge.sim.world import ModelExtension, World
+
+__all__ = ["Task"]
+
+
+class Task(ABC):
+    """A task on a `World`: subclass it with a reset distribution, reward and success test.
+
+    The environment calls `bind` once after the world is built, `reset` at the start of
+    every episode (after the world went back to its initial state) and `reward`,
+    `success` and `terminated` after every step. Everything the task reads comes from the
+    world (joint state, body poses), so the same code runs wherever the world's state
+    comes from. `observe` adds entries (e.g. an object's pose) to the observation dict.
+    """
+
+    goal_space: spaces.Box
+    """Bounds of the goal vector (part of the observation as "goal")."""
+
+    def extensions(self) -> Sequence[ModelExtension]:
+        """Edits of the MJCF document before compiling (e.g. a goal marker); none by default."""
+        return ()
+
+    def bind(self, world: World) -> None:  # noqa: B027 - optional hook
+        """Look up bodies and joints once (nothing by default)."""
+
+    @abstractmethod
+    def reset(self, world: World, rng: np.random.Generator) -> NDArray[np.float64]:
+        """Draw the episode's start state into `world` (teleport joints, move objects) from
+        `rng` only, and return the goal (a point of `goal_space`)."""
+
+    def observation_spaces(self) -> Mapping[str, spaces.Box]:
+        """Spaces of the entries `observe` adds (none by default)."""
+        return {}
+
+    def observe(self, world: World) -> dict[str, NDArray[np.float32]]:
+        """Task-specific observation entries (none by default)."""
+        return {}
+
+    @abstractmethod
+    def reward(self, world: World, goal: NDArray[np.float64], action: NDArray[np.float32]) -> float:
+        """The reward for the step that just ended."""
+
+    @abstractmethod
+    def success(self, world: World, goal: NDArray[np.float64]) -> bool:
+        """Whether the task is solved in the current state (reported as info["is_success"])."""
+
+    def terminated(self, world: World, goal: NDArray[np.float64]) -> bool:
+        """Whether the episode ends here (default: on success)."""
+        return self.success(world, goal)
