@@ -53,7 +53,7 @@ def wait_for(predicate: Any, timeout: float, what: str) -> None:
 
 @pytest.fixture(scope="module")
 def planner_node(master: RosMaster) -> Iterator[subprocess.Popen[str]]:
-    command = [sys.executable, "-m", "simbridge.apps.pick_and_place.ros1_planner"]
+    command = [sys.executable, "-m", "simbridge.cli", "planner", "--backend", "ros1"]
     with master.running(command) as node:
         lookup = xmlrpc.client.ServerProxy(master.uri)
 

@@ -6,7 +6,9 @@ endpoint process on the module's private roscore.
 
 from __future__ import annotations
 
+import logging
 import re
+import signal
 import subprocess
 import sys
 import textwrap
@@ -154,3 +156,61 @@ def test_simbridge_topic_list_matches_rostopic_list(master: RosMaster, tmp_path:
         assert shown["/e2e/live"] == "std_msgs/String"
     finally:
         endpoint.stop()
+
+
+def test_sigterm_unregisters_everything(master: RosMaster) -> None:
+    """kill (SIGTERM) withdraws the clients' topics and services and the node itself."""
+    endpoint = EndpointProcess(master, "/e2e_sigterm")
+    try:
+        with Connector("127.0.0.1", endpoint.port, FAST).connect(wait=10) as conn:
+            conn.register_publisher("/e2e/term_pub", "std_msgs/String")
+            conn.subscribe("/e2e/term_sub", "std_msgs/String", lambda _: None, raw=True)
+            conn.implement_service("/e2e/term_srv", "std_srvs/Trigger", lambda _: b"", raw=True)
+            expected = {"pub:/e2e/term_pub", "sub:/e2e/term_sub", "srv:/e2e/term_srv"}
+            wait_until(
+                lambda: expected <= set(node_registrations(master, "/e2e_sigterm")),
+                10,
+                "the registrations",
+            )
+            endpoint.process.send_signal(signal.SIGTERM)
+            assert endpoint.process.wait(20) == 0, endpoint.output()
+    finally:
+        endpoint.stop()
+    assert node_registrations(master, "/e2e_sigterm") == []  # /rosout's publisher too
+
+
+def test_endpoint_replaced_by_same_name_tells_clients_and_exits(
+    master: RosMaster, caplog: pytest.LogCaptureFixture
+) -> None:
+    """The master shuts a node down when another registers its name: the endpoint must
+    not stay up as if its clients still reached ROS."""
+    first = EndpointProcess(master, "/e2e_twin")
+    second: EndpointProcess | None = None
+    try:
+        with (
+            caplog.at_level(logging.ERROR, logger="simbridge.connector"),
+            Connector("127.0.0.1", first.port, FAST).connect(wait=10) as conn,
+        ):
+            conn.register_publisher("/e2e/twin_pub", "std_msgs/String")
+            wait_until(
+                lambda: "pub:/e2e/twin_pub" in node_registrations(master, "/e2e_twin"),
+                10,
+                "the publisher",
+            )
+            second = EndpointProcess(master, "/e2e_twin")
+            assert first.process.wait(20) == 2, first.output()
+            wait_until(
+                lambda: any("was shut down" in r.getMessage() for r in caplog.records),
+                10,
+                "the __error at the client",
+            )
+        told = [r.getMessage() for r in caplog.records if "was shut down" in r.getMessage()]
+        assert "/e2e_twin" in told[0]
+        assert "new node registered with same name" in told[0]
+        assert "simbridge: error: the ROS node /e2e_twin was shut down" in first.output()
+        assert second.process.poll() is None
+        assert "pub:/e2e/twin_pub" not in node_registrations(master, "/e2e_twin")
+    finally:
+        first.stop()
+        if second is not None:
+            second.stop()

@@ -46,6 +46,9 @@ class EndpointServer:
         self._loop: asyncio.AbstractEventLoop | None = None
         self.port = 0
         self.started_at = 0.0
+        self.lost: str | None = None
+        """Why the backend left the graph for good (then the server stops), else None."""
+        self._lost = asyncio.Event()
 
     @property
     def loop(self) -> asyncio.AbstractEventLoop:
@@ -63,6 +66,7 @@ class EndpointServer:
         """Start the backend and listen; `port` holds the bound port (useful with port 0)."""
         self._loop = asyncio.get_running_loop()
         await self.backend.start()
+        self.backend.watch_lost(self._backend_lost)
         opts = self.options
         try:
             self._server = await self._loop.create_server(
@@ -87,11 +91,33 @@ class EndpointServer:
         )
 
     async def serve_forever(self) -> None:
-        """Run until cancelled."""
+        """Run until cancelled; raise EndpointError if the backend leaves the graph for good."""
         if self._server is None:
             await self.start()
         assert self._server is not None
-        await self._server.serve_forever()
+        serving = asyncio.ensure_future(self._server.serve_forever())
+        lost = asyncio.ensure_future(self._lost.wait())
+        try:
+            await asyncio.wait({serving, lost}, return_when=asyncio.FIRST_COMPLETED)
+        finally:
+            serving.cancel()
+            lost.cancel()
+        if self.lost is not None:
+            raise EndpointError(self.lost)
+
+    def _backend_lost(self, reason: str) -> None:
+        """Tell every client, then stop: an endpoint cut off from the graph must not
+        keep accepting clients as if their traffic still reached ROS."""
+        if self.lost is not None:
+            return
+        self.lost = reason
+        log.error("%s; telling %d client(s) and stopping", reason, len(self._sessions))
+        for session in list(self._sessions):
+            session.send_error(f"{reason}; the endpoint stops")
+            session.close()
+        if self._server is not None:
+            self._server.close()
+        self._lost.set()
 
     async def close(self) -> None:
         """Disconnect every client, stop listening and release the backend."""

@@ -318,8 +318,9 @@ class ClientSession(asyncio.BufferedProtocol):
             self.last_sent = now
 
     def close(self) -> None:
-        """Drop the connection."""
+        """Drop the connection, after handing the transport what is queued (a last __error)."""
         if self.transport is not None:
+            self._flush()
             self.transport.close()
 
     # ---- events -----------------------------------------------------------------------

@@ -53,9 +53,7 @@ def rostopic_list(master: RosMaster) -> set[str]:
     return set(result.stdout.split())
 
 
-def test_topic_list_forgets_topics_of_a_node_that_exited(
-    master: RosMaster, tmp_path: Path
-) -> None:
+def test_topic_list_forgets_topics_of_a_node_that_exited(master: RosMaster, tmp_path: Path) -> None:
     """A node publishes /sb/ephemeral and exits: the master still has its type, but
     the topic list (like `rostopic list`) no longer shows it."""
     script = tmp_path / "ephemeral_node.py"

@@ -2,8 +2,10 @@
 
 ROS_MASTER_URI is used when a master answers there; otherwise a roscore is started on a
 free port with a private ROS_HOME, and this process's environment points at it until
-stop(). The planner runs as its own rospy node process (rospy allows one node per process,
-and this process's node is the endpoint's).
+stop(). The planner runs as its own rospy node process (`simbridge planner`: rospy allows
+one node per process, and this process's node is the endpoint's) under a unique node name,
+so it never shuts down a planner the user already runs. It counts as up when its own node
+answers a probe on /niryo_moveit: a stale registration left by a dead planner does not.
 """
 
 from __future__ import annotations
@@ -14,18 +16,20 @@ import subprocess
 import sys
 import tempfile
 import time
-import xmlrpc.client
 from pathlib import Path
-from typing import IO, Any
+from typing import IO
 
-from simbridge.apps.pick_and_place.planner_node import PLANNER_SERVICE
+from simbridge.apps.pick_and_place.planner_node import NODE_NAME, PLANNER_SERVICE
 from simbridge.apps.pick_and_place.scene import SCENE_PATH
-from simbridge.endpoint.backends.ros1_master import RosCore, master_answers, terminate
+from simbridge.endpoint.backends.ros1_master import (
+    RosCore,
+    master_answers,
+    terminate,
+    unique_node_name,
+)
 from simbridge.errors import AppError, EndpointError
 
 __all__ = ["Ros1Graph"]
-
-_CALLER = "/simbridge_pick_and_place"
 
 
 class Ros1Graph:
@@ -36,6 +40,7 @@ class Ros1Graph:
         self.startup_timeout = startup_timeout
         self.master_uri = ""
         self.started_master = False
+        self.planner_node = f"/{unique_node_name(NODE_NAME)}"
         self._home: Path | None = None
         self._roscore: RosCore | None = None
         self._planner: subprocess.Popen[bytes] | None = None
@@ -84,32 +89,36 @@ class Ros1Graph:
             os.environ[key] = value
 
     def _start_planner(self) -> None:
+        from simbridge.endpoint.backends.ros1_probe import (  # noqa: PLC0415 - ROS is optional
+            probe_service,
+        )
+
         log_dir = self._home or Path(tempfile.mkdtemp(prefix="simbridge-pick-and-place-"))
         self._home = log_dir
         self._planner_log = (log_dir / "planner_node.out").open("w+b")
         self._planner = subprocess.Popen(
             [
-                sys.executable,
-                "-m",
-                "simbridge.apps.pick_and_place.ros1_planner",
-                "--scene",
-                str(self.scene_path),
+                *(sys.executable, "-m", "simbridge.cli", "planner", "--backend", "ros1"),
+                *("--node-name", self.planner_node, "--scene", str(self.scene_path)),
             ],
             stdout=self._planner_log,
             stderr=subprocess.STDOUT,
             stdin=subprocess.DEVNULL,
             start_new_session=True,
         )
-        master = xmlrpc.client.ServerProxy(self.master_uri)
         deadline = time.monotonic() + self.startup_timeout
         while True:
-            reply: Any = master.lookupService(_CALLER, PLANNER_SERVICE)
-            if reply[0] == 1:
-                return
+            try:
+                if probe_service(self.master_uri, PLANNER_SERVICE) == self.planner_node:
+                    return
+            except EndpointError as exc:
+                why = str(exc)
+            else:
+                why = f"{PLANNER_SERVICE} is served by another node"
             if self._planner.poll() is not None or time.monotonic() > deadline:
                 raise AppError(
-                    f"the planner node did not offer {PLANNER_SERVICE} on {self.master_uri}:\n"
-                    f"{self.planner_output()[-2000:]}"
+                    f"the planner node {self.planner_node} did not offer {PLANNER_SERVICE} on "
+                    f"{self.master_uri} ({why}):\n{self.planner_output()[-2000:]}"
                 )
             time.sleep(0.1)
 

@@ -23,6 +23,7 @@ from simbridge.apps.pick_and_place.task import PickAndPlaceTask
 from simbridge.apps.pick_and_place.video import VideoRecorder, check_video_path
 from simbridge.connector import Connector, ConnectorOptions
 from simbridge.endpoint import EndpointOptions, EndpointThread, LocalBus, make_backend
+from simbridge.endpoint.backends.ros1_master import unique_node_name
 from simbridge.errors import AppError, SimbridgeError
 
 __all__ = ["BACKENDS", "main", "run_pick_and_place"]
@@ -68,9 +69,8 @@ def run_pick_and_place(
             graph = stack.enter_context(Ros1Graph(scene))
             where = "started" if graph.started_master else "found"
             say(f"[pick-and-place] ROS master {graph.master_uri} ({where}), planner node up")
-            endpoint = stack.enter_context(
-                EndpointThread(EndpointOptions(port=0), make_backend("ros1"))
-            )
+            ros1 = make_backend("ros1", node_name=unique_node_name("simbridge_endpoint"))
+            endpoint = stack.enter_context(EndpointThread(EndpointOptions(port=0), ros1))
             say(f"[pick-and-place] endpoint on port {endpoint.port} (ros1 backend)")
         connector = Connector("127.0.0.1", endpoint.port, ConnectorOptions(reconnect_initial=0.2))
         stack.enter_context(connector.connect())

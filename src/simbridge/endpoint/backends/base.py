@@ -86,6 +86,10 @@ class Backend(abc.ABC):
     async def close(self) -> None:  # noqa: B027 - optional hook
         """Release every registration and leave the graph."""
 
+    def watch_lost(self, callback: Callable[[str], None]) -> None:  # noqa: B027 - optional hook
+        """Call `callback(reason)` on the event loop if the backend leaves the graph for good
+        (the ROS 1 master shut its node down, say). The default never calls it."""
+
     @abc.abstractmethod
     def advertise(
         self, topic: str, msg_type: str, *, queue_size: int, latch: bool

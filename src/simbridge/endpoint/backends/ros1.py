@@ -29,7 +29,7 @@ from simbridge.endpoint.backends.base import (
     ServiceHandler,
     TopicInfo,
 )
-from simbridge.endpoint.backends.ros1_node import NodeIdentity, join_graph
+from simbridge.endpoint.backends.ros1_node import NodeIdentity, join_graph, on_node_shutdown
 from simbridge.endpoint.backends.ros1_raw import (
     RawMessage,
     RawService,
@@ -82,6 +82,7 @@ class Ros1Backend(Backend):
         self._identity: NodeIdentity | None = None
         self._forwarder: RosoutForwarder | None = None
         self._live: set[_Registration] = set()
+        self._lost_watchers: list[Callable[[str], None]] = []
 
     @property
     def identity(self) -> NodeIdentity:
@@ -106,6 +107,7 @@ class Ros1Backend(Backend):
         self._executor = ThreadPoolExecutor(
             max_workers=opts.service_threads, thread_name_prefix="simbridge-ros1-call"
         )
+        on_node_shutdown(self._node_shut_down)
         if opts.forward_logs:
             self._forwarder = RosoutForwarder()
             logging.getLogger("simbridge").addHandler(self._forwarder)
@@ -122,6 +124,26 @@ class Ros1Backend(Backend):
             logging.getLogger("simbridge").removeHandler(self._forwarder)
             self._forwarder = None
         self._loop = None
+
+    def watch_lost(self, callback: Callable[[str], None]) -> None:
+        """Call `callback(reason)` on the event loop when the node is shut down for good.
+
+        The master shuts a node down when another registers with the same name; rospy
+        cannot join again in the same process, so the endpoint must stop.
+        """
+        self._lost_watchers.append(callback)
+
+    def _node_shut_down(self, reason: str) -> None:
+        """rospy's pre-shutdown hook (a rospy thread); ignored once this backend is closed."""
+        loop = self._loop
+        if loop is None or not self._lost_watchers:
+            return
+        text = f"the ROS node {rospy.get_name()} was shut down ({reason})"
+        for callback in list(self._lost_watchers):
+            try:
+                loop.call_soon_threadsafe(callback, text)
+            except RuntimeError:  # the loop is closed: the process is exiting anyway
+                return
 
     def advertise(
         self, topic: str, msg_type: str, *, queue_size: int, latch: bool

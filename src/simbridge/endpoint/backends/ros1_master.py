@@ -23,7 +23,7 @@ from typing import Any
 
 from simbridge.errors import EndpointError
 
-__all__ = ["RosCore", "free_port", "master_answers", "terminate"]
+__all__ = ["RosCore", "free_port", "master_answers", "terminate", "unique_node_name"]
 
 _CALLER = "/simbridge"
 
@@ -34,6 +34,12 @@ def free_port() -> int:
         sock.bind(("127.0.0.1", 0))
         port: int = sock.getsockname()[1]
         return port
+
+
+def unique_node_name(base: str) -> str:
+    """`base` made unique the way rospy's anonymous names are (`base_<pid>_<ms>`), so a demo
+    never shuts down a running node of the same name (the master keeps the newest)."""
+    return f"{base.lstrip('/')}_{os.getpid()}_{int(time.time() * 1000)}"
 
 
 def master_answers(uri: str, timeout: float = 1.0) -> bool:

@@ -13,7 +13,7 @@ import socket
 import sys
 import threading
 import urllib.parse
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import rosgraph
@@ -21,7 +21,7 @@ import rospy
 
 from simbridge.errors import EndpointError
 
-__all__ = ["NodeIdentity", "join_graph", "read_drop_in_params", "ros_args"]
+__all__ = ["NodeIdentity", "join_graph", "on_node_shutdown", "read_drop_in_params", "ros_args"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -84,6 +84,16 @@ def join_graph(name: str, args: Sequence[str], connect_timeout: float) -> NodeId
             root.setLevel(level)
         _joined = wanted
         return wanted
+
+
+def on_node_shutdown(callback: Callable[[str], None]) -> None:
+    """Call `callback(reason)` on a rospy thread when this process's node shuts down.
+
+    The master shuts a node down when another registers with the same name; rospy then
+    stops talking to the graph, so whoever serves clients through it must be told.
+    rospy has already unregistered the node's topics and services by then.
+    """
+    rospy.core.add_preshutdown_hook(callback)
 
 
 def _wait_for_master(master_uri: str, timeout: float) -> None:

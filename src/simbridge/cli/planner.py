@@ -1,0 +1,101 @@
+"""`simbridge planner`: the pick-and-place MoverService planner on its own, as a ROS node.
+
+With `--backend ros1` it is a rospy node serving /niryo_moveit to the ROS graph
+(`rosservice call`, a rospy client, or a sim through `simbridge endpoint --backend ros1`).
+With `--backend local` it runs an endpoint on the embedded bus with the planner on it,
+so a ROS-TCP client (a Unity scene, a connector) can call /niryo_moveit with no ROS.
+"""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+__all__ = ["add_parser"]
+
+
+@contextmanager
+def _stop_on_signals() -> Iterator[threading.Event]:
+    """An event set by SIGINT or SIGTERM, so both end the planner cleanly (unregistered)."""
+    stop = threading.Event()
+    previous = {
+        sig: signal.signal(sig, lambda _sig, _frame: stop.set())
+        for sig in (signal.SIGINT, signal.SIGTERM)
+    }
+    try:
+        yield stop
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+
+
+def run_planner(args: argparse.Namespace) -> int:
+    from simbridge.apps.pick_and_place.planner_node import PLANNER_SERVICE, SERVICE_TYPE
+    from simbridge.apps.pick_and_place.scene import SCENE_PATH
+
+    scene: Path = args.scene or SCENE_PATH
+    with _stop_on_signals() as stop:
+        if args.backend == "ros1":
+            from simbridge.apps.pick_and_place.ros1_planner import serve
+
+            serve(
+                scene,
+                stop,
+                args.ros_args,
+                node_name=args.node_name,
+                connect_timeout=args.connect_timeout,
+            )
+            return 0
+        from simbridge.apps.pick_and_place.planner_node import LocalPlannerNode
+        from simbridge.endpoint import EndpointOptions, EndpointThread, LocalBus
+
+        bus = LocalBus()
+        options = EndpointOptions(host=args.host, port=args.port)
+        with EndpointThread(options, bus) as endpoint, LocalPlannerNode(bus, scene):
+            print(
+                f"simbridge planner: serving {PLANNER_SERVICE} [{SERVICE_TYPE}] on the endpoint "
+                f"{args.host}:{endpoint.port} (local bus)",
+                flush=True,
+            )
+            stop.wait()
+    return 0
+
+
+def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    planner = sub.add_parser(
+        "planner",
+        help="serve the pick-and-place planner (niryo_moveit/MoverService on /niryo_moveit)",
+        description="Serve niryo_moveit/MoverService on /niryo_moveit: plans pre-grasp, "
+        "grasp, pick-up and place trajectories for the Niryo One arm around the scene's "
+        "static boxes. Unplannable requests get an empty answer and the reason on /rosout.",
+    )
+    planner.add_argument(
+        "--backend",
+        choices=["ros1", "local"],
+        default="ros1",
+        help="ros1 (default): a rospy node on ROS_MASTER_URI; local: an endpoint on the "
+        "embedded bus that ROS-TCP clients connect to",
+    )
+    planner.add_argument(
+        "--scene",
+        type=Path,
+        default=None,
+        help="scene YAML whose static boxes are obstacles (default: the pick-and-place scene)",
+    )
+    planner.add_argument("--node-name", default="niryo_moveit_planner", help="ROS node name (ros1)")
+    planner.add_argument(
+        "--connect-timeout",
+        type=float,
+        default=10.0,
+        metavar="S",
+        help="how long to wait for the master (ros1)",
+    )
+    planner.add_argument("--host", default="127.0.0.1", help="endpoint address (local)")
+    planner.add_argument(
+        "--port", type=int, default=10000, help="endpoint port (local; 0 = any free port)"
+    )
+    planner.set_defaults(func=run_planner)
