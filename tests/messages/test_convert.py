@@ -171,3 +171,42 @@ def test_arbitrary_data_gives_message_or_message_error(
     except MessageError:
         return
     assert registry.decode(registry.encode(msg), name) is not None
+
+
+def _strict_loads(text: str) -> object:
+    def refuse(token: str) -> object:
+        raise AssertionError(f"not JSON: bare {token}")
+
+    return json.loads(text, parse_constant=refuse)
+
+
+def test_json_is_strict_non_finite_floats_become_null(registry: MessageRegistry) -> None:
+    """JSON has no NaN/Infinity: they are written as null (rosbridge's choice), read as NaN."""
+    scan = registry.from_dict(
+        "sensor_msgs/LaserScan",
+        {
+            "angle_min": math.nan,
+            "range_max": math.inf,
+            "ranges": [1.5, math.inf, -math.inf, math.nan],
+        },
+    )
+    text = registry.to_json(scan)
+    for token in ("NaN", "Infinity"):
+        assert token not in text
+    data = _strict_loads(text)
+    assert isinstance(data, dict)
+    assert (data["angle_min"], data["range_max"]) == (None, None)
+    assert data["ranges"] == [1.5, None, None, None]
+    back = registry.from_json("sensor_msgs/LaserScan", text)
+    assert math.isnan(back.angle_min)
+    assert math.isnan(back.range_max)
+    assert back.ranges[0] == 1.5
+    assert np.isnan(back.ranges[1:]).all()
+    assert back.ranges.dtype == np.float32
+
+
+def test_json_of_finite_messages_is_unchanged(registry: MessageRegistry) -> None:
+    twist = registry.new("geometry_msgs/Twist", linear={"x": 0.5})
+    assert registry.to_json(twist) == (
+        '{"linear":{"x":0.5,"y":0.0,"z":0.0},"angular":{"x":0.0,"y":0.0,"z":0.0}}'
+    )

@@ -19,7 +19,8 @@ MessageRegistry API:
 - `service(name) -> ServiceInfo(name, request, response, md5)`.
 - `new(name, **fields)`: zero-initialised message (rosbags dataclass, mutable:
   `msg.linear.x = 0.5`); `from_dict`, `to_dict`, `to_json`/`from_json`,
-  `to_msgpack`/`from_msgpack`, `from_yaml` (rostopic-pub style).
+  `to_msgpack`/`from_msgpack`, `from_yaml` (rostopic-pub style). `to_json` writes strict
+  JSON: NaN and +-Infinity become null (as rosbridge does), and null reads back as NaN.
 - `encode(msg, name=None, fmt="ros1"|"cdr") -> bytes`, `decode(data, name, fmt)`,
   `transcode(data, name, src, dst)`; `codec(name)` gives the cached per-type Codec
   for hot paths (`Codec.encode_buffer` skips the final copy of large messages).

@@ -238,6 +238,8 @@ def _primitive(typ: str, value: object, path: str) -> Any:
     if typ in _FLOATS:
         if isinstance(value, int | float) and not isinstance(value, bool):
             return float(value)
+        if value is None:  # JSON has no NaN/Infinity: to_json writes them as null
+            return math.nan
         msg = f"{path}: expected a number ({typ}), got {value!r}"
         raise MessageError(msg)
     if isinstance(value, float) and value.is_integer():
@@ -266,6 +268,8 @@ def _numeric_array(typ: str, value: object, path: str) -> np.ndarray[Any, Any]:
     if isinstance(value, str | bytes | bytearray | Mapping):
         msg = f"{path}: expected a list of {typ}, got {type(value).__name__}"
         raise MessageError(msg)
+    if typ in _FLOATS and isinstance(value, list | tuple) and None in value:
+        value = [math.nan if item is None else item for item in value]  # null from JSON
     try:
         raw = np.asarray(value)
     except (ValueError, TypeError) as exc:

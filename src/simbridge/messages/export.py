@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import base64
 import json
+import math
 from collections.abc import Callable
 from typing import Any
 
@@ -39,8 +40,13 @@ class Exporter:
         return {spec.name: self._field(spec, getattr(msg, spec.attr)) for spec in schema.fields}
 
     def to_json(self, msg: object) -> str:
-        """JSON text of to_dict(msg), with uint8[]/char[] as base64 strings (rosbridge style)."""
-        return json.dumps(self.to_dict(msg), default=_json_default, separators=(",", ":"))
+        """Strict JSON text of to_dict(msg), rosbridge style: uint8[]/char[] as base64 strings,
+        NaN and +-Infinity (which JSON cannot spell) as null."""
+        data = self.to_dict(msg)
+        try:
+            return _dumps(data)
+        except ValueError:  # a non-finite float somewhere: the rare, slower path
+            return _dumps(_finite_or_null(data))
 
     def to_msgpack(self, msg: object) -> bytes:
         """MessagePack bytes of to_dict(msg) (uint8[]/char[] as bin)."""
@@ -64,6 +70,20 @@ class Exporter:
         if isinstance(value, np.generic):
             return value.item()
         return value
+
+
+def _dumps(data: object) -> str:
+    return json.dumps(data, default=_json_default, separators=(",", ":"), allow_nan=False)
+
+
+def _finite_or_null(value: object) -> object:
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {key: _finite_or_null(item) for key, item in value.items()}
+    if isinstance(value, list):
+        return [_finite_or_null(item) for item in value]
+    return value
 
 
 def _json_default(value: object) -> object:

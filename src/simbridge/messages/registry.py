@@ -373,7 +373,8 @@ class MessageRegistry:
         return self._exporter.to_dict(msg)
 
     def to_json(self, msg: object) -> str:
-        """JSON text (uint8[]/char[] as base64 strings)."""
+        """Strict JSON text, rosbridge style: uint8[]/char[] as base64 strings, NaN and
+        +-Infinity as null (read back as NaN)."""
         return self._exporter.to_json(msg)
 
     def from_json(self, name: str, text: str | bytes) -> Any:
