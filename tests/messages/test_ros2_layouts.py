@@ -186,3 +186,29 @@ def test_user_package_in_ros2_layout(tmp_path: Path) -> None:
     assert reg.ros2_name("my_robot_msgs/DriveSendGoalRequest") == (
         "my_robot_msgs/action/Drive_SendGoal_Request"
     )
+
+
+def test_translator_ros1_to_ros2(ros2: MessageRegistry) -> None:
+    from simbridge.messages import Translator
+
+    ros1 = default_registry()
+    translate = Translator(ros1, ros2).translate
+    info = ros1.new(
+        "sensor_msgs/CameraInfo",
+        header={"seq": 9, "stamp": {"secs": 3, "nsecs": 4}, "frame_id": "cam"},
+        D=[0.1, 0.2],
+        K=np.arange(9.0),
+        P=np.arange(12.0),
+    )
+    out = translate(info)
+    assert type(out) is ros2.msg_class("sensor_msgs/CameraInfo")
+    assert out.d.tolist() == [0.1, 0.2]
+    assert out.k.tolist() == list(range(9))
+    assert out.p.tolist() == list(range(12))
+    assert (out.header.stamp.sec, out.header.stamp.nanosec, out.header.frame_id) == (3, 4, "cam")
+    assert not hasattr(out.header, "seq")
+    image = ros1.new("sensor_msgs/Image", data=np.zeros(12, np.uint8), height=2, width=2)
+    assert translate(image).data is image.data  # pixels are shared, not copied
+    twist = ros1.new("geometry_msgs/Twist", linear={"x": 1.0})
+    assert translate(twist) is twist  # same layout: passed through
+    assert ros2.encode(twist) == ros2.encode(ros2.new("geometry_msgs/Twist", linear={"x": 1.0}))

@@ -36,9 +36,7 @@ class EndpointServer:
         self.options = options or EndpointOptions()
         self.backend = backend if backend is not None else LocalBus()
         self.types: TypeCheck = (
-            types
-            if types is not None
-            else RegistryTypeCheck(registry_for(self.backend.protocol))
+            types if types is not None else RegistryTypeCheck(registry_for(self.backend.protocol))
         )
         self._sessions: set[ClientSession] = set()
         self._server: asyncio.Server | None = None

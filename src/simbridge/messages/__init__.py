@@ -46,7 +46,9 @@ nanosec, spelled `{sec, nanosec}` in dicts), CameraInfo with `d k r p`. Its `pro
 the same `pkg/msg`, `pkg/srv`, `pkg/action` layout; actions expand as rosidl does
 (`pkg/FooGoal`, `pkg/FooFeedbackMessage`, services `pkg/FooSendGoal`, `pkg/FooGetResult`).
 `ros2_name(name)` gives the rosidl spelling (`pkg/msg/Type`, `pkg/srv/Srv_Request`,
-`pkg/action/Foo_Goal`); every such spelling is accepted as input.
+`pkg/action/Foo_Goal`); every such spelling is accepted as input. `Translator(src, dst)`
+turns message objects of one registry's layouts into another's (Header loses `seq`,
+CameraInfo `D` becomes `d`, ...), rebuilding only the parts that differ.
 """
 
 from __future__ import annotations
@@ -64,6 +66,7 @@ from .registry import (
 )
 from .schema import ConstantSpec, FieldSpec, MessageSchema
 from .service_info import ServiceInfo
+from .translate import Translator
 
 __all__ = [
     "ROS2_STORE",
@@ -75,6 +78,7 @@ __all__ = [
     "MessageRegistry",
     "MessageSchema",
     "ServiceInfo",
+    "Translator",
     "TypeName",
     "WireFormat",
     "default_registry",

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from simbridge.connector import Connector
-from simbridge.messages import MessageRegistry, default_registry
+from simbridge.messages import MessageRegistry
 from simbridge.sim.ros.commands import CommandSubscriber
 from simbridge.sim.ros.diff_drive_link import DiffDriveLink
 from simbridge.sim.ros.publishers import StatePublisher
@@ -15,7 +15,11 @@ __all__ = ["SimRosBridge"]
 
 
 class SimRosBridge:
-    """All ROS interfaces of a simulation, as configured by the scene's `ros` section."""
+    """All ROS interfaces of a simulation, as configured by the scene's `ros` section.
+
+    Messages follow the connector's registry (ROS 1 or ROS 2 layouts, as the endpoint's
+    handshake says) unless `registry` fixes one.
+    """
 
     def __init__(
         self,
@@ -27,7 +31,7 @@ class SimRosBridge:
         self.world = world
         self.connector = connector
         self.settings = settings or world.scene.ros
-        self.registry = registry or default_registry()
+        self.registry = registry
         self.state = StatePublisher(world, connector, self.settings, self.registry)
         self.commands = CommandSubscriber(world, connector, self.settings)
         drive = self.settings.diff_drive

@@ -1,4 +1,5 @@
-"""Build and read the ROS messages the simulator exchanges (rosbags noetic dataclasses)."""
+"""Build and read the ROS messages the simulator exchanges, in the layouts of the registry
+given (ROS 1 noetic, or ROS 2 where Header has no seq)."""
 
 from __future__ import annotations
 
@@ -28,6 +29,8 @@ class StampMaker:
     def __init__(self, registry: MessageRegistry) -> None:
         self.registry = registry
         self._classes: dict[str, Any] = {}
+        self._seq = {"seq": 0} if registry.protocol == "ROS1" else {}
+        """Header fields beyond stamp and frame_id: ROS 1's seq (left 0; ROS 2 has none)."""
 
     def cls(self, name: str) -> Any:
         """The message class of `name` (cached)."""
@@ -43,7 +46,11 @@ class StampMaker:
 
     def header(self, seconds: float, frame_id: str = "") -> Any:
         """A std_msgs/Header stamped at `seconds`."""
-        return self.cls("std_msgs/Header")(seq=0, stamp=self.time(seconds), frame_id=frame_id)
+        return self.header_at(self.time(seconds), frame_id)
+
+    def header_at(self, stamp: Any, frame_id: str) -> Any:
+        """A std_msgs/Header with the Time message `stamp`."""
+        return self.cls("std_msgs/Header")(stamp=stamp, frame_id=frame_id, **self._seq)
 
 
 def duration_seconds(duration: Any) -> float:
@@ -77,14 +84,13 @@ def tf_message(stamps: StampMaker, now: float, edges: Sequence[tuple[str, str, T
         stamps.cls("geometry_msgs/TransformStamped"),
     )
     stamp = stamps.time(now)
-    header = stamps.cls("std_msgs/Header")
     transforms = []
     for parent, child, tf in edges:
         x, y, z = tf.xyz
         qx, qy, qz, qw = tf.quat_xyzw
         transforms.append(
             stamped(
-                header=header(seq=0, stamp=stamp, frame_id=parent),
+                header=stamps.header_at(stamp, parent),
                 child_frame_id=child,
                 transform=transform(
                     translation=vector(x=x, y=y, z=z), rotation=quaternion(x=qx, y=qy, z=qz, w=qw)

@@ -1,4 +1,8 @@
-"""Publish the simulation's state: /joint_states, /tf, /tf_static and /clock, in sim time."""
+"""Publish the simulation's state: /joint_states, /tf, /tf_static and /clock, in sim time.
+
+Messages take the layouts of the connector's registry unless a registry is given, so
+the same scene publishes ROS 1 or ROS 2 messages, whichever the endpoint speaks.
+"""
 
 from __future__ import annotations
 
@@ -6,7 +10,7 @@ from collections.abc import Callable
 from typing import Any
 
 from simbridge.connector import Connector
-from simbridge.messages import MessageRegistry
+from simbridge.messages import MessageRegistry, Translator, default_registry
 from simbridge.sim.ros.convert import StampMaker, joint_state_message, tf_message
 from simbridge.sim.scene.model import RosSettings
 from simbridge.sim.urdf.transforms import Transform
@@ -21,14 +25,23 @@ class StatePublisher:
     """Registers the state topics and publishes them from step callbacks at their rates."""
 
     def __init__(
-        self, world: World, connector: Connector, settings: RosSettings, registry: MessageRegistry
+        self,
+        world: World,
+        connector: Connector,
+        settings: RosSettings,
+        registry: MessageRegistry | None = None,
     ) -> None:
         self.world, self.connector, self.settings = world, connector, settings
-        self.stamps = StampMaker(registry)
+        self._registry = registry
+        self._stamps = StampMaker(registry or connector.registry)
+        self._static_registry: MessageRegistry | None = None
+        """The registry /tf_static was last published with (re-sent when it changes)."""
         self._callbacks: list[int] = []
         self._topics: list[str] = []
         self.extra_static: list[Any] = []
-        """More geometry_msgs/TransformStamped for /tf_static (e.g. sensor frames)."""
+        """More geometry_msgs/TransformStamped for /tf_static (e.g. sensor frames), built
+        like sensor messages in the ROS 1 layouts of `default_registry()` (translated to
+        the registry in use)."""
         self.parented_elsewhere: set[str] = set()
         """Floating-base frames whose parent transform another publisher broadcasts
         (odometry's odom -> base_link): no world -> base edge for them, so TF stays a tree."""
@@ -47,6 +60,14 @@ class StatePublisher:
         if s.clock:
             self._advertise("/clock", "rosgraph_msgs/Clock")
             self._every(1.0 / s.clock_rate, self.publish_clock)
+
+    @property
+    def stamps(self) -> StampMaker:
+        """Message builder for the registry in use (follows the connector's protocol)."""
+        registry = self._registry or self.connector.registry
+        if self._stamps.registry is not registry:
+            self._stamps = StampMaker(registry)
+        return self._stamps
 
     def close(self) -> None:
         """Stop the callbacks and unadvertise."""
@@ -90,14 +111,20 @@ class StatePublisher:
 
     def publish_tf(self) -> None:
         """Transforms across every moving joint (and a floating base)."""
+        stamps = self.stamps
+        if stamps.registry is not self._static_registry:
+            self.publish_tf_static()  # the endpoint's protocol changed: latch it anew
         edges = self._edges(fixed=False)
         if edges:
-            self.connector.publish("/tf", tf_message(self.stamps, self.world.time, edges))
+            self.connector.publish("/tf", tf_message(stamps, self.world.time, edges))
 
     def publish_tf_static(self) -> None:
         """Transforms across fixed joints and to fixed robot bases (latched)."""
-        msg = tf_message(self.stamps, self.world.time, self._edges(fixed=True))
-        msg.transforms.extend(self.extra_static)
+        stamps = self.stamps
+        msg = tf_message(stamps, self.world.time, self._edges(fixed=True))
+        translator = Translator(default_registry(), stamps.registry)
+        msg.transforms.extend(translator.translate(extra) for extra in self.extra_static)
+        self._static_registry = stamps.registry
         self.connector.publish("/tf_static", msg)
 
     def publish_clock(self) -> None:

@@ -3,13 +3,18 @@
 Sensors are lazy: an output whose topic has no subscriber (as the endpoint reports
 through its subscriber-count extension) is not measured at all. With an endpoint
 that cannot report counts every output stays on.
+
+Sensors build ROS 1 (noetic) messages; against a ROS 2 endpoint each one is translated
+to the ROS 2 layout (Header without seq, CameraInfo `d k r p`) on its way out.
 """
 
 from __future__ import annotations
 
-from collections.abc import Collection
+from collections.abc import Callable, Collection
+from typing import Any
 
 from simbridge.connector import Connector, Publisher
+from simbridge.messages import Translator, default_registry
 from simbridge.sim.sensors import SensorSuite
 from simbridge.sim.world.world import World
 
@@ -34,6 +39,7 @@ class SensorPublisher:
         self.shared = frozenset(shared)
         self._callback: int | None = None
         self._lazy: dict[str, Publisher] = {}
+        self._translator: Translator | None = None
 
     def start(self) -> None:
         """Advertise the sensor topics and poll after every step; restart on world reset."""
@@ -55,8 +61,24 @@ class SensorPublisher:
         """Publish every message due at the current sim time, for outputs someone reads."""
         for topic, publisher in self._lazy.items():
             self.suite.set_wanted(topic, publisher.has_subscribers)
-        for publication in self.suite.poll(self.world.model, self.world.data, self.world.refresh):
-            self.connector.publish(publication.topic, publication.message)
+        publications = self.suite.poll(self.world.model, self.world.data, self.world.refresh)
+        if not publications:
+            return
+        translate = self._translate()
+        for publication in publications:
+            message = publication.message
+            self.connector.publish(
+                publication.topic, message if translate is None else translate(message)
+            )
+
+    def _translate(self) -> Callable[[Any], Any] | None:
+        """Conversion into the connector's layouts; None when they are the sensors' own."""
+        target, source = self.connector.registry, default_registry()
+        if target is source:
+            return None
+        if self._translator is None or self._translator.dst is not target:
+            self._translator = Translator(source, target)
+        return self._translator.translate
 
     def close(self) -> None:
         """Stop polling, unadvertise and release the sensors."""

@@ -25,13 +25,18 @@ class ControlServices:
         world: World,
         connector: Connector,
         prefix: str,
-        registry: MessageRegistry,
+        registry: MessageRegistry | None = None,
         step_timeout: float = 30.0,
     ) -> None:
-        self.world, self.connector, self.registry = world, connector, registry
+        self.world, self.connector, self._registry = world, connector, registry
         self.prefix = prefix.rstrip("/")
         self.step_timeout = step_timeout
         self._services: list[str] = []
+
+    @property
+    def registry(self) -> MessageRegistry:
+        """Where responses come from: the registry given, else the connector's."""
+        return self._registry or self.connector.registry
 
     def start(self) -> None:
         """Serve the three services."""
