@@ -37,6 +37,7 @@ def run_endpoint(args: argparse.Namespace) -> int:
             max_frame_size=int(args.max_frame_mb * 1024 * 1024),
             idle_timeout=args.idle_timeout,
             max_clients=args.max_clients,
+            max_memory=int(args.max_memory_mb * 1024 * 1024),
         )
         server = EndpointServer(options, backend)
         await server.start()
@@ -93,6 +94,13 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     ep.add_argument("--max-frame-mb", type=float, default=64.0, help="largest accepted frame")
     ep.add_argument(
         "--max-clients", type=int, default=1000, help="connections served at once (default 1000)"
+    )
+    ep.add_argument(
+        "--max-memory-mb",
+        type=float,
+        default=1024.0,
+        help="memory all clients together may make the endpoint buffer: partial frames, "
+        "queued messages and replies (default 1024; one client gets an eighth)",
     )
     ep.add_argument(
         "--idle-timeout",

@@ -16,7 +16,9 @@ class EndpointOptions:
     Every buffer is bounded: frames by `max_frame_size`, a slow client's kernel-side
     backlog by `write_high_water`, queued messages by each registration's queue_size,
     control frames (service replies, errors) by `max_control_backlog`, and what one
-    client may hold by `max_registrations` and `max_inflight_calls`.
+    client may hold by `max_registrations` and `max_inflight_calls`. In bytes, all
+    partly received large frames, queued messages and queued control frames together
+    stay within `max_memory`, each client within its share (`client_memory`).
     """
 
     host: str = "127.0.0.1"
@@ -40,3 +42,26 @@ class EndpointOptions:
     """Publishers + subscriptions + services one client may hold at once."""
     max_inflight_calls: int = 1_000
     """Service calls one client may have waiting for an answer at once."""
+    max_memory: int = 1024 * 1024 * 1024
+    """Bytes all clients together may make the endpoint buffer (--max-memory-mb)."""
+    client_memory: int = 0
+    """Bytes one client may make it buffer; 0: an eighth of `max_memory`, and at least
+    one largest frame plus 4 MiB (within `max_memory`)."""
+    frame_timeout: float = 10.0
+    """A frame still incomplete this long after the previous one completed closes the
+    client, unless its bytes arrive at `min_frame_rate` or faster (slow senders)."""
+    min_frame_rate: float = 64 * 1024
+    """Bytes per second a client sending a frame must keep up after `frame_timeout`."""
+    max_errors_per_interval: int = 10
+    """`__error`s about unregistered topics sent to one client per `warn_interval`."""
+    evict_after: float = 2.0
+    """When the endpoint is full, a client connected this long that has sent no complete
+    request (only keepalives or a partial frame) makes room for a new one."""
+
+    @property
+    def client_share(self) -> int:
+        """Bytes of `max_memory` one client may hold."""
+        if self.client_memory:
+            return min(self.client_memory, self.max_memory)
+        floor = self.max_frame_size + 4 * 1024 * 1024
+        return min(self.max_memory, max(self.max_memory // 8, floor))

@@ -10,6 +10,7 @@ from typing import Any
 
 from simbridge.endpoint.backends.base import Backend
 from simbridge.endpoint.backends.local import LocalBus
+from simbridge.endpoint.budget import MemoryBudget
 from simbridge.endpoint.options import EndpointOptions
 from simbridge.endpoint.session import ClientSession
 from simbridge.endpoint.typecheck import RegistryTypeCheck, TypeCheck
@@ -38,6 +39,7 @@ class EndpointServer:
         self.types: TypeCheck = (
             types if types is not None else RegistryTypeCheck(registry_for(self.backend.protocol))
         )
+        self.budget = MemoryBudget(self.options.max_memory, self.options.client_share)
         self._sessions: set[ClientSession] = set()
         self._server: asyncio.Server | None = None
         self._timer: asyncio.Task[None] | None = None
@@ -150,7 +152,45 @@ class EndpointServer:
                     )
                     session.close()
                     continue
+                if self._too_slow(session, now):
+                    continue
                 session.send_keepalive_if_idle(now)
+
+    def _too_slow(self, session: ClientSession, now: float) -> bool:
+        """Close a client dribbling a frame (slowloris): one still incomplete after
+        `frame_timeout` whose bytes arrive slower than `min_frame_rate`."""
+        opts = self.options
+        started = session.frame_started
+        if not started or now - started <= opts.frame_timeout:
+            return False
+        rate = (session.stats.bytes_in - session.frame_bytes) / (now - started)
+        if rate >= opts.min_frame_rate:
+            return False
+        session.send_error(
+            f"frame not completed within {opts.frame_timeout:g} s and arriving at "
+            f"{rate:,.0f} B/s (at least {opts.min_frame_rate:,.0f} B/s expected); closing"
+        )
+        session.close()
+        return True
+
+    def evict_one(self) -> bool:
+        """Make room for a new client when full: close the one that has been connected
+        longest without sending a complete request (a drip or idle connection). False
+        when every client has proven itself (then the new one is refused)."""
+        now = time.monotonic()
+        grace = self.options.evict_after
+        idle = [s for s in self._sessions if not s.proven and now - s.connected_at >= grace]
+        if not idle:
+            return False
+        victim = min(idle, key=lambda s: s.connected_at)
+        log.warning("endpoint full: evicting client %s (no complete request yet)", victim.peer)
+        victim.send_error(
+            "endpoint full: closing this connection, which sent no complete request in "
+            f"{now - victim.connected_at:.1f} s, to make room for a new client"
+        )
+        victim.close()
+        self._sessions.discard(victim)
+        return True
 
     def stats(self) -> dict[str, Any]:
         """Server-wide counters."""
@@ -162,4 +202,7 @@ class EndpointServer:
             "frames_in": sum(s.stats.frames_in for s in sessions),
             "frames_out": sum(s.stats.frames_out for s in sessions),
             "dropped_total": sum(sum(s.stats.dropped.values()) for s in sessions),
+            "memory_bytes": self.budget.used,
+            "memory_peak_bytes": self.budget.peak,
+            "memory_limit_bytes": self.budget.limit,
         }

@@ -48,7 +48,8 @@ from simbridge.protocol import (
     WarnMessage,
     shorten,
 )
-from simbridge.protocol.commands import Command
+from simbridge.protocol.commands import MAX_COMMAND_SIZE, Command
+from simbridge.protocol.framing import FrameDecoder
 
 if TYPE_CHECKING:
     from simbridge.endpoint.server import EndpointServer
@@ -74,13 +75,14 @@ FIRST_SRV_ID = 1001
 class _Outbox:
     """A subscription's bounded queue, used only while the client is not keeping up."""
 
-    __slots__ = ("prefix", "queue", "topic")
+    __slots__ = ("prefix", "queue", "size", "topic")
 
     def __init__(self, topic: str, size: int) -> None:
         self.topic = topic
         dest = topic.encode()
         self.prefix = _pack_u32(len(dest)) + dest
-        self.queue: deque[bytes] = deque(maxlen=max(1, size))
+        self.queue: deque[bytes] = deque()
+        self.size = max(1, size)
 
 
 class ClientSession(asyncio.BufferedProtocol):
@@ -89,7 +91,14 @@ class ClientSession(asyncio.BufferedProtocol):
     def __init__(self, server: EndpointServer) -> None:
         self.server = server
         self.options = server.options
-        self.proto = ProtocolConnection("endpoint", server.options.max_frame_size)
+        self.memory = server.budget.share()
+        decoder = FrameDecoder(
+            server.options.max_frame_size,
+            max_command=MAX_COMMAND_SIZE,
+            reserve=self.memory.take,
+            release=self.memory.give,
+        )
+        self.proto = ProtocolConnection("endpoint", decoder=decoder)
         self.stats = SessionStats()
         self.peer = "?"
         self.transport: asyncio.Transport | None = None
@@ -111,9 +120,19 @@ class ClientSession(asyncio.BufferedProtocol):
         now = time.monotonic()
         self.last_recv = now
         self.last_sent = now
-        self._last_warn = 0.0
+        self.connected_at = now
+        self.proven = False
+        """Whether the client has sent a complete frame other than a keepalive."""
+        self.frame_started = 0.0
+        """When the frame now partly received began to arrive (after the last complete one)."""
+        self.frame_bytes = 0
+        """`stats.bytes_in` when that frame began."""
+        self._warn_scheduled = False
         self._reported_drops = 0
         self._unregistered_seen: dict[str, float] = {}
+        self._unregistered_window = 0.0
+        self._unregistered_errors = 0
+        self._unregistered_suppressed = 0
 
     # ---- asyncio.Protocol ------------------------------------------------------------
 
@@ -126,7 +145,7 @@ class ClientSession(asyncio.BufferedProtocol):
         peer = transport.get_extra_info("peername")
         self.peer = f"{peer[0]}:{peer[1]}" if isinstance(peer, tuple) else str(peer)
         transport.set_write_buffer_limits(high=self.options.write_high_water)
-        if len(self.server._sessions) >= self.options.max_clients:
+        if len(self.server._sessions) >= self.options.max_clients and not self.server.evict_one():
             log.warning(
                 "refusing client %s: %d clients connected", self.peer, self.options.max_clients
             )
@@ -151,6 +170,10 @@ class ClientSession(asyncio.BufferedProtocol):
         self.server._sessions.discard(self)
         log.info("client %s disconnected%s", self.peer, f" ({exc})" if exc else "")
         self._release_all()
+        self.proto.decoder.discard()
+        self._control.clear()
+        self._backlogged.clear()
+        self.memory.release()
 
     def pause_writing(self) -> None:
         self._paused = True
@@ -165,11 +188,20 @@ class ClientSession(asyncio.BufferedProtocol):
         return self.proto.get_buffer()
 
     def buffer_updated(self, nbytes: int) -> None:
-        self.last_recv = time.monotonic()
+        now = self.last_recv = time.monotonic()
         stats = self.stats
         stats.bytes_in += nbytes
         publishers = self.publishers
-        for event in self.proto.buffer_updated(nbytes):
+        events = self.proto.buffer_updated(nbytes)
+        if events or not self.frame_started:
+            # Slow-sender clock: restarts whenever a frame completes.
+            if self.proto.decoder.partial:
+                self.frame_started, self.frame_bytes = now, stats.bytes_in
+            else:
+                self.frame_started = 0.0
+        for event in events:
+            if self._closing:
+                break
             stats.frames_in += 1
             try:
                 if type(event) is MessageReceived:
@@ -179,9 +211,10 @@ class ClientSession(asyncio.BufferedProtocol):
                     else:
                         self._unregistered(event.topic)
                 elif type(event) is KeepaliveReceived:
-                    pass
+                    continue
                 else:
                     self._handle_event(event)
+                self.proven = True
             except Exception as exc:  # one bad request must not drop the client
                 self._internal_error(event, exc)
 
@@ -241,11 +274,15 @@ class ClientSession(asyncio.BufferedProtocol):
         if not self._paused:
             self._write(frame)
             return
-        if len(self._control) >= self.options.max_control_backlog:
+        if len(self._control) >= self.options.max_control_backlog or not self.memory.take(
+            len(frame)
+        ):
             log.error(
-                "client %s stopped reading; %d control frames queued, disconnecting",
+                "client %s stopped reading; %d control frames (%d bytes held) queued, "
+                "disconnecting",
                 self.peer,
                 len(self._control),
+                self.memory.held,
             )
             self.close()
             return
@@ -265,21 +302,35 @@ class ClientSession(asyncio.BufferedProtocol):
                 self._write(payload)
             return
         queue = outbox.queue
-        if len(queue) == queue.maxlen:
-            self.stats.dropped[outbox.topic] += 1
-            self._maybe_warn_drops()
+        memory = self.memory
+        size = len(payload)
+        while queue and (len(queue) >= outbox.size or not memory.fits(size)):
+            memory.give(len(queue.popleft()))
+            self._dropped(outbox.topic)
+        if not memory.take(size):
+            self._dropped(outbox.topic)  # alone it does not fit this client's share
+            return
         queue.append(payload)
         self._backlogged[outbox.topic] = outbox
 
+    def _dropped(self, topic: str) -> None:
+        self.stats.dropped[topic] += 1
+        if not self._warn_scheduled:
+            self._warn_scheduled = True
+            self.server.loop.call_later(self.options.warn_interval, self._warn_drops)
+
     def _drain_backlog(self) -> None:
         while self._control and not self._paused:
-            self._write(self._control.popleft())
+            frame = self._control.popleft()
+            self.memory.give(len(frame))
+            self._write(frame)
         while self._backlogged and not self._paused:
             for key, outbox in list(self._backlogged.items()):
                 if self._paused:
                     break
                 if outbox.queue:
                     payload = outbox.queue.popleft()
+                    self.memory.give(len(payload))
                     self.stats.frames_out += 1
                     self._write(outbox.prefix + _pack_u32(len(payload)))
                     self._write(payload)
@@ -287,15 +338,15 @@ class ClientSession(asyncio.BufferedProtocol):
                 if not outbox.queue:
                     del self._backlogged[key]
 
-    def _maybe_warn_drops(self) -> None:
-        now = time.monotonic()
-        if now - self._last_warn < self.options.warn_interval:
-            return
-        self._last_warn = now
+    def _warn_drops(self) -> None:
+        """One `__warn` per interval with every drop since the last one."""
+        self._warn_scheduled = False
         total = sum(self.stats.dropped.values())
         new = total - self._reported_drops
+        if not new or self._closing:
+            return
         self._reported_drops = total
-        detail = ", ".join(f"{t}: {n}" for t, n in self.stats.dropped.most_common(5))
+        detail = ", ".join(f"{shorten(t)}: {n}" for t, n in self.stats.dropped.most_common(5))
         self._send_control(
             WarnMessage(
                 f"client is not keeping up: dropped {new} message(s) since the last warning "
@@ -318,7 +369,9 @@ class ClientSession(asyncio.BufferedProtocol):
             self.last_sent = now
 
     def close(self) -> None:
-        """Drop the connection, after handing the transport what is queued (a last __error)."""
+        """Drop the connection, after handing the transport what is queued (a last __error);
+        nothing more is read from or queued for it."""
+        self._closing = True
         if self.transport is not None:
             self._flush()
             self.transport.close()
@@ -326,18 +379,35 @@ class ClientSession(asyncio.BufferedProtocol):
     # ---- events -----------------------------------------------------------------------
 
     def _unregistered(self, topic: str) -> None:
+        """An `__error` per topic per interval, and at most `max_errors_per_interval` of
+        them per client; the rest are counted and summed up in the next one."""
         now = time.monotonic()
-        if now - self._unregistered_seen.get(topic, -1e9) < self.options.warn_interval:
+        opts = self.options
+        if now - self._unregistered_seen.get(topic, -1e9) < opts.warn_interval:
             return
+        if now - self._unregistered_window >= opts.warn_interval:
+            self._unregistered_window, self._unregistered_errors = now, 0
+        if self._unregistered_errors >= opts.max_errors_per_interval:
+            self._unregistered_suppressed += 1
+            return
+        self._unregistered_errors += 1
         if len(self._unregistered_seen) >= _MAX_REMEMBERED:
             self._unregistered_seen.clear()
         self._unregistered_seen[topic] = now
+        suppressed = ""
+        if self._unregistered_suppressed:
+            suppressed = (
+                f" ({self._unregistered_suppressed} more messages on unregistered topics "
+                "were not reported)"
+            )
+            self._unregistered_suppressed = 0
         if topic in self.ros_services or topic in self.unity_services:
             hint = "a service frame must follow a __request or __response header"
         else:
             hint = "send __publish for it first"
         self.send_error(
             f"message on {shorten(topic)}, which is not registered for publishing; {hint}"
+            + suppressed
         )
 
     def _handle_event(self, event: object) -> None:
@@ -367,7 +437,6 @@ class ClientSession(asyncio.BufferedProtocol):
         elif isinstance(event, ProtocolViolation):
             self.send_error(event.text)
             if event.fatal:
-                self._flush()
                 self.close()
 
     def _registrations(self) -> int:
@@ -523,6 +592,9 @@ class ClientSession(asyncio.BufferedProtocol):
         if entry is not None:
             entry[0].close()
             self._backlogged.pop(topic, None)
+            queue = entry[1].queue
+            self.memory.give(sum(map(len, queue)))
+            queue.clear()
 
     def _drop_unity_service(self, topic: str) -> None:
         entry = self.unity_services.pop(topic, None)

@@ -12,6 +12,7 @@ from typing import Literal
 
 from simbridge.errors import ProtocolError
 from simbridge.protocol.commands import (
+    MAX_COMMAND_SIZE,
     Command,
     ServiceRequestHeader,
     ServiceResponseHeader,
@@ -104,10 +105,20 @@ class ProtocolConnection:
 
     __slots__ = ("_decoder", "_peer", "_pending", "closed", "role")
 
-    def __init__(self, role: Role, max_payload: int = DEFAULT_MAX_FRAME_SIZE) -> None:
+    def __init__(
+        self,
+        role: Role,
+        max_payload: int = DEFAULT_MAX_FRAME_SIZE,
+        decoder: FrameDecoder | None = None,
+    ) -> None:
+        """`decoder` overrides the default one (e.g. to give it a memory budget); an
+        endpoint's default decoder refuses client commands over MAX_COMMAND_SIZE."""
         self.role: Role = role
         self._peer: Literal["client", "endpoint"] = "client" if role == "endpoint" else "endpoint"
-        self._decoder = FrameDecoder(max_payload)
+        if decoder is None:
+            limit = MAX_COMMAND_SIZE if role == "endpoint" else None
+            decoder = FrameDecoder(max_payload, max_command=limit)
+        self._decoder = decoder
         self._pending: ServiceRequestHeader | ServiceResponseHeader | None = None
         self.closed = False
 
@@ -123,6 +134,11 @@ class ProtocolConnection:
         except ProtocolError:
             frames = []
         return self._events(frames)
+
+    @property
+    def decoder(self) -> FrameDecoder:
+        """The frame decoder (its `partial` and `discard()` serve timeouts and cleanup)."""
+        return self._decoder
 
     def get_buffer(self) -> memoryview:
         """Memory to receive into (zero-copy path, see FrameDecoder.get_buffer)."""

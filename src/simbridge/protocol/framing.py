@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import struct
+from collections.abc import Callable
 from dataclasses import dataclass
 
 from simbridge.errors import ProtocolError
@@ -12,6 +13,7 @@ __all__ = [
     "KEEPALIVE",
     "MAX_DESTINATION_SIZE",
     "Frame",
+    "FrameBudgetError",
     "FrameDecoder",
     "FrameTooLargeError",
     "encode_frame",
@@ -57,6 +59,18 @@ class FrameTooLargeError(ProtocolError):
     """A length prefix exceeds the configured bound; the stream cannot be resynchronised."""
 
 
+class FrameBudgetError(ProtocolError):
+    """A large frame's buffer could not grow: the memory budget refused it."""
+
+
+def _always(_: int) -> bool:
+    return True
+
+
+def _ignore(_: int) -> None:
+    return None
+
+
 def frame_header(destination: str, payload_size: int) -> bytes:
     """Everything of a frame before its payload (lets writers avoid copying big payloads)."""
     dest = destination.encode()
@@ -86,12 +100,16 @@ class FrameDecoder:
         "_big",
         "_big_dest",
         "_big_filled",
+        "_big_size",
         "_broken",
         "_buf",
         "_dests",
         "_end",
+        "_max_command",
         "_max_dest",
         "_max_payload",
+        "_release",
+        "_reserve",
         "_start",
     )
 
@@ -99,11 +117,17 @@ class FrameDecoder:
     """Size of the buffer small frames are parsed from."""
     LARGE = 64 * 1024
     """Payloads at least this big get a buffer of their own."""
+    FIRST_CHUNK = 4 * 1024 * 1024
+    """Largest buffer allocated for a payload before its bytes arrive."""
 
     def __init__(
         self,
         max_payload: int = DEFAULT_MAX_FRAME_SIZE,
         max_destination: int = MAX_DESTINATION_SIZE,
+        *,
+        max_command: int | None = None,
+        reserve: Callable[[int], bool] = _always,
+        release: Callable[[int], None] = _ignore,
     ) -> None:
         self._buf = bytearray(self.SCRATCH)
         self._start = 0
@@ -111,7 +135,11 @@ class FrameDecoder:
         self._big: bytearray | None = None
         self._big_dest = ""
         self._big_filled = 0
+        self._big_size = 0
         self._max_payload = max_payload
+        self._max_command = max_payload if max_command is None else max_command
+        self._reserve = reserve
+        self._release = release
         self._max_dest = max_destination
         self._broken: ProtocolError | None = None
         self._dests: dict[bytes, str] = {}
@@ -126,10 +154,20 @@ class FrameDecoder:
         """Bytes received but not yet returned as frames."""
         return self._end - self._start + self._big_filled
 
+    @property
+    def partial(self) -> bool:
+        """Whether part of a frame has arrived and the rest has not."""
+        return self._big is not None or self._end > self._start
+
     def get_buffer(self) -> memoryview:
         """Writable memory for the next received bytes (never empty)."""
-        if self._big is not None:
-            return memoryview(self._big)[self._big_filled :]
+        big = self._big
+        if big is not None:
+            if self._big_filled == len(big):
+                self._grow(big)
+            if self._broken is not None:
+                return memoryview(self._buf)
+            return memoryview(big)[self._big_filled :]
         if self._end == len(self._buf):
             pending = self._end - self._start
             if pending * 2 > len(self._buf):
@@ -145,10 +183,11 @@ class FrameDecoder:
         big = self._big
         if big is not None:
             self._big_filled += nbytes
-            if self._big_filled < len(big):
+            if self._big_filled < self._big_size:
                 return []
             frame = Frame(self._big_dest, bytes(big))
             self._big, self._big_filled = None, 0
+            self._release(len(big))
             return [frame]
         self._end += nbytes
         frames = self._parse()
@@ -173,6 +212,24 @@ class FrameDecoder:
             raise self._broken
         return frames
 
+    def _grow(self, big: bytearray) -> None:
+        """Double a large frame's buffer (up to its declared size) as its bytes arrive."""
+        extra = min(self._big_size, 2 * len(big)) - len(big)
+        if not self._reserve(extra):
+            self._broken = FrameBudgetError(
+                f"the endpoint's memory budget is exhausted: cannot buffer {extra:,} more "
+                f"bytes of a {self._big_size:,}-byte frame for {self._big_dest[:80]!r}"
+            )
+            return
+        _extend_zeros(big, extra)
+
+    def discard(self) -> None:
+        """Drop a partly received large frame and hand its memory back (connection closed)."""
+        if self._big is not None:
+            self._release(len(self._big))
+            self._big = None
+            self._big_filled = 0
+
     def _parse(self) -> list[Frame]:
         buf = self._buf
         frames: list[Frame] = []
@@ -194,6 +251,12 @@ class FrameDecoder:
                         f"{self._max_payload} bytes (--max-frame-mb)"
                     )
                     break
+                if plen > self._max_command and buf[pos + 4 : pos + 6] == b"__":
+                    self._broken = FrameTooLargeError(
+                        f"system command payload of {plen} bytes exceeds the limit of "
+                        f"{self._max_command} bytes"
+                    )
+                    break
                 body = pos + 8 + dlen
                 stop = body + plen
                 if stop > end and plen < self.LARGE:
@@ -211,9 +274,17 @@ class FrameDecoder:
                     if len(self._dests) < 1024:
                         self._dests[raw_dest] = dest
                 if stop > end:
-                    big = bytearray(plen)
+                    size = max(min(plen, self.FIRST_CHUNK), end - body)
+                    if not self._reserve(size):
+                        self._broken = FrameBudgetError(
+                            f"the endpoint's memory budget is exhausted: cannot buffer a "
+                            f"{plen:,}-byte frame for {dest[:80]!r}"
+                        )
+                        break
+                    big = bytearray(size)
                     big[: end - body] = view[body:end]
                     self._big, self._big_dest, self._big_filled = big, dest, end - body
+                    self._big_size = plen
                     pos = end
                     break
                 frames.append(Frame(dest, bytes(view[body:stop])))
@@ -223,3 +294,15 @@ class FrameDecoder:
         else:
             self._start = pos
         return frames
+
+
+_ZEROS = bytes(FrameDecoder.FIRST_CHUNK)
+
+
+def _extend_zeros(buf: bytearray, n: int) -> None:
+    """Append `n` zero bytes without a temporary of size `n` (large reallocs are remaps)."""
+    with memoryview(_ZEROS) as zeros:
+        while n > 0:
+            step = min(n, len(zeros))
+            buf.extend(zeros[:step])
+            n -= step

@@ -1,0 +1,102 @@
+"""FrameDecoder memory: a declared length costs nothing until its bytes arrive; a budget
+can refuse growth; command payloads have their own cap."""
+
+from __future__ import annotations
+
+import struct
+
+import pytest
+
+from simbridge.errors import ProtocolError
+from simbridge.protocol import FrameBudgetError, FrameDecoder, FrameTooLargeError, encode_frame
+
+MIB = 1024 * 1024
+
+
+class Ledger:
+    """Counts what the decoder reserves and releases, refusing beyond `limit`."""
+
+    def __init__(self, limit: int) -> None:
+        self.limit = limit
+        self.held = 0
+        self.peak = 0
+
+    def reserve(self, n: int) -> bool:
+        if self.held + n > self.limit:
+            return False
+        self.held += n
+        self.peak = max(self.peak, self.held)
+        return True
+
+    def release(self, n: int) -> None:
+        self.held -= n
+
+
+def _header(dest: bytes, size: int) -> bytes:
+    return struct.pack("<I", len(dest)) + dest + struct.pack("<I", size)
+
+
+def _receive(decoder: FrameDecoder, data: bytes) -> list[object]:
+    frames: list[object] = []
+    view = memoryview(data)
+    while view:
+        target = decoder.get_buffer()
+        n = min(len(target), len(view))
+        target[:n] = view[:n]
+        target.release()
+        frames += decoder.buffer_updated(n)
+        view = view[n:]
+    return frames
+
+
+def test_declared_length_is_not_allocated_up_front() -> None:
+    ledger = Ledger(10**12)
+    decoder = FrameDecoder(64 * MIB, reserve=ledger.reserve, release=ledger.release)
+    assert _receive(decoder, _header(b"/big", 64 * MIB) + b"x" * 1000) == []
+    assert ledger.held == FrameDecoder.FIRST_CHUNK  # not 64 MiB
+    assert decoder.partial
+    assert len(decoder.get_buffer()) <= FrameDecoder.FIRST_CHUNK
+
+
+def test_buffer_grows_with_arrivals_and_is_released_on_completion() -> None:
+    ledger = Ledger(10**12)
+    decoder = FrameDecoder(64 * MIB, reserve=ledger.reserve, release=ledger.release)
+    payload = bytes(range(256)) * (40 * MIB // 256)
+    frames = _receive(decoder, encode_frame("/big", payload))
+    assert len(frames) == 1
+    assert frames[0].payload == payload  # type: ignore[attr-defined]
+    assert ledger.held == 0
+    assert FrameDecoder.FIRST_CHUNK < ledger.peak <= 2 * len(payload)
+    assert not decoder.partial
+
+
+def test_image_sized_payload_gets_one_exact_buffer() -> None:
+    ledger = Ledger(10**12)
+    decoder = FrameDecoder(reserve=ledger.reserve, release=ledger.release)
+    _receive(decoder, _header(b"/img", 921_641) + b"x")
+    assert ledger.held == 921_641
+
+
+def test_budget_refusal_breaks_the_stream_with_a_clear_error() -> None:
+    ledger = Ledger(6 * MIB)
+    decoder = FrameDecoder(64 * MIB, reserve=ledger.reserve, release=ledger.release)
+    with pytest.raises(FrameBudgetError, match="memory budget is exhausted"):
+        _receive(decoder, _header(b"/big", 32 * MIB) + b"x" * (5 * MIB))
+    decoder.discard()
+    assert ledger.held == 0
+
+
+def test_first_chunk_refused() -> None:
+    ledger = Ledger(MIB)
+    decoder = FrameDecoder(64 * MIB, reserve=ledger.reserve, release=ledger.release)
+    with pytest.raises(FrameBudgetError, match="33,554,432-byte frame for '/big'"):
+        _receive(decoder, _header(b"/big", 32 * MIB) + b"x")
+
+
+def test_command_payload_cap_applies_to_commands_only() -> None:
+    decoder = FrameDecoder(64 * MIB, max_command=1000)
+    with pytest.raises(FrameTooLargeError, match="system command payload of 2000 bytes"):
+        decoder.feed(_header(b"__publish", 2000))
+    other = FrameDecoder(64 * MIB, max_command=1000)
+    assert other.feed(encode_frame("/topic", b"x" * 2000))[0].payload == b"x" * 2000
+    assert isinstance(FrameTooLargeError("x"), ProtocolError)
