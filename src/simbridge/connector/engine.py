@@ -94,6 +94,8 @@ class ConnectorEngine:
         self._unity_services: dict[str, ServiceImpl] = {}
         self._calls: dict[int, PendingCall] = {}
         self._unsent_calls: list[PendingCall] = []
+        self._unreachable: str | None = None
+        """Why the last attempt to reach the endpoint failed; None while it is reachable."""
         self._srv_ids = itertools.count(1)
         self._topic_waiters: deque[Future[dict[str, str]]] = deque()
         self._stats_waiters: deque[Future[dict[str, Any]]] = deque()
@@ -139,6 +141,7 @@ class ConnectorEngine:
                 link = open_link(self.host, self.port, self.options.connect_timeout)
             except OSError as exc:
                 failures += 1
+                self._unreachable = str(exc) or type(exc).__name__
                 _log.log(
                     logging.WARNING if failures == 1 else logging.DEBUG,
                     "cannot reach the endpoint at %s:%d (%s); retrying in %.1f s",
@@ -152,6 +155,7 @@ class ConnectorEngine:
                 continue
             delay = self.options.reconnect_initial
             failures = 0
+            self._unreachable = None
             with self._lock:
                 self._peer_keepalive = None
                 self._extensions = frozenset()
@@ -235,6 +239,7 @@ class ConnectorEngine:
 
     def _expire(self, now: float) -> None:
         expired: list[PendingCall] = []
+        unsent: list[PendingCall] = []
         with self._lock:
             if self._calls:
                 for srv_id, call in list(self._calls.items()):
@@ -244,10 +249,16 @@ class ConnectorEngine:
             if self._unsent_calls:
                 keep: list[PendingCall] = []
                 for call in self._unsent_calls:
-                    (expired if call.deadline <= now or call.future.done() else keep).append(call)
+                    (unsent if call.deadline <= now or call.future.done() else keep).append(call)
                 self._unsent_calls = keep
         for call in expired:
             call.fail(f"{call.service} did not answer in time (srv_id {call.srv_id})")
+        reason = self._unreachable or "not connected"
+        for call in unsent:
+            call.fail(
+                f"the endpoint at {self.host}:{self.port} was unreachable ({reason}); "
+                f"the call of {call.service} was never sent"
+            )
 
     def _read(self, link: Link) -> None:
         """Receive and handle frames until the link breaks, goes silent or the connector closes."""
