@@ -1,4 +1,9 @@
-"""`simbridge topic` and `simbridge service`: ROS graph tools that work through an endpoint."""
+"""`simbridge topic` and `simbridge service`: ROS graph tools that work through an endpoint.
+
+Messages are read and printed with the registry of the endpoint's protocol, so against
+a ROS 2 endpoint the YAML uses ROS 2 field names (`stamp: {sec, nanosec}`, no `seq`,
+CameraInfo `k`).
+"""
 
 from __future__ import annotations
 
@@ -16,10 +21,8 @@ def run_topic(args: argparse.Namespace) -> int:
     import queue
     import time
 
-    from simbridge.messages import default_registry
-
-    registry = default_registry()
     with connect(args) as conn:
+        registry = conn.registry
         if args.action == "list":
             topics = conn.topic_list(timeout=args.connect_timeout)
             width = max((len(t) for t in topics), default=0)
@@ -86,12 +89,10 @@ def run_topic(args: argparse.Namespace) -> int:
 
 
 def run_service(args: argparse.Namespace) -> int:
-    from simbridge.messages import default_registry
-
-    registry = default_registry()
-    info = registry.service(args.type)
-    request = registry.from_yaml(info.request, args.data or "")
     with connect(args) as conn:
+        registry = conn.registry
+        info = registry.service(args.type)
+        request = registry.from_yaml(info.request, args.data or "")
         conn.register_ros_service(args.service, info.name)
         response = conn.call(args.service, request, timeout=args.timeout)
     print_msg(registry, response, no_arr=False)
