@@ -11,6 +11,7 @@ import math
 import threading
 import time
 from collections import defaultdict
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -140,3 +141,44 @@ def test_odometry_and_imu_describe_the_state_at_their_stamp(tmp_path: Path) -> N
         yaw = 2 * math.atan2(q.z, q.w)
         assert math.remainder(yaw - SPIN * t, 2 * math.pi) == pytest.approx(0.0, abs=1e-9)
         assert msg.angular_velocity.z == pytest.approx(SPIN, abs=1e-9)
+
+
+def test_sensors_and_callbacks_keep_their_rate_and_grid_for_minutes(tmp_path: Path) -> None:
+    """Sensors and periodic callbacks over 120 s of sim time (float schedules fired
+    sensors twice per tick from about 82 s on): one reading per tick, on the grid."""
+    world = arm_world(tmp_path)
+    steps: dict[str, list[int]] = defaultdict(list)
+
+    def note_step(out: list[int]) -> Callable[[World], None]:
+        return lambda w: out.append(round(w.time / 0.002))
+
+    for rate in (100.0, 50.0, 30.0):
+        world.add_step_callback(note_step(steps[f"callback {rate:g} Hz"]), 1.0 / rate)
+    sensors = [
+        {"type": "imu", "name": "imu", "body": "fore", "rate": 100},
+        {"type": "odometry", "name": "odom", "body": "fore", "rate": 50, "publish_tf": False},
+        {"type": "imu", "name": "slow_imu", "body": "upper", "rate": 30, "topic": "imu30"},
+    ]
+
+    def record(pub: Publication) -> None:
+        stamp = pub.message.header.stamp  # type: ignore[attr-defined]
+        steps[pub.topic].append(round(_stamp(stamp) * 1e-9 / 0.002))
+
+    attach_sensors(world, sensors, record)
+    world.step(60_000)
+    rates = {"callback 100 Hz": 100, "callback 50 Hz": 50, "callback 30 Hz": 30}
+    rates |= {"imu": 100, "odom": 50, "imu30": 30}
+    assert set(steps) == set(rates)
+    for name, rate in rates.items():
+        per_second = np.bincount(np.array(steps[name]) // 500)[:120]
+        assert set(per_second[1:].tolist()) == {rate}, name
+        assert len(set(steps[name])) == len(steps[name]), name
+        # tick k at the first step reaching k / rate (a sensor's tick 0 at the first step)
+        grid = {math.ceil(k * 500 / rate) for k in range(rate * 120 + 1)}
+        assert set(steps[name]) - {1} <= grid, name
+    assert world.step_count == 60_000
+    assert world.time == 60_000 * world.timestep  # the clock is steps x timestep, exactly
+    world.reset()
+    assert world.step_count == 0
+    world.step(10)
+    assert steps["callback 100 Hz"][-3:] == [60_000, 5, 10]  # back on the grid from t = 0

@@ -48,7 +48,7 @@ def test_hermite_velocity_is_the_derivative_of_position(ends, h, s) -> None:
         (("j",)), (TrajectoryPoint(1.0, (p0,), (v0,)), TrajectoryPoint(1.0 + h, (p1,), (v1,)))
     )
     t = 1.0 + s * h
-    eps = 1e-6 * h
+    eps = 1e-8 * h  # small: a one-sided difference at an end errs by eps * p'' / 2
     lo, hi = max(t - eps, 1.0), min(t + eps, 1.0 + h)
     if hi - lo < eps:
         return
@@ -101,3 +101,18 @@ def test_following_an_undriven_joint_fails(tmp_path: Path) -> None:
     world = arm_world(tmp_path)
     with pytest.raises(SimError, match="grip_b"):
         world.follower.start(Trajectory.from_lists(["grip_b"], [1.0], [[0.0]]), 0.0)
+
+
+def test_follower_ends_at_rest_when_the_clock_hits_the_end_exactly(tmp_path: Path) -> None:
+    """With an exact sim clock the last update lands on the end time itself; the drives
+    must then hold the last point at zero velocity, not the last segment's velocity."""
+    world = arm_world(tmp_path)
+    trajectory = Trajectory(
+        ("elbow",), (TrajectoryPoint(0.0, (0.0,)), TrajectoryPoint(0.5, (0.9,)))
+    )
+    world.follower.start(trajectory, 1.0)
+    assert world.follower.update(1.25)
+    assert world.drives.target("elbow").velocity == pytest.approx(1.8)
+    assert not world.follower.update(1.5)
+    assert world.drives.target("elbow").position == pytest.approx(0.9)
+    assert world.drives.target("elbow").velocity == 0.0

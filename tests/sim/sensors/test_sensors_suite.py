@@ -2,22 +2,18 @@
 
 from __future__ import annotations
 
-import math
 import os
 from collections import Counter
 
 import mujoco
 import numpy as np
 import pytest
-from hypothesis import given, settings
-from hypothesis import strategies as st
 
 from simbridge.errors import SimError
 from simbridge.messages import default_registry
 from simbridge.sim.sensors import (
     Lidar2DConfig,
     Publication,
-    RateSchedule,
     SensorSuite,
     build_sensor,
     configure_gl,
@@ -151,31 +147,6 @@ def test_config_errors_name_the_problem():
     assert config.rate == 5.0
     assert isinstance(config.rate, float)
     assert config.geomgroup == (1, 1, 1, 1, 1, 1)
-
-
-def test_schedule_counts_ticks_exactly():
-    schedule = RateSchedule(10.0)
-    dt = 0.003  # does not divide the period
-    fired = [step * dt for step in range(334) if schedule.due(step * dt)]
-    assert len(fired) == 10
-    np.testing.assert_allclose(
-        fired, [math.ceil(k * 0.1 / dt - 1e-9) * dt for k in range(10)], atol=1e-12
-    )
-    with pytest.raises(SimError):
-        RateSchedule(0.0)
-
-
-@settings(max_examples=60, deadline=None)
-@given(rate=st.floats(0.5, 200.0), dt=st.floats(1e-4, 0.01), steps=st.integers(1, 3000))
-def test_schedule_fires_once_per_reached_tick(rate, dt, steps):
-    schedule = RateSchedule(rate)
-    times = [i * dt for i in range(steps)]
-    fired = sum(schedule.due(t) for t in times)
-    ticks_reached = math.floor(times[-1] * rate + 1e-9) + 1
-    if dt <= 1 / rate:
-        assert fired == ticks_reached
-    else:
-        assert fired == steps
 
 
 def test_gl_backend_honours_mujoco_gl(monkeypatch):

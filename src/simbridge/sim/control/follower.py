@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 from simbridge.sim.control.drive_bank import DriveBank
 from simbridge.sim.control.trajectory import Trajectory
 
@@ -40,10 +42,13 @@ class TrajectoryFollower:
         if traj is None:
             return False
         t = now - self._start
-        positions, velocities = traj.sample(t)
+        done = t >= traj.duration
+        # At the end, hold the last point at rest (sampling exactly at the end time would
+        # give the last segment's velocity, and the drives would keep chasing it).
+        positions, velocities = traj.sample(math.inf if done else t)
         for joint, pos, vel in zip(traj.joints, positions, velocities, strict=True):
             self.drives.set_position(joint, float(pos), float(vel))
-        if t >= traj.duration:
+        if done:
             self._active = None
             return False
         return True

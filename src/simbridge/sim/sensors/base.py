@@ -11,7 +11,7 @@ import mujoco
 from simbridge.errors import SimError
 from simbridge.sim.sensors.frames import MountedFrame, Pose
 from simbridge.sim.sensors.rosmsg import Publication
-from simbridge.sim.sensors.schedule import RateSchedule
+from simbridge.sim.sensors.schedule import RateSchedule, step_index
 
 __all__ = ["Sensor"]
 
@@ -80,7 +80,8 @@ class Sensor(ABC):
         if now < self._last_time:
             self.reset()
         self._last_time = now
-        return self.schedule.due(now) and self.active
+        step = step_index(now, float(model.opt.timestep))
+        return self.schedule.due(step, float(model.opt.timestep)) and self.active
 
     def poll(self, model: mujoco.MjModel, data: mujoco.MjData) -> list[Publication]:
         """Messages due at `data.time` (empty between ticks or when inactive). `data`'s

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import os
 import threading
 import time
@@ -19,6 +20,7 @@ from simbridge.sim.control.follower import TrajectoryFollower
 from simbridge.sim.scene.builder import BuiltScene, build_scene
 from simbridge.sim.scene.loader import load_scene
 from simbridge.sim.scene.model import Scene
+from simbridge.sim.sensors.schedule import RateSchedule
 from simbridge.sim.urdf.document import MjcfDocument
 from simbridge.sim.urdf.transforms import Transform
 from simbridge.sim.world.pacer import Pacer
@@ -49,8 +51,7 @@ class RunStats:
 @dataclass
 class _Callback:
     fn: StepCallback
-    period: float | None
-    due: float
+    schedule: RateSchedule | None
 
 
 class World:
@@ -85,6 +86,7 @@ class World:
         self._pending_steps = 0
         self._reset_requested = False
         self._stop = threading.Event()
+        self._steps = 0
         self._derived_stale = False
         self.reset()
 
@@ -118,6 +120,11 @@ class World:
     def timestep(self) -> float:
         """Seconds of sim time per step."""
         return float(self.model.opt.timestep)
+
+    @property
+    def step_count(self) -> int:
+        """Physics steps since the last reset (`time` is exactly this times `timestep`)."""
+        return self._steps
 
     def refresh(self) -> None:
         """Bring MuJoCo's derived quantities (body poses, velocities, accelerations,
@@ -211,12 +218,17 @@ class World:
     # ---- callbacks and threads -------------------------------------------------------------
 
     def add_step_callback(self, fn: StepCallback, period: float | None = None) -> int:
-        """Call `fn(world)` after every step, or every `period` seconds of sim time; returns
-        an id for `remove_step_callback`."""
-        if period is not None and period <= 0:
-            raise SimError(f"callback period must be > 0 seconds, got {period}")
+        """Call `fn(world)` after every step, or at t = k * `period` of sim time (at the
+        first step reaching each such t, counted in whole steps so the rate is exact);
+        returns an id for `remove_step_callback`."""
+        schedule = None
+        if period is not None:
+            if not (period > 0 and math.isfinite(period)):
+                raise SimError(f"callback period must be > 0 seconds, got {period}")
+            schedule = RateSchedule(1.0 / period)
+            schedule.skip_through(self._steps, self.timestep)
         self._next_id += 1
-        self._callbacks[self._next_id] = _Callback(fn, period, self.time + (period or 0.0))
+        self._callbacks[self._next_id] = _Callback(fn, schedule)
         return self._next_id
 
     def add_reset_callback(self, fn: StepCallback) -> None:
@@ -274,6 +286,7 @@ class World:
     def reset(self) -> None:
         """Back to time 0: initial joint positions, drives holding them, RNG reseeded."""
         mujoco.mj_resetData(self.model, self.data)
+        self._steps = 0
         for robot in self.robots.values():
             for name, value in robot.built.spec.initial_positions.items():
                 self.data.qpos[robot.joints[robot.prefix + name].qpos] = value
@@ -284,24 +297,28 @@ class World:
         self.follower.cancel()
         self.rng = np.random.default_rng(self.scene.physics.seed)
         for cb in self._callbacks.values():
-            cb.due = cb.period or 0.0
+            if cb.schedule is not None:
+                cb.schedule.reset()
+                cb.schedule.skip_through(0, self.timestep)
         for fn in self._reset_callbacks:
             fn(self)
 
     def step(self, count: int = 1) -> None:
-        """Advance `count` physics steps, running posted work and due callbacks (those
-        that read poses get them for the new time: see `refresh`)."""
+        """Advance `count` physics steps, running posted work and due callbacks.
+
+        The clock is the step count times the timestep (not a running sum, which drifts),
+        and callbacks that read poses get them for the new time (see `refresh`).
+        """
         for _ in range(count):
             self.process_posted()
             self.follower.update(self.time)
             mujoco.mj_step(self.model, self.data)
+            self._steps += 1
+            self.data.time = self._steps * self.timestep
             self._derived_stale = True
-            now = self.time
+            step, timestep = self._steps, self.timestep
             for cb in list(self._callbacks.values()):
-                if cb.period is None:
-                    cb.fn(self)
-                elif now + 1e-9 >= cb.due:
-                    cb.due += cb.period * max(1, int((now - cb.due) // cb.period) + 1)
+                if cb.schedule is None or cb.schedule.due(step, timestep):
                     cb.fn(self)
 
     def run(
