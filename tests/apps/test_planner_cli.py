@@ -171,7 +171,7 @@ def test_demo_waits_for_its_own_planner_not_a_stale_registration(
     monkeypatch.setenv("ROS_HOSTNAME", "127.0.0.1")
     monkeypatch.setenv("ROS_HOME", str(tmp_path))
     with Ros1Graph() as graph:
-        assert not graph.started_master
+        assert not graph.master.started
         assert graph.planner_node.startswith("/niryo_moveit_planner_")
         assert served_by(master) == graph.planner_node  # ready means: it answers now
     assert node_entries(master, graph.planner_node) == []

@@ -4,24 +4,38 @@ from __future__ import annotations
 
 import threading
 import time
+from contextlib import ExitStack
 from typing import Any
 
+from simbridge.apps.ros_master import DemoMaster
 from simbridge.connector import Connector, ConnectorOptions
-from simbridge.endpoint import EndpointOptions, EndpointThread
+from simbridge.endpoint import Backend, EndpointOptions, EndpointThread, LocalBus, make_backend
+from simbridge.endpoint.backends.ros1_master import unique_node_name
+from simbridge.errors import AppError
 from simbridge.messages import default_registry
 
 __all__ = ["run_bridge_demo"]
 
 
-def run_bridge_demo(count: int = 5, rate_hz: float = 10.0) -> int:
+def run_bridge_demo(count: int = 5, rate_hz: float = 10.0, backend: str = "local") -> int:
     """Twist messages from a 'sim' connector to a 'ROS tool' connector, then a service call back.
 
-    Returns the number of Twist messages that arrived (the demo fails if any was lost).
+    `backend` "ros1" routes them through a ROS 1 master (ROS_MASTER_URI, else a private
+    roscore) as real topics and services. Returns the number of Twist messages that
+    arrived (the demo fails if any was lost).
     """
     reg = default_registry()
     options = ConnectorOptions(reconnect_initial=0.2)
-    with EndpointThread(EndpointOptions(port=0)) as endpoint:
-        print(f"[endpoint] listening on 127.0.0.1:{endpoint.port} (backend local)")
+    with ExitStack() as stack:
+        graph: Backend = LocalBus()
+        if backend == "ros1":
+            master = stack.enter_context(DemoMaster())
+            print(f"[endpoint] ROS master {master.describe()}")
+            graph = make_backend("ros1", node_name=unique_node_name("simbridge_bridge_demo"))
+        elif backend != "local":
+            raise AppError(f"unknown backend {backend!r}; choose local or ros1")
+        endpoint = stack.enter_context(EndpointThread(EndpointOptions(port=0), graph))
+        print(f"[endpoint] listening on 127.0.0.1:{endpoint.port} (backend {backend})")
         with (
             Connector("127.0.0.1", endpoint.port, options).connect() as sim,
             Connector("127.0.0.1", endpoint.port, options).connect() as tool,
@@ -44,9 +58,11 @@ def run_bridge_demo(count: int = 5, rate_hz: float = 10.0) -> int:
             tool.subscribe("/cmd_vel", "geometry_msgs/Twist", on_twist)
             sim.implement_service("/reset_odometry", "std_srvs/Trigger", reset)
             tool.register_ros_service("/reset_odometry", "std_srvs/Trigger")
-            pub = sim.register_publisher("/cmd_vel", "geometry_msgs/Twist")
+            pub = sim.register_publisher("/cmd_vel", "geometry_msgs/Twist", report_subscribers=True)
+            # Like ROS, a message published before the subscriber is connected is not seen
+            # by it: wait until the endpoint reports the tool's subscription.
             deadline = time.monotonic() + 5.0
-            while "/cmd_vel" not in tool.topic_list() and time.monotonic() < deadline:
+            while not pub.subscriber_count and time.monotonic() < deadline:
                 time.sleep(0.05)
             for i in range(count):
                 msg = reg.new("geometry_msgs/Twist")

@@ -11,11 +11,12 @@ def run_demo(args: argparse.Namespace) -> int:
     if args.name == "bridge":
         from simbridge.apps.bridge_demo import run_bridge_demo
 
-        return 0 if run_bridge_demo() else 1
+        return 0 if run_bridge_demo(backend=args.backend) else 1
     if args.name == "mobile-robot":
         from simbridge.apps.mobile_robot import main as mobile_robot_main
 
         forwarded = ["--side", str(args.side), "--realtime", str(args.realtime or 0.0)]
+        forwarded += ["--backend", args.backend]
         return mobile_robot_main([*forwarded, "--json"] if args.json else forwarded)
     from simbridge.apps import pick_and_place_main
 
@@ -30,7 +31,7 @@ def run_demo(args: argparse.Namespace) -> int:
 
 
 def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    demo = sub.add_parser("demo", help="run a demo end to end on the embedded backend")
+    demo = sub.add_parser("demo", help="run a demo end to end (embedded bus or ROS 1)")
     demo.add_argument(
         "name",
         nargs="?",
@@ -44,7 +45,8 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         "--backend",
         choices=["local", "ros1"],
         default="local",
-        help="pick-and-place: where the planner node runs",
+        help="every demo: local (the embedded bus, no ROS needed) or ros1 (real ROS topics and "
+        "services on the master at ROS_MASTER_URI, else a private roscore)",
     )
     demo.add_argument(
         "--json",

@@ -15,6 +15,7 @@ from collections.abc import Callable
 from typing import Any
 
 from simbridge.endpoint.backends.base import (
+    Backend,
     BackendPublisher,
     BackendServiceServer,
     BackendSubscription,
@@ -44,13 +45,29 @@ class NodePublisher:
 
 class Node:
     """A named participant in a LocalBus graph. Messages use the bus's protocol: ROS 1
-    binary, or CDR with ROS 2 layouts (the shared registry of it unless one is given)."""
+    binary, or CDR with ROS 2 layouts (the shared registry of it unless one is given).
 
-    def __init__(self, bus: LocalBus, name: str, registry: MessageRegistry | None = None) -> None:
-        if bus.loop is None:
-            raise EndpointError("the local bus is not running; start its endpoint first")
+    It also runs on another started backend given the loop that backend runs on (say,
+    `EndpointThread.loop`): on the ROS 1 backend its topics are real ROS topics of the
+    endpoint's rospy node.
+    """
+
+    def __init__(
+        self,
+        bus: Backend,
+        name: str,
+        registry: MessageRegistry | None = None,
+        *,
+        loop: asyncio.AbstractEventLoop | None = None,
+    ) -> None:
+        loop = loop or (bus.loop if isinstance(bus, LocalBus) else None)
+        if loop is None:
+            raise EndpointError(
+                f"the {bus.name} backend is not running (or its loop was not given); "
+                "start its endpoint first"
+            )
         self.bus, self.name = bus, name
-        self.loop = bus.loop
+        self.loop = loop
         self.registry = registry or registry_for(bus.protocol)
         self.fmt: WireFormat = "cdr" if bus.protocol == "ROS2" else "ros1"
         """The serialization on the bus."""

@@ -1,8 +1,9 @@
 """Mobile robot: diffbot drives a square in a walled room over ROS topics, sensors measured.
 
 The simulation serves /cmd_vel (diff drive), /odom, /scan, /camera/... and /imu through
-the endpoint's local bus; an in-process driver node closes the loop on /odom and tallies
-the sensors. `run_mobile_robot` runs the whole chain and returns a `MobileRobotResult`.
+the endpoint (its local bus, or a ROS 1 master); an in-process driver node closes the loop
+on /odom and tallies the sensors. `run_mobile_robot` runs the whole chain and returns a
+`MobileRobotResult`.
 """
 
 from __future__ import annotations

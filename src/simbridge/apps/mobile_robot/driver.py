@@ -7,6 +7,7 @@ counts what arrives on /scan, the camera's JPEG topic and /imu.
 
 from __future__ import annotations
 
+import asyncio
 import math
 import threading
 from collections.abc import Callable
@@ -15,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from simbridge.endpoint import LocalBus, Node
+from simbridge.endpoint import Backend, Node
 from simbridge.sim.control import DiffDriveKinematics, Pose2D
 
 __all__ = ["DriverNode", "DriverTopics", "ScanSample", "SensorTally", "SquarePath"]
@@ -90,11 +91,14 @@ def _yaw(q: Any) -> float:
 
 
 class DriverNode:
-    """Drives `path` on the local bus; `done` is set (and `on_done` called) when it is back."""
+    """Drives `path` on `bus`; `done` is set (and `on_done` called) when it is back.
+
+    `bus` is the LocalBus, or another started backend with the `loop` it runs on.
+    """
 
     def __init__(
         self,
-        bus: LocalBus,
+        bus: Backend,
         kinematics: DiffDriveKinematics,
         wheels: tuple[str, str],
         path: SquarePath | None = None,
@@ -102,6 +106,7 @@ class DriverNode:
         topics: DriverTopics | None = None,
         subscribe_sensors: bool = True,
         progress: Callable[[str], None] | None = None,
+        loop: asyncio.AbstractEventLoop | None = None,
     ) -> None:
         self.kinematics, self.wheels = kinematics, wheels
         self.path = path or SquarePath()
@@ -120,7 +125,7 @@ class DriverNode:
         self._wheel_pose = Pose2D()
         self._wheel_angles: tuple[float, float] | None = None
         self._joint_stamp = -math.inf
-        self.node = Node(bus, "/mobile_robot_driver")
+        self.node = Node(bus, "/mobile_robot_driver", loop=loop)
         self._cmd = self.node.advertise(self.topics.cmd_vel, "geometry_msgs/Twist")
         t = self.topics
         self.node.subscribe(t.odom, "nav_msgs/Odometry", self._on_odom)

@@ -1,6 +1,6 @@
 """Run the mobile-robot demo headless: endpoint, simulation with sensors, driver node.
 
-`main(argv)` is `simbridge demo mobile-robot [--side M] [--realtime F] [--json]`.
+`main(argv)` is `simbridge demo mobile-robot [--side M] [--realtime F] [--backend B] [--json]`.
 """
 
 from __future__ import annotations
@@ -16,15 +16,19 @@ from pathlib import Path
 
 from simbridge.apps.mobile_robot.driver import DriverNode, DriverTopics, SensorTally, SquarePath
 from simbridge.apps.mobile_robot.result import MobileRobotResult
+from simbridge.apps.ros_master import DemoMaster
 from simbridge.connector import ConnectorOptions
-from simbridge.endpoint import EndpointOptions, EndpointThread, LocalBus
+from simbridge.endpoint import Backend, EndpointOptions, EndpointThread, LocalBus, make_backend
+from simbridge.endpoint.backends.ros1_master import unique_node_name
 from simbridge.errors import AppError, SimbridgeError
 from simbridge.sim.control import Pose2D
 from simbridge.sim.ros import SimulationSession
 from simbridge.sim.urdf.transforms import Matrix, Transform
 from simbridge.sim.world import World
 
-__all__ = ["BASE_LINK", "SCENE_PATH", "main", "run_mobile_robot"]
+__all__ = ["BACKENDS", "BASE_LINK", "SCENE_PATH", "main", "run_mobile_robot"]
+
+BACKENDS = ("local", "ros1")
 
 SCENE_PATH = Path(__file__).resolve().parent / "scene.yaml"
 BASE_LINK = "base_link"
@@ -77,20 +81,32 @@ def run_mobile_robot(
     path: SquarePath | None = None,
     subscribe_sensors: bool = True,
     max_sim_s: float = 120.0,
+    backend: str = "local",
     progress: Callable[[str], None] | None = print,
 ) -> MobileRobotResult:
     """Drive diffbot around a square of `side_m` metres in the walled room and measure.
 
-    Runs an endpoint with the local bus, the scene's simulation (sensors, /cmd_vel diff
-    drive) and a driver node closing the loop on /odom. `realtime_factor` 0 runs as fast
-    as possible; `subscribe_sensors` False leaves lidar, camera and IMU without
-    subscribers (so they are never computed). `json` prints the summary as the last line.
+    Runs an endpoint, the scene's simulation (sensors, /cmd_vel diff drive) and a driver
+    node closing the loop on /odom. `backend` "local" puts the endpoint and the driver on
+    the embedded bus; "ros1" makes the endpoint a rospy node (on the master at
+    ROS_MASTER_URI, else a private roscore) and the driver's topics real ROS topics, so
+    `rostopic echo /odom` sees the run. `realtime_factor` 0 runs as fast as possible;
+    `subscribe_sensors` False leaves lidar, camera and IMU without subscribers (so they
+    are never computed). `json` prints the summary as the last line.
     """
+    if backend not in BACKENDS:
+        raise AppError(f"unknown backend {backend!r}; choose one of {', '.join(BACKENDS)}")
     say = progress or (lambda _text: None)
     path = path or SquarePath(side_m=side_m)
     with ExitStack() as stack:
-        bus = LocalBus()
-        endpoint = stack.enter_context(EndpointThread(EndpointOptions(port=0), bus))
+        graph: Backend
+        if backend == "local":
+            graph, where = LocalBus(), "local bus"
+        else:
+            master = stack.enter_context(DemoMaster())
+            graph = make_backend("ros1", node_name=unique_node_name("simbridge_mobile_robot"))
+            where = f"ros1 backend, ROS master {master.describe()}"
+        endpoint = stack.enter_context(EndpointThread(EndpointOptions(port=0), graph))
         session = SimulationSession(
             scene,
             f"127.0.0.1:{endpoint.port}",
@@ -106,20 +122,21 @@ def run_mobile_robot(
         topics = DriverTopics(cmd_vel=config.topic)
         driver = stack.enter_context(
             DriverNode(
-                bus,
+                graph,
                 bridge.diff_drive.kinematics,
                 (config.left_joint, config.right_joint),
                 path,
                 topics=topics,
                 subscribe_sensors=subscribe_sensors,
                 progress=say,
+                loop=endpoint.loop,
             )
         )
         watched = [topics.odom] + ([topics.scan, topics.image] if subscribe_sensors else [])
         if not _wait(lambda: all(sensors.publisher(t).has_subscribers for t in watched), 5.0):
             raise AppError(f"the simulation never saw subscribers on {', '.join(watched)}")
         say(
-            f"[mobile-robot] endpoint on port {endpoint.port} (local bus); driving a "
+            f"[mobile-robot] endpoint on port {endpoint.port} ({where}); driving a "
             f"{path.side_m:g} m square"
         )
         anchor = world.link_pose(BASE_LINK)
@@ -202,13 +219,19 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument(
         "--realtime", type=float, default=0.0, help="sim seconds per wall second (0: unpaced)"
     )
+    parser.add_argument(
+        "--backend",
+        choices=BACKENDS,
+        default="local",
+        help="local (default): the embedded bus; ros1: real ROS topics on a ROS 1 master",
+    )
     parser.add_argument("--json", action="store_true", help="print a JSON summary last")
     args = parser.parse_args(argv)
     if not 0.2 <= args.side <= 1.2:
         print("simbridge demo mobile-robot: --side must be in [0.2, 1.2] m", file=sys.stderr)
         return 2
     try:
-        result = run_mobile_robot(args.side, args.realtime, args.json)
+        result = run_mobile_robot(args.side, args.realtime, args.json, backend=args.backend)
     except SimbridgeError as exc:
         print(f"simbridge demo mobile-robot: {exc}", file=sys.stderr)
         return 2

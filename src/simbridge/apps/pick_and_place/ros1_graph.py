@@ -1,16 +1,15 @@
 """The ROS 1 side of the demo: a master (reused or a private roscore) and the planner node.
 
-ROS_MASTER_URI is used when a master answers there; otherwise a roscore is started on a
-free port with a private ROS_HOME, and this process's environment points at it until
-stop(). The planner runs as its own rospy node process (`simbridge planner`: rospy allows
-one node per process, and this process's node is the endpoint's) under a unique node name,
-so it never shuts down a planner the user already runs. It counts as up when its own node
-answers a probe on /niryo_moveit: a stale registration left by a dead planner does not.
+The master is a DemoMaster: ROS_MASTER_URI if one answers there, else a private roscore
+that this process's environment points at until stop(). The planner runs as its own
+rospy node process (`simbridge planner`: rospy allows one node per process, and this
+process's node is the endpoint's) under a unique node name, so it never shuts down a
+planner the user already runs. It counts as up when its own node answers a probe on
+/niryo_moveit: a stale registration left by a dead planner does not.
 """
 
 from __future__ import annotations
 
-import os
 import shutil
 import subprocess
 import sys
@@ -21,12 +20,8 @@ from typing import IO
 
 from simbridge.apps.pick_and_place.planner_node import NODE_NAME, PLANNER_SERVICE
 from simbridge.apps.pick_and_place.scene import SCENE_PATH
-from simbridge.endpoint.backends.ros1_master import (
-    RosCore,
-    master_answers,
-    terminate,
-    unique_node_name,
-)
+from simbridge.apps.ros_master import DemoMaster
+from simbridge.endpoint.backends.ros1_master import terminate, unique_node_name
 from simbridge.errors import AppError, EndpointError
 
 __all__ = ["Ros1Graph"]
@@ -38,55 +33,21 @@ class Ros1Graph:
     def __init__(self, scene_path: Path = SCENE_PATH, startup_timeout: float = 30.0) -> None:
         self.scene_path = scene_path
         self.startup_timeout = startup_timeout
-        self.master_uri = ""
-        self.started_master = False
+        self.master = DemoMaster(startup_timeout)
         self.planner_node = f"/{unique_node_name(NODE_NAME)}"
         self._home: Path | None = None
-        self._roscore: RosCore | None = None
         self._planner: subprocess.Popen[bytes] | None = None
         self._planner_log: IO[bytes] | None = None
-        self._saved_env: dict[str, str | None] = {}
 
     def start(self) -> Ros1Graph:
         """Make sure a master answers, then start the planner node and wait for its service."""
         try:
-            self._ensure_master()
+            self.master.start()
             self._start_planner()
         except BaseException:
             self.stop()
             raise
         return self
-
-    def _ensure_master(self) -> None:
-        uri = os.environ.get("ROS_MASTER_URI", "")
-        if uri and master_answers(uri):
-            self.master_uri = uri
-            return
-        if shutil.which("roscore") is None:
-            raise AppError(
-                f"no ROS master answers at ROS_MASTER_URI={uri or '(unset)'} and roscore is "
-                "not installed; install ROS 1 (roscore) or use the local backend"
-            )
-        roscore = RosCore()
-        try:
-            roscore.start(self.startup_timeout)
-        except EndpointError as exc:
-            raise AppError(str(exc)) from exc
-        self._roscore = roscore
-        self.started_master = True
-        self.master_uri = roscore.uri
-        hostname = {} if os.environ.get("ROS_IP") else {"ROS_HOSTNAME": "127.0.0.1"}
-        self._set_env(
-            ROS_MASTER_URI=roscore.uri,
-            ROS_HOME=str(roscore.home),
-            ROS_LOG_DIR=str(roscore.home / "log"),
-            **hostname,
-        )
-
-    def _set_env(self, **values: str) -> None:
-        for key, value in values.items():
-            self._saved_env.setdefault(key, os.environ.get(key))
-            os.environ[key] = value
 
     def _start_planner(self) -> None:
         from simbridge.endpoint.backends.ros1_probe import (  # noqa: PLC0415 - ROS is optional
@@ -109,7 +70,7 @@ class Ros1Graph:
         deadline = time.monotonic() + self.startup_timeout
         while True:
             try:
-                if probe_service(self.master_uri, PLANNER_SERVICE) == self.planner_node:
+                if probe_service(self.master.uri, PLANNER_SERVICE) == self.planner_node:
                     return
             except EndpointError as exc:
                 why = str(exc)
@@ -118,7 +79,7 @@ class Ros1Graph:
             if self._planner.poll() is not None or time.monotonic() > deadline:
                 raise AppError(
                     f"the planner node {self.planner_node} did not offer {PLANNER_SERVICE} on "
-                    f"{self.master_uri} ({why}):\n{self.planner_output()[-2000:]}"
+                    f"{self.master.uri} ({why}):\n{self.planner_output()[-2000:]}"
                 )
             time.sleep(0.1)
 
@@ -138,15 +99,7 @@ class Ros1Graph:
         if self._planner_log is not None:
             self._planner_log.close()
             self._planner_log = None
-        if self._roscore is not None:
-            self._roscore.stop()
-            self._roscore = None
-        for key, value in self._saved_env.items():
-            if value is None:
-                os.environ.pop(key, None)
-            else:
-                os.environ[key] = value
-        self._saved_env.clear()
+        self.master.stop()
         if self._home is not None:
             shutil.rmtree(self._home, ignore_errors=True)
             self._home = None

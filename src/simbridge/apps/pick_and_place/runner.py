@@ -67,8 +67,7 @@ def run_pick_and_place(
             say(f"[pick-and-place] endpoint on port {endpoint.port} (local bus), planner node up")
         else:
             graph = stack.enter_context(Ros1Graph(scene))
-            where = "started" if graph.started_master else "found"
-            say(f"[pick-and-place] ROS master {graph.master_uri} ({where}), planner node up")
+            say(f"[pick-and-place] ROS master {graph.master.describe()}, planner node up")
             ros1 = make_backend("ros1", node_name=unique_node_name("simbridge_endpoint"))
             endpoint = stack.enter_context(EndpointThread(EndpointOptions(port=0), ros1))
             say(f"[pick-and-place] endpoint on port {endpoint.port} (ros1 backend)")
