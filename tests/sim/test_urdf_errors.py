@@ -161,5 +161,17 @@ def test_missing_file_and_missing_mesh(tmp_path: Path) -> None:
     assert any("package 'nopkg'" in w for w in loaded.warnings)
     from simbridge.sim.urdf import robot_to_mjcf
 
+    robot_to_mjcf(loaded)[0].compile()  # ... a missing visual is left out of the model ...
+    path.write_text(
+        robot(
+            link(
+                "a",
+                '<collision><geometry><mesh filename="package://nopkg/m.stl"/></geometry>'
+                "</collision>",
+            )
+        )
+    )
     with pytest.raises(UrdfError, match=r"mesh 'package://nopkg/m\.stl' was not found"):
-        robot_to_mjcf(loaded)  # ... and an error when building the model
+        robot_to_mjcf(load_urdf(path))  # ... a missing collision mesh is an error
+    with pytest.raises(UrdfError, match=r"package 'nopkg'.*strict mode"):
+        load_urdf(path, strict=True)

@@ -1,22 +1,34 @@
-"""Mesh files for MuJoCo: STL and OBJ pass through, other formats (DAE, PLY, ...) are converted."""
+"""Mesh files for MuJoCo: what it reads (binary STL and OBJ within its limits) passes
+through; everything else (ASCII STL, DAE, PLY, meshes over the limits) is converted once,
+into a cache folder, with colours and textures kept for visual geometry."""
 
 from __future__ import annotations
 
 import hashlib
+import json
 import os
 import tempfile
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 import trimesh
 
-from simbridge.errors import UrdfError
+from simbridge.sim.urdf.diagnostics import UrdfWarning
+from simbridge.sim.urdf.mesh_files import (
+    MUJOCO_STL_FACES,
+    ColouredMesh,
+    read_mesh,
+    simplify,
+    stl_kind,
+)
 from simbridge.sim.urdf.transforms import Vec3
 
-__all__ = ["MeshCache"]
+__all__ = ["MeshCache", "MeshPart"]
 
-_NATIVE = {".stl", ".obj"}
+_FORMAT = "4"  # bump when conversions change, so stale cache files are not reused
+_Rgba = tuple[float, float, float, float]
 
 
 def _default_cache_dir() -> Path:
@@ -24,21 +36,56 @@ def _default_cache_dir() -> Path:
     return Path(base) / "simbridge-meshes"
 
 
+@dataclass(frozen=True)
+class MeshPart:
+    """One MuJoCo mesh of a visual: its file, own colour and texture (PNG) if the file has them."""
+
+    file: Path
+    rgba: _Rgba | None = None
+    texture: Path | None = None
+
+
+def _write_atomic(target: Path, data: bytes) -> None:
+    tmp = target.with_suffix(f".{os.getpid()}.tmp")
+    tmp.write_bytes(data)
+    tmp.replace(target)
+
+
+def _obj_bytes(mesh: trimesh.Trimesh, with_uv: bool) -> bytes:
+    lines = [f"v {x!r} {y!r} {z!r}" for x, y, z in np.asarray(mesh.vertices, float).tolist()]
+    faces = (np.asarray(mesh.faces) + 1).tolist()
+    uv = getattr(mesh.visual, "uv", None) if with_uv else None
+    if uv is not None:
+        lines.extend(f"vt {u!r} {v!r}" for u, v in np.asarray(uv, float)[:, :2].tolist())
+        lines.extend(f"f {a}/{a} {b}/{b} {c}/{c}" for a, b, c in faces)
+    else:
+        lines.extend(f"f {a} {b} {c}" for a, b, c in faces)
+    return ("\n".join(lines) + "\n").encode()
+
+
 @dataclass
 class MeshCache:
-    """Converts meshes MuJoCo cannot read into OBJ files under `directory`, once per content."""
+    """Converts meshes MuJoCo cannot read (or read as meant) into files under `directory`,
+    once per content; `honour_up_axis` rotates COLLADA files by their `<up_axis>`."""
 
     directory: Path = field(default_factory=_default_cache_dir)
+    honour_up_axis: bool = False
+    _loaded: dict[Path, list[ColouredMesh]] = field(default_factory=dict, repr=False)
+    _warned: set[Path] = field(default_factory=set, repr=False)
+
+    def parts(self, path: Path) -> list[ColouredMesh]:
+        """The file's parts in metres (read once per cache)."""
+        if path not in self._loaded:
+            if len(self._loaded) > 256:  # bounded: a scene rarely has this many files
+                self._loaded.clear()
+            self._loaded[path] = read_mesh(path, self.honour_up_axis)
+        return self._loaded[path]
 
     def load(self, path: Path, scale: Vec3 = (1.0, 1.0, 1.0)) -> trimesh.Trimesh:
-        """The mesh in `path` as one triangle mesh, scaled; raises `UrdfError` if unreadable."""
-        try:
-            loaded = trimesh.load(str(path), force="mesh")
-        except Exception as exc:  # trimesh raises many types for bad files
-            raise UrdfError(f"mesh '{path}' cannot be read: {exc}") from None
-        if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
-            raise UrdfError(f"mesh '{path}' has no triangles")
-        mesh = loaded.copy()
+        """The mesh in `path` as one triangle mesh in metres, scaled; `UrdfError` if unreadable."""
+        pieces = [p.mesh for p in self.parts(path)]
+        mesh = trimesh.util.concatenate(pieces) if len(pieces) > 1 else pieces[0].copy()
+        assert isinstance(mesh, trimesh.Trimesh)
         mesh.apply_transform(np.diag([*scale, 1.0]))
         return mesh
 
@@ -56,16 +103,93 @@ class MeshCache:
         sx, sy, sz = np.maximum(high - low, thickness).tolist()
         return (cx, cy, cz), (sx, sy, sz)
 
-    def mujoco_file(self, path: Path) -> Path:
-        """A file with the same geometry that MuJoCo's mesh loader accepts."""
-        if path.suffix.lower() in _NATIVE:
+    def _digest(self, path: Path) -> str:
+        h = hashlib.sha256(path.read_bytes())
+        h.update(f"{_FORMAT}:{self.honour_up_axis}".encode())
+        return h.hexdigest()[:20]
+
+    def _warn(self, path: Path, element: str, note: Path) -> None:
+        """Emit the conversion note of `path` (kept next to the cached file), once per cache."""
+        if path not in self._warned and note.is_file():
+            self._warned.add(path)
+            text = note.read_text()
+            warnings.warn(f"{element}: mesh '{path}' {text}", UrdfWarning, stacklevel=4)
+
+    @staticmethod
+    def _fit(mesh: trimesh.Trimesh, note: Path) -> trimesh.Trimesh:
+        """`mesh`, simplified below MuJoCo's limit if over it (the note says so)."""
+        if len(mesh.faces) <= MUJOCO_STL_FACES:
+            return mesh
+        small = simplify(mesh, MUJOCO_STL_FACES)
+        _write_atomic(
+            note,
+            f"has {len(mesh.faces)} faces, over MuJoCo's limit of {MUJOCO_STL_FACES}; "
+            f"simplified to {len(small.faces)} (give a lighter mesh to avoid this)".encode(),
+        )
+        return small
+
+    def mujoco_file(self, path: Path, element: str = "mesh") -> Path:
+        """One file with the whole mesh (in metres) that MuJoCo's loader accepts; for
+        collision geometry and objects. `element` names the user in warnings."""
+        suffix = path.suffix.lower()
+        if suffix == ".stl":
+            kind, faces = stl_kind(path)
+            if kind == "binary" and faces <= MUJOCO_STL_FACES:
+                return path
+        elif (
+            suffix == ".obj"
+            and not self._has_materials(path)
+            and len(self.load(path).faces) <= MUJOCO_STL_FACES
+        ):
             return path
-        digest = hashlib.sha256(path.read_bytes()).hexdigest()[:20]
-        target = self.directory / f"{path.stem}-{digest}.obj"
+        target = self.directory / f"{path.stem}-{self._digest(path)}.obj"
+        note = target.with_suffix(".note")
         if not target.is_file():
-            mesh = self.load(path)
             self.directory.mkdir(parents=True, exist_ok=True)
-            tmp = target.with_suffix(f".{os.getpid()}.tmp")
-            tmp.write_text(str(trimesh.exchange.obj.export_obj(mesh, include_texture=False)))  # type: ignore[no-untyped-call]
-            tmp.replace(target)
+            mesh = self._fit(self.load(path), note)
+            _write_atomic(target, _obj_bytes(mesh, with_uv=False))
+        self._warn(path, element, note)
         return target
+
+    @staticmethod
+    def _has_materials(path: Path) -> bool:
+        with path.open("rb") as f:
+            return b"mtllib" in f.read(65536)
+
+    def visual_parts(self, path: Path, element: str = "mesh") -> list[MeshPart]:
+        """The files of a visual mesh, one per colour/texture the file carries (a single
+        part without colour for files that have none, e.g. STL)."""
+        suffix = path.suffix.lower()
+        if suffix == ".stl" or (suffix == ".obj" and not self._has_materials(path)):
+            return [MeshPart(self.mujoco_file(path, element))]
+        digest = self._digest(path)
+        manifest = self.directory / f"{path.stem}-{digest}.json"
+        note = manifest.with_suffix(".note")
+        if not manifest.is_file():
+            self.directory.mkdir(parents=True, exist_ok=True)
+            entries = []
+            for i, part in enumerate(self.parts(path)):
+                file = self.directory / f"{path.stem}-{digest}-{i}.obj"
+                mesh = self._fit(part.mesh, note)
+                textured = part.look.texture is not None and mesh is part.mesh
+                _write_atomic(file, _obj_bytes(mesh, with_uv=textured))
+                texture = None
+                if textured:
+                    texture = self.directory / f"{path.stem}-{digest}-{i}.png"
+                    tmp = texture.with_suffix(f".{os.getpid()}.tmp.png")
+                    part.look.texture.convert("RGBA").save(tmp)  # type: ignore[attr-defined]
+                    tmp.replace(texture)
+                entries.append(
+                    {"file": file.name, "rgba": part.look.rgba, "texture": texture and texture.name}
+                )
+            _write_atomic(manifest, json.dumps(entries).encode())
+        self._warn(path, element, note)
+        entries = json.loads(manifest.read_text())
+        return [
+            MeshPart(
+                self.directory / e["file"],
+                tuple(e["rgba"]) if e["rgba"] else None,  # type: ignore[arg-type]
+                self.directory / e["texture"] if e["texture"] else None,
+            )
+            for e in entries
+        ]

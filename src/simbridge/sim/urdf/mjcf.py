@@ -19,7 +19,7 @@ from simbridge.sim.urdf.diagnostics import UrdfWarning
 from simbridge.sim.urdf.document import MjcfDocument, fmt
 from simbridge.sim.urdf.inertia import InertiaPolicy, resolve_inertial
 from simbridge.sim.urdf.kinematics import plane_basis
-from simbridge.sim.urdf.meshes import MeshCache
+from simbridge.sim.urdf.meshes import MeshCache, MeshPart
 from simbridge.sim.urdf.model import (
     Box,
     Cylinder,
@@ -103,6 +103,7 @@ class _Builder:
     def __init__(self, doc: MjcfDocument, robot: Robot, options: MjcfOptions, meshes: MeshCache):
         self.doc, self.robot, self.opt, self.meshes = doc, robot, options, meshes
         self.warnings: list[str] = list(robot.warnings)
+        self.robot_where = f"{robot.source}: " if robot.source is not None else ""
         self.mappings: dict[str, JointMapping] = {}
         existing = set(doc.body_names())
         clashes = [options.prefix + n for n in robot.links if options.prefix + n in existing]
@@ -111,6 +112,12 @@ class _Builder:
                 f"robot '{robot.name}': bodies {', '.join(clashes)} already exist in the model "
                 "(give the robot a name prefix)"
             )
+
+    def warn(self, text: str) -> None:
+        """Record and emit a warning, prefixed with the URDF file."""
+        text = self.robot_where + text
+        self.warnings.append(text)
+        warnings.warn(text, UrdfWarning, stacklevel=3)
 
     def geom(
         self, body: ET.Element, name: str, geometry: Geometry, origin: Transform
@@ -126,6 +133,29 @@ class _Builder:
             attrs.update(type="mesh", mesh=self.mesh_asset(name, geometry))
         return ET.SubElement(body, "geom", attrs)
 
+    def visual_geoms(
+        self, body: ET.Element, name: str, geometry: Geometry, origin: Transform
+    ) -> list[tuple[ET.Element, MeshPart | None]]:
+        """The geoms drawing one visual: one per colour/texture part of a mesh file."""
+        if not isinstance(geometry, Mesh):
+            return [(self.geom(body, name, geometry, origin), None)]
+        assert geometry.path is not None
+        out: list[tuple[ET.Element, MeshPart | None]] = []
+        parts = self.meshes.visual_parts(geometry.path, f"{self.robot_where}{name}")
+        for k, part in enumerate(parts):
+            part_name = name if k == 0 else f"{name}.{k}"
+            ET.SubElement(
+                self.doc.asset,
+                "mesh",
+                name=part_name,
+                file=str(part.file),
+                scale=fmt(geometry.scale),
+                inertia="shell",
+            )
+            attrs = {"name": part_name, "type": "mesh", "mesh": part_name, **_origin_attrs(origin)}
+            out.append((ET.SubElement(body, "geom", attrs), part))
+        return out
+
     def collision_shape(
         self, name: str, geometry: Geometry, pose: Transform
     ) -> tuple[Geometry, Transform]:
@@ -137,14 +167,13 @@ class _Builder:
             return geometry, pose
         centre, size = flat
         warning = f"{name}: mesh '{geometry.filename}' is flat; colliding with a thin box instead"
-        self.warnings.append(warning)
-        warnings.warn(warning, UrdfWarning, stacklevel=2)
+        self.warn(warning)
         return Box(size), pose @ Transform(np.eye(3), np.array(centre))
 
     def mesh_asset(self, name: str, mesh: Mesh) -> str:
         if mesh.path is None:
             raise UrdfError(f"{name}: mesh '{mesh.filename}' was not found (see search paths)")
-        file = self.meshes.mujoco_file(mesh.path)
+        file = self.meshes.mujoco_file(mesh.path, f"{self.robot_where}{name}")
         ET.SubElement(
             self.doc.asset,
             "mesh",
@@ -181,8 +210,7 @@ class _Builder:
         moving = moving or (joint is None and not self.opt.fixed_base)
         inertial, warning = resolve_inertial(link, moving, self.opt.inertia, self.meshes)
         if warning is not None:
-            self.warnings.append(warning)
-            warnings.warn(warning, UrdfWarning, stacklevel=2)
+            self.warn(warning)
         if inertial is not None:
             rot = inertial.origin.transform.rotation
             t = rot @ inertial.tensor @ rot.T
@@ -199,18 +227,29 @@ class _Builder:
         return body
 
     def link_geoms(self, body: ET.Element, link_name: str, offset: Transform) -> None:
-        """Visual and collision geoms of `link_name`, each origin premultiplied by `offset`."""
+        """Visual and collision geoms of `link_name`, each origin premultiplied by `offset`.
+
+        Visual meshes whose file was not found are left out (the parser warned about each);
+        a missing collision mesh is an error, since the robot would collide differently.
+        """
         p = self.opt.prefix
         link = self.robot.links[link_name]
         for i, vis in enumerate(link.visuals):
+            if isinstance(vis.geometry, Mesh) and vis.geometry.path is None:
+                continue
             pose = offset @ vis.origin.transform
-            geom = self.geom(body, f"{p}{link_name}/visual/{i}", vis.geometry, pose)
-            rgba = (
-                vis.material.rgba if vis.material and vis.material.rgba else self.opt.default_rgba
-            )
-            geom.attrib.update(
-                contype="0", conaffinity="0", group=str(1), rgba=fmt(rgba), density="0"
-            )
+            urdf_rgba = vis.material.rgba if vis.material and vis.material.rgba else None
+            for geom, part in self.visual_geoms(
+                body, f"{p}{link_name}/visual/{i}", vis.geometry, pose
+            ):
+                geom.attrib.update(
+                    contype="0", conaffinity="0", group=str(VISUAL_GROUP), density="0"
+                )
+                if part is not None and part.texture is not None:
+                    geom.set("material", self.textured_material(geom.get("name", ""), part))
+                    continue
+                own = part.rgba if part is not None else None
+                geom.set("rgba", fmt(own or urdf_rgba or self.opt.default_rgba))
         bits = ("1", "1") if self.opt.self_collision else ("2", "1")
         for i, col in enumerate(link.collisions):
             name = f"{p}{link_name}/collision/{i}"
@@ -222,6 +261,16 @@ class _Builder:
                 group=str(COLLISION_GROUP),
                 rgba=fmt(self.opt.collision_rgba),
             )
+
+    def textured_material(self, name: str, part: MeshPart) -> str:
+        """A MuJoCo material drawing `part`'s texture (its UVs are in the OBJ file)."""
+        assert part.texture is not None
+        ET.SubElement(self.doc.asset, "texture", name=name, type="2d", file=str(part.texture))
+        attrs = {"name": name, "texture": name}
+        if part.rgba is not None:
+            attrs["rgba"] = fmt(part.rgba)
+        ET.SubElement(self.doc.asset, "material", attrs)
+        return name
 
     def joint_elements(self, body: ET.Element, joint: Joint) -> None:
         name = self.opt.prefix + joint.name

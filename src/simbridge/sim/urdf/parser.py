@@ -153,7 +153,7 @@ class _Parser:
                 try:
                     path = self.resolver.resolve(filename, what)
                 except UrdfError as exc:
-                    self.warn(f"{self.tree.at(shape)}{exc}")
+                    self.lenient(shape, str(exc))
             return Mesh(filename, scale, path)
         raise UrdfError(
             f"{where}: unknown geometry <{shape.tag}> (valid: box, cylinder, sphere, mesh)"

@@ -8,10 +8,10 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 from simbridge.errors import UrdfError
-from simbridge.sim.urdf.inertia import InertiaPolicy, resolve_inertial
+from simbridge.sim.urdf.diagnostics import UrdfWarning
 from simbridge.sim.urdf.kinematics import JointValue, forward_kinematics
 from simbridge.sim.urdf.loader import load_urdf
-from simbridge.sim.urdf.meshes import MeshCache
+from simbridge.sim.urdf.mjcf import robot_to_mjcf
 from simbridge.sim.urdf.model import Joint, JointType, Robot
 
 __all__ = [
@@ -58,18 +58,16 @@ def check_report(robot: Robot) -> str:
     lines.append(f"joints ({len(robot.joints)}):")
     lines.extend(f"  {_joint_line(j)}" for j in robot.joints.values())
     problems = list(robot.warnings)
-    meshes = MeshCache()
-    for name, link in robot.links.items():
-        parent = robot.parent_joint(name)
-        moving = parent is not None and parent.type is not JointType.FIXED
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            try:
-                _, warning = resolve_inertial(link, moving, InertiaPolicy(), meshes)
-            except UrdfError as exc:
-                warning = str(exc)
-        if warning is not None:
-            problems.append(warning)
+    # Build and compile the MuJoCo model as `sim` does, so meshes MuJoCo would refuse
+    # (or that get converted or simplified) are reported here too.
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", UrdfWarning)
+        doc, _ = robot_to_mjcf(robot)
+        doc.compile()
+    for warning in caught:
+        text = str(warning.message)
+        if issubclass(warning.category, UrdfWarning) and text not in problems:
+            problems.append(text)
     lines.append(f"warnings ({len(problems)}):")
     lines.extend(f"  {w}" for w in problems)
     return "\n".join(lines) + "\n"
