@@ -38,8 +38,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the `simbridge` console script."""
     parser = build_parser()
     given = list(sys.argv[1:] if argv is None else argv)
+    # ROS 2 style: everything after --ros-args is for rcl.
+    rcl_args: tuple[str, ...] = ()
+    if "--ros-args" in given:
+        cut = given.index("--ros-args")
+        given, rcl_args = given[:cut], tuple(given[cut:])
     # roslaunch appends ROS arguments (__name:=x, _tcp_port:=10000): keep them for rospy.
-    ros_args = tuple(arg for arg in given if ":=" in arg)
+    ros_args = tuple(arg for arg in given if ":=" in arg) + rcl_args
     args = parser.parse_args([arg for arg in given if ":=" not in arg])
     args.ros_args = ros_args
     quiet_tool = args.command in ("topic", "service", "msg", "urdf", "demo")

@@ -28,7 +28,7 @@ __all__ = [
     "make_backend",
 ]
 
-BACKENDS = ("local", "ros1")
+BACKENDS = ("local", "ros1", "ros2")
 
 
 def make_backend(
@@ -38,10 +38,11 @@ def make_backend(
     ros_args: tuple[str, ...] = (),
     protocol: str | None = None,
 ) -> Backend:
-    """The backend called `name` ("local" or "ros1"); `ros_args` are ROS `a:=b` arguments.
+    """The backend called `name` ("local", "ros1" or "ros2").
 
-    `protocol` ("ROS1" or "ROS2") picks the local bus's serialization; other backends
-    have their own and refuse a different one.
+    `ros_args` are ROS arguments: `a:=b` for ros1; for ros2, rcl's `--ros-args` items
+    (ROS 1 style `a:=b` ones are translated). `protocol` ("ROS1" or "ROS2") picks the
+    local bus's serialization; other backends have their own and refuse a different one.
     """
     if name == "local":
         if protocol == "ROS2":
@@ -49,6 +50,8 @@ def make_backend(
         if protocol not in (None, "ROS1"):
             raise EndpointError(f"protocol {protocol!r} is not one of ROS1, ROS2")
         return LocalBus()
+    if protocol not in (None, "ROS2") and name == "ros2":
+        raise EndpointError(f"the ros2 backend speaks ROS2, not {protocol}")
     if protocol not in (None, "ROS1") and name == "ros1":
         raise EndpointError(f"the ros1 backend speaks ROS1, not {protocol}")
     if name == "ros1":
@@ -58,4 +61,12 @@ def make_backend(
         )
 
         return Ros1Backend(Ros1Options(node_name=node_name.lstrip("/"), ros_args=ros_args))
+    if name == "ros2":
+        from simbridge.endpoint.backends.ros2 import (  # noqa: PLC0415 - rclpy is optional
+            Ros2Backend,
+            Ros2Options,
+            ros2_cli_args,
+        )
+
+        return Ros2Backend(Ros2Options(node_name=node_name, ros_args=ros2_cli_args(ros_args)))
     raise EndpointError(f"unknown backend {name!r}; choose one of {', '.join(BACKENDS)}")

@@ -37,7 +37,10 @@ class EndpointServer:
         self.options = options or EndpointOptions()
         self.backend = backend if backend is not None else LocalBus()
         self.types: TypeCheck = (
-            types if types is not None else RegistryTypeCheck(registry_for(self.backend.protocol))
+            types
+            if types is not None
+            else self.backend.type_check()
+            or RegistryTypeCheck(registry_for(self.backend.protocol))
         )
         self.budget = MemoryBudget(self.options.max_memory, self.options.client_share)
         self._sessions: set[ClientSession] = set()
@@ -205,4 +208,5 @@ class EndpointServer:
             "memory_bytes": self.budget.used,
             "memory_peak_bytes": self.budget.peak,
             "memory_limit_bytes": self.budget.limit,
+            "backend_counters": self.backend.stats(),
         }

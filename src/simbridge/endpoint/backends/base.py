@@ -11,7 +11,10 @@ from __future__ import annotations
 import abc
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
+
+if TYPE_CHECKING:
+    from simbridge.endpoint.typecheck import TypeCheck
 
 __all__ = [
     "Backend",
@@ -89,6 +92,14 @@ class Backend(abc.ABC):
     def watch_lost(self, callback: Callable[[str], None]) -> None:  # noqa: B027 - optional hook
         """Call `callback(reason)` on the event loop if the backend leaves the graph for good
         (the ROS 1 master shut its node down, say). The default never calls it."""
+
+    def type_check(self) -> TypeCheck | None:
+        """How this graph validates type names, when not by simbridge's registry (None)."""
+        return None
+
+    def stats(self) -> dict[str, int]:
+        """Backend counters for `__stats` (e.g. failed publishes); none by default."""
+        return {}
 
     @abc.abstractmethod
     def advertise(

@@ -1,0 +1,554 @@
+"""The ROS 2 backend: the endpoint is a real rclpy node (`/simbridge_endpoint`).
+
+Topics are relayed as raw CDR in both directions: `publisher.publish(bytes)` and
+`create_subscription(..., raw=True)`, nothing decoded on the hot path. Services
+have no raw mode in rclpy, so their requests and responses are decoded and
+encoded with the installed interface classes.
+
+rclpy runs one SingleThreadedExecutor on a thread of its own. Publishers,
+subscriptions and clients are created from the endpoint's event loop (rclpy
+allows that with this executor; its EventsExecutor does not, and it cannot run
+the coroutine service callbacks a sim-implemented service needs). Callbacks hop
+back to the event loop with `call_soon_threadsafe`. The process's ROS 2 settings
+(domain, discovery range, the Fast DDS profile) come from ros2_env and are logged.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import rclpy
+import rclpy.executors
+from rclpy.event_handler import PublisherEventCallbacks
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.serialization import deserialize_message, serialize_message
+from rclpy.task import Future as RclpyFuture
+
+from simbridge.endpoint.backends.base import (
+    Backend,
+    BackendPublisher,
+    BackendServiceServer,
+    BackendSubscription,
+    MessageCallback,
+    ServiceHandler,
+    TopicInfo,
+)
+from simbridge.endpoint.backends.ros2_env import apply_ros2_env
+from simbridge.endpoint.backends.ros2_types import Ros2Types, tcp_type_name
+from simbridge.endpoint.typecheck import TypeCheck
+from simbridge.errors import EndpointError, ServiceError
+
+__all__ = ["Ros2Backend", "Ros2Options", "Ros2TypeCheck", "ros2_cli_args"]
+
+_log = logging.getLogger(__name__)
+
+_ERROR_LOG_INTERVAL = 5.0
+"""Shortest time between two log lines about failed publishes."""
+
+
+@dataclass(frozen=True, slots=True)
+class Ros2Options:
+    """How the endpoint joins the ROS 2 graph.
+
+    `ros_args` are rcl arguments as after `--ros-args` (`-r __node:=x`, `-r /a:=/b`,
+    `-p name:=value`). `domain_id` replaces ROS_DOMAIN_ID when given.
+    """
+
+    node_name: str = "simbridge_endpoint"
+    ros_args: tuple[str, ...] = ()
+    domain_id: int | None = None
+    discovery_wait: float = 5.0
+    """How long a service call waits for a server to be discovered before failing."""
+    service_handler_timeout: float = 30.0
+    """How long a ROS 2 caller's request waits for the sim's answer."""
+
+
+def ros2_cli_args(args: tuple[str, ...]) -> tuple[str, ...]:
+    """ROS arguments from the command line as rcl `--ros-args` items.
+
+    Items after a `--ros-args` marker are rcl syntax already and kept as they are.
+    Before it, ROS 1 style ones (as roslaunch passes them) are translated:
+    `__name:=x` -> `-r __node:=x`, `_param:=v` -> `-p param:=v`, `from:=to` -> `-r from:=to`.
+    """
+    out: list[str] = []
+    rcl = False
+    for arg in args:
+        if arg == "--ros-args":
+            rcl = True
+        elif arg == "--":
+            rcl = False
+        elif rcl or ":=" not in arg:
+            out.append(arg)
+        else:
+            key, value = arg.split(":=", 1)
+            if key == "__name":
+                out += ["-r", f"__node:={value}"]
+            elif key.startswith("_") and not key.startswith("__"):
+                out += ["-p", f"{key[1:]}:={value}"]
+            else:
+                out += ["-r", arg]
+    return tuple(out)
+
+
+class Ros2TypeCheck(TypeCheck):
+    """Accepts every type with an installed ROS 2 interface; names come back as `pkg/Type`."""
+
+    def __init__(self, types: Ros2Types) -> None:
+        self._types = types
+
+    def message(self, name: str) -> str:
+        cls = self._types.message(name)
+        return f"{cls.__module__.split('.')[0]}/{cls.__name__}"
+
+    def service(self, name: str) -> str:
+        cls = self._types.service(name)
+        return f"{cls.__module__.split('.')[0]}/{cls.__name__}"
+
+
+class Ros2Backend(Backend):
+    """Bridges the endpoint's clients into a ROS 2 graph through rclpy."""
+
+    name = "ros2"
+    protocol = "ROS2"
+
+    def __init__(self, options: Ros2Options | None = None) -> None:
+        self._options = options or Ros2Options()
+        self._types = Ros2Types()
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._context: Any = None
+        self._node: Any = None
+        self._executor: Any = None
+        self._thread: threading.Thread | None = None
+        self._clients: dict[tuple[str, str], Any] = {}
+        self._live: set[_Entity] = set()
+        self.settings: dict[str, str] = {}
+        self.counters: dict[str, int] = {"publish_errors": 0, "service_failures": 0}
+
+    def type_check(self) -> TypeCheck:
+        return Ros2TypeCheck(self._types)
+
+    @property
+    def node(self) -> Any:
+        """The rclpy node (after start())."""
+        if self._node is None:
+            raise EndpointError("the ROS 2 backend is not started: await start() first")
+        return self._node
+
+    async def start(self) -> None:
+        """Set the ROS 2 environment, create the node and spin it on a thread."""
+        if self._loop is not None:
+            return
+        opts = self._options
+        self.settings = apply_ros2_env(domain_id=opts.domain_id)
+        context = rclpy.Context()
+        args = ["simbridge", "--ros-args", *opts.ros_args] if opts.ros_args else None
+        try:
+            rclpy.init(args=args, context=context)
+            node = rclpy.create_node(opts.node_name.lstrip("/"), context=context)
+        except Exception as exc:
+            raise EndpointError(f"cannot start the ROS 2 node: {exc}") from exc
+        executor = rclpy.executors.SingleThreadedExecutor(context=context)
+        executor.add_node(node)
+        self._context, self._node, self._executor = context, node, executor
+        self._loop = asyncio.get_running_loop()
+        self._thread = threading.Thread(target=self._spin, name="simbridge-rclpy", daemon=True)
+        self._thread.start()
+        _log.info(
+            "joined ROS 2 as %s (%s)",
+            node.get_fully_qualified_name(),
+            ", ".join(f"{k}={v}" for k, v in self.settings.items()),
+        )
+
+    def _spin(self) -> None:
+        """Runs on the rclpy thread until close(); a failed callback is logged, not fatal."""
+        while self._context is not None and self._context.ok():
+            try:
+                self._executor.spin_once(timeout_sec=0.5)
+            except _SimServiceFailedError as exc:
+                self.counters["service_failures"] += 1
+                _log.error("%s", exc)
+            except rclpy.executors.ExternalShutdownException:
+                return
+            except Exception:
+                if self._context is None or not self._context.ok():
+                    return
+                _log.exception("rclpy callback failed")
+
+    async def close(self) -> None:
+        """Destroy every entity, leave the graph and stop the rclpy thread."""
+        if self._loop is None:
+            return
+        for entity in list(self._live):
+            entity.close()
+        self._clients.clear()
+        context = self._context
+        with_thread = self._thread
+        try:
+            rclpy.shutdown(context=context)
+        except Exception as exc:  # already shut down (e.g. by a signal)
+            _log.debug("rclpy shutdown: %s", exc)
+        if with_thread is not None:
+            await asyncio.to_thread(with_thread.join, 5.0)
+        self._executor.shutdown(timeout_sec=1.0)
+        self._node.destroy_node()
+        self._loop = None
+        self._context = None
+        _log.info("left ROS 2")
+
+    def stats(self) -> dict[str, int]:
+        return dict(self.counters)
+
+    # ---- topics ----------------------------------------------------------------------
+
+    def advertise(
+        self, topic: str, msg_type: str, *, queue_size: int, latch: bool
+    ) -> BackendPublisher:
+        """A reliable publisher; `latch` is transient-local durability."""
+        loop = self._started()
+        cls = self._types.message(msg_type)
+        qos = QoSProfile(
+            history=HistoryPolicy.KEEP_LAST,
+            depth=max(queue_size, 1),
+            reliability=ReliabilityPolicy.RELIABLE,
+            durability=DurabilityPolicy.TRANSIENT_LOCAL if latch else DurabilityPolicy.VOLATILE,
+        )
+        publisher = Ros2Publisher(self, topic, cls, qos, loop)
+        _log.info("publishing %s [%s] for the sim (latch=%s)", topic, msg_type, latch)
+        return publisher
+
+    def subscribe(
+        self, topic: str, msg_type: str, callback: MessageCallback
+    ) -> BackendSubscription:
+        """A raw subscription whose QoS matches the topic's publishers."""
+        loop = self._started()
+        cls = self._types.message(msg_type)
+        subscription = _Ros2Subscription(
+            self, topic, cls, self._adapted_qos(topic), loop=loop, callback=callback
+        )
+        _log.info("subscribed to %s [%s] for the sim", topic, msg_type)
+        return subscription
+
+    def _adapted_qos(self, topic: str) -> QoSProfile:
+        """Reliable unless a publisher is best effort; transient local if all publishers are
+        (so a latched message reaches the sim, and no publisher is left unmatched)."""
+        try:
+            infos = self.node.get_publishers_info_by_topic(self.node.resolve_topic_name(topic))
+        except Exception:
+            infos = []
+        reliable = all(i.qos_profile.reliability != ReliabilityPolicy.BEST_EFFORT for i in infos)
+        latched = bool(infos) and all(
+            i.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL for i in infos
+        )
+        return QoSProfile(
+            history=HistoryPolicy.KEEP_LAST,
+            depth=100,
+            reliability=ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT,
+            durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE,
+        )
+
+    def topics(self) -> list[TopicInfo]:
+        """Every topic in the graph, types as `pkg/Type` (the first when there are several)."""
+        self._started()
+        pairs = self.node.get_topic_names_and_types()
+        return [TopicInfo(name, tcp_type_name(types[0])) for name, types in sorted(pairs) if types]
+
+    # ---- services --------------------------------------------------------------------
+
+    async def call_service(
+        self, service: str, srv_type: str, request: bytes, *, timeout: float
+    ) -> bytes:
+        """Call a ROS 2 service; no server, a bad request or no answer -> ServiceError."""
+        loop = self._started()
+        try:
+            cls = self._types.service(srv_type)
+            client = self._client(service, srv_type, cls)
+        except EndpointError as exc:
+            raise ServiceError(f"cannot call {service!r}: {exc}") from exc
+        deadline = time.monotonic() + min(timeout, self._options.discovery_wait)
+        while not client.service_is_ready():
+            if time.monotonic() >= deadline:
+                raise ServiceError(
+                    f"no ROS 2 server for {service!r} [{srv_type}] "
+                    f"(none found within {min(timeout, self._options.discovery_wait):g} s)"
+                )
+            await asyncio.sleep(0.01)
+        try:
+            decoded = deserialize_message(request, cls.Request)
+        except Exception as exc:
+            raise ServiceError(
+                f"request for {service!r} is not a CDR {srv_type} request: {exc}"
+            ) from exc
+        answer: asyncio.Future[Any] = loop.create_future()
+        pending = client.call_async(decoded)
+
+        def settle(done: Any) -> None:
+            if answer.done():
+                return
+            error = done.exception()
+            if error is not None:
+                answer.set_exception(ServiceError(f"service {service!r} failed: {error}"))
+            else:
+                answer.set_result(done.result())
+
+        pending.add_done_callback(lambda done: _call_soon(loop, settle, done))
+        try:
+            response = await asyncio.wait_for(answer, timeout)
+        except TimeoutError as exc:
+            client.remove_pending_request(pending)
+            raise ServiceError(f"service {service!r} did not answer within {timeout:g} s") from exc
+        return bytes(serialize_message(response))
+
+    def _client(self, service: str, srv_type: str, cls: Any) -> Any:
+        key = (service, srv_type)
+        client = self._clients.get(key)
+        if client is None:
+            try:
+                client = self.node.create_client(cls, service)
+            except Exception as exc:
+                raise EndpointError(f"cannot create a client for {service!r}: {exc}") from exc
+            self._clients[key] = client
+        return client
+
+    def advertise_service(
+        self, service: str, srv_type: str, handler: ServiceHandler
+    ) -> BackendServiceServer:
+        """Offer `service` to ROS 2; each request runs `handler` on the event loop."""
+        loop = self._started()
+        cls = self._types.service(srv_type)
+        server = _Ros2ServiceServer(
+            self,
+            service,
+            cls,
+            loop=loop,
+            handler=handler,
+            timeout=self._options.service_handler_timeout,
+        )
+        _log.info("serving %s [%s] for the sim", service, srv_type)
+        return server
+
+    def _started(self) -> asyncio.AbstractEventLoop:
+        if self._loop is None:
+            raise EndpointError("the ROS 2 backend is not started: await start() first")
+        return self._loop
+
+
+class _SimServiceFailedError(Exception):
+    """A sim-implemented service failed; ROS 2 has no error reply, so the caller gets none."""
+
+
+def _call_soon(loop: asyncio.AbstractEventLoop, fn: Callable[..., None], *args: Any) -> None:
+    try:
+        loop.call_soon_threadsafe(fn, *args)
+    except RuntimeError:  # the loop is closed: the endpoint is going away
+        return
+
+
+class _Entity:
+    """A node entity that close() destroys, once."""
+
+    def __init__(self, backend: Ros2Backend) -> None:
+        self._backend = backend
+        self.closed = False
+        backend._live.add(self)
+
+    def close(self) -> None:
+        if not self.closed:
+            self.closed = True
+            self._backend._live.discard(self)
+            try:
+                self._destroy()
+            except Exception as exc:  # the node may already be gone
+                _log.debug("destroying %s: %s", self, exc)
+
+    def _destroy(self) -> None:
+        raise NotImplementedError
+
+
+class Ros2Publisher(_Entity, BackendPublisher):
+    """An rclpy publisher of raw CDR bytes; back-pressure failures are counted, not raised."""
+
+    def __init__(
+        self,
+        backend: Ros2Backend,
+        topic: str,
+        cls: Any,
+        qos: QoSProfile,
+        loop: asyncio.AbstractEventLoop,
+    ) -> None:
+        self._loop = loop
+        self._watchers: list[Callable[[int], None]] = []
+        self._reported = -1
+        self._last_error_log = 0.0
+        try:
+            self._publisher = backend.node.create_publisher(
+                cls,
+                topic,
+                qos,
+                event_callbacks=PublisherEventCallbacks(matched=self._on_matched),
+            )
+        except Exception as exc:
+            raise EndpointError(f"cannot advertise {topic!r}: {exc}") from exc
+        self.topic: str = self._publisher.topic_name
+        super().__init__(backend)
+
+    def publish(self, payload: bytes) -> None:
+        if self.closed:
+            raise EndpointError(f"publisher of {self.topic!r} is closed")
+        try:
+            self._publisher.publish(payload if type(payload) is bytes else bytes(payload))
+        except Exception as exc:
+            counters = self._backend.counters
+            counters["publish_errors"] += 1
+            now = time.monotonic()
+            if now - self._last_error_log >= _ERROR_LOG_INTERVAL:
+                self._last_error_log = now
+                _log.warning(
+                    "publishing on %s failed (%d failures so far): %s",
+                    self.topic,
+                    counters["publish_errors"],
+                    exc,
+                )
+
+    def subscriber_count(self) -> int:
+        """Subscriptions matched with this publisher now."""
+        return int(self._publisher.get_subscription_count())
+
+    def watch_subscribers(self, callback: Callable[[int], None]) -> bool:
+        self._watchers.append(callback)
+        self._reported = self.subscriber_count()
+        callback(self._reported)
+        return True
+
+    def _on_matched(self, _info: Any) -> None:
+        """Runs on the rclpy thread."""
+        _call_soon(self._loop, self._report_count)
+
+    def _report_count(self) -> None:
+        if self.closed or not self._watchers:
+            return
+        count = self.subscriber_count()
+        if count != self._reported:
+            self._reported = count
+            for callback in list(self._watchers):
+                callback(count)
+
+    def _destroy(self) -> None:
+        self._backend.node.destroy_publisher(self._publisher)
+        _log.info("stopped publishing %s", self.topic)
+
+
+class _Ros2Subscription(_Entity, BackendSubscription):
+    """A raw rclpy subscription delivering CDR bytes on the event loop."""
+
+    def __init__(
+        self,
+        backend: Ros2Backend,
+        topic: str,
+        cls: Any,
+        qos: QoSProfile,
+        *,
+        loop: asyncio.AbstractEventLoop,
+        callback: MessageCallback,
+    ) -> None:
+        self._loop = loop
+        self._callback = callback
+        try:
+            self._subscription = backend.node.create_subscription(
+                cls, topic, self._on_message, qos, raw=True
+            )
+        except Exception as exc:
+            raise EndpointError(f"cannot subscribe to {topic!r}: {exc}") from exc
+        self.topic: str = self._subscription.topic_name
+        super().__init__(backend)
+
+    def _on_message(self, payload: bytes) -> None:
+        """Runs on the rclpy thread."""
+        _call_soon(self._loop, self._deliver, payload)
+
+    def _deliver(self, payload: bytes) -> None:
+        if not self.closed:
+            self._callback(payload)
+
+    def _destroy(self) -> None:
+        self._backend.node.destroy_subscription(self._subscription)
+        _log.info("unsubscribed from %s", self.topic)
+
+
+class _Ros2ServiceServer(_Entity, BackendServiceServer):
+    """An rclpy service whose answer comes from an async handler on the event loop.
+
+    The rclpy callback is a coroutine: it waits on an rclpy Future that the event
+    loop completes, so the executor keeps serving other traffic meanwhile.
+    """
+
+    def __init__(
+        self,
+        backend: Ros2Backend,
+        service: str,
+        cls: Any,
+        *,
+        loop: asyncio.AbstractEventLoop,
+        handler: ServiceHandler,
+        timeout: float,
+    ) -> None:
+        self._service = service
+        self._cls = cls
+        self._loop = loop
+        self._handler = handler
+        self._timeout = timeout
+        try:
+            self._server = backend.node.create_service(cls, service, self._on_request)
+        except Exception as exc:
+            raise EndpointError(f"cannot advertise service {service!r}: {exc}") from exc
+        super().__init__(backend)
+
+    async def _run(self, request: bytes) -> bytes:
+        return await asyncio.wait_for(self._handler(request), self._timeout)
+
+    async def _on_request(self, request: Any, _response: Any) -> Any:
+        """Runs as an rclpy task on the rclpy thread."""
+        if self.closed or self._loop.is_closed():
+            raise _SimServiceFailedError(
+                f"service {self._service} is being removed; request dropped"
+            )
+        answer = RclpyFuture()
+        executor = self._backend._executor
+        payload = bytes(serialize_message(request))
+        call = asyncio.run_coroutine_threadsafe(self._run(payload), self._loop)
+
+        def finished(done: Any) -> None:
+            try:
+                answer.set_result(done.result())
+            except BaseException as exc:  # the handler's failure, for the rclpy task
+                answer.set_exception(exc)
+            executor.wake()
+
+        call.add_done_callback(finished)
+        try:
+            response = await answer
+        except TimeoutError as exc:
+            raise _SimServiceFailedError(
+                f"the sim did not answer {self._service} within {self._timeout:g} s; "
+                "the ROS 2 caller gets no response"
+            ) from exc
+        except Exception as exc:
+            raise _SimServiceFailedError(
+                f"the sim failed {self._service}: {exc}; the ROS 2 caller gets no response"
+            ) from exc
+        try:
+            return deserialize_message(response, self._cls.Response)
+        except Exception as exc:
+            raise _SimServiceFailedError(
+                f"the sim's answer to {self._service} is not a CDR "
+                f"{self._cls.__name__} response: {exc}"
+            ) from exc
+
+    def _destroy(self) -> None:
+        self._backend.node.destroy_service(self._server)
+        _log.info("stopped serving %s", self._service)

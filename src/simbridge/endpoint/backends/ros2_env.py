@@ -1,0 +1,175 @@
+"""Where ROS 2 traffic may go: this machine only, unless the user says otherwise.
+
+DDS discovers peers by multicast on every interface by default. Every ROS 2
+process simbridge starts (the endpoint, test and benchmark nodes, demos) gets
+`ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST` and a Fast DDS profile whose transports
+are UDP bound to 127.0.0.1 plus shared memory (with a segment big enough for
+camera images), and runs in a ROS domain of its own choosing. A variable the
+user has already set is kept: that is how one points the endpoint at a wider
+ROS 2 graph. Importing this module does not need rclpy.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import fcntl
+import hashlib
+import os
+import tempfile
+import time
+from collections.abc import Mapping
+from pathlib import Path
+
+__all__ = [
+    "DEFAULT_SHM_SEGMENT",
+    "FASTDDS_PROFILE_VARS",
+    "apply_ros2_env",
+    "clean_stale_shm",
+    "fastdds_profile_xml",
+    "ros2_env",
+    "ros2_python",
+    "write_fastdds_profile",
+]
+
+DEFAULT_SHM_SEGMENT = 16 * 1024 * 1024
+"""Shared-memory segment per participant; Fast DDS's 0.5 MiB default cannot hold an image."""
+
+FASTDDS_PROFILE_VARS = ("FASTRTPS_DEFAULT_PROFILES_FILE", "FASTDDS_DEFAULT_PROFILES_FILE")
+"""Fast DDS 2.x reads the first, 3.x the second; both are set to the same file."""
+
+_PROFILE = """<?xml version="1.0" encoding="UTF-8" ?>
+<!-- simbridge: DDS traffic on this machine only (UDP on 127.0.0.1 + shared memory). -->
+<dds xmlns="http://www.eprosima.com/XMLSchemas/fastRTPS_Profiles">
+  <profiles>
+    <transport_descriptors>
+      <transport_descriptor>
+        <transport_id>simbridge_udp_loopback</transport_id>
+        <type>UDPv4</type>
+        <interfaceWhiteList>
+          <address>127.0.0.1</address>
+        </interfaceWhiteList>
+      </transport_descriptor>
+      <transport_descriptor>
+        <transport_id>simbridge_shm</transport_id>
+        <type>SHM</type>
+        <segment_size>{segment}</segment_size>
+      </transport_descriptor>
+    </transport_descriptors>
+    <participant profile_name="simbridge_localhost" is_default_profile="true">
+      <rtps>
+        <userTransports>
+          <transport_id>simbridge_shm</transport_id>
+          <transport_id>simbridge_udp_loopback</transport_id>
+        </userTransports>
+        <useBuiltinTransports>false</useBuiltinTransports>
+      </rtps>
+    </participant>
+  </profiles>
+</dds>
+"""
+
+
+def ros2_python() -> Path | None:
+    """The ROS 2 venv's interpreter: $SIMBRIDGE_ROS2_PYTHON, else the checkout's .venv-ros2.
+
+    None when neither exists (run `make ros2`).
+    """
+    given = os.environ.get("SIMBRIDGE_ROS2_PYTHON")
+    if given:
+        return Path(given) if Path(given).exists() else None
+    path = Path(__file__).resolve().parents[4] / ".venv-ros2" / "bin" / "python"
+    return path if path.exists() else None
+
+
+def fastdds_profile_xml(shm_segment: int = DEFAULT_SHM_SEGMENT) -> str:
+    """The Fast DDS XML profile: loopback UDP and shared memory, nothing else."""
+    return _PROFILE.format(segment=int(shm_segment))
+
+
+def write_fastdds_profile(
+    shm_segment: int = DEFAULT_SHM_SEGMENT, directory: Path | None = None
+) -> Path:
+    """Write the profile once (named by its content) and return its path."""
+    text = fastdds_profile_xml(shm_segment)
+    digest = hashlib.sha256(text.encode()).hexdigest()[:12]
+    folder = directory if directory is not None else Path(tempfile.gettempdir())
+    path = folder / f"simbridge-fastdds-{digest}.xml"
+    if not path.exists() or path.read_text() != text:
+        folder.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_suffix(f".{os.getpid()}.tmp")
+        tmp.write_text(text)
+        tmp.replace(path)
+    return path
+
+
+def ros2_env(
+    base: Mapping[str, str] | None = None,
+    *,
+    domain_id: int | None = None,
+    shm_segment: int = DEFAULT_SHM_SEGMENT,
+) -> dict[str, str]:
+    """The ROS 2 settings for a process: `base` (default os.environ) plus what it lacks.
+
+    `domain_id`, when given, replaces any ROS_DOMAIN_ID (tests and benchmarks use
+    their own); otherwise one already set is kept and 0 is the default.
+    """
+    env = dict(os.environ if base is None else base)
+    env.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    env.setdefault("RMW_IMPLEMENTATION", "rmw_fastrtps_cpp")
+    if domain_id is not None:
+        env["ROS_DOMAIN_ID"] = str(domain_id)
+    else:
+        env.setdefault("ROS_DOMAIN_ID", "0")
+    profile = next((env[v] for v in FASTDDS_PROFILE_VARS if env.get(v)), None)
+    if profile is None:
+        profile = str(write_fastdds_profile(shm_segment))
+    for var in FASTDDS_PROFILE_VARS:
+        env.setdefault(var, profile)
+    return env
+
+
+def apply_ros2_env(*, domain_id: int | None = None) -> dict[str, str]:
+    """Set the ROS 2 settings in this process (before rclpy.init); returns what is used."""
+    env = ros2_env(domain_id=domain_id)
+    used = {
+        key: env[key]
+        for key in ("ROS_DOMAIN_ID", "ROS_AUTOMATIC_DISCOVERY_RANGE", "RMW_IMPLEMENTATION")
+    }
+    used["FASTDDS_PROFILE"] = env[FASTDDS_PROFILE_VARS[0]]
+    for key in (*used, *FASTDDS_PROFILE_VARS):
+        if key in env:
+            os.environ[key] = env[key]
+    return used
+
+
+def clean_stale_shm(directory: Path = Path("/dev/shm"), min_age: float = 2.0) -> list[str]:
+    """Remove Fast DDS shared-memory files whose owner is gone; returns their names.
+
+    A live participant holds an flock on each `<name>_el` file (as `fastdds shm
+    clean` relies on), so files of running processes, anyone's, are left alone.
+    """
+    removed: list[str] = []
+    if not directory.is_dir():
+        return removed
+    now = time.time()
+    for lock in directory.glob("fastrtps_*_el"):
+        try:
+            if now - lock.stat().st_mtime < min_age:
+                continue
+            fd = os.open(lock, os.O_RDWR)
+        except OSError:
+            continue
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            os.close(fd)
+            continue  # still owned
+        try:
+            base = lock.name[: -len("_el")]
+            for name in (base, lock.name, f"sem.{base}_mutex"):
+                with contextlib.suppress(FileNotFoundError):
+                    (directory / name).unlink()
+                    removed.append(name)
+        finally:
+            os.close(fd)
+    return removed

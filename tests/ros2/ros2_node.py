@@ -1,0 +1,136 @@
+"""A ROS 2 helper node for the tests, run with the ROS 2 venv's Python (never imported by
+pytest, which runs beside rospy). One JSON object per line on stdout.
+
+    ros2_node.py echo TOPIC pkg/msg/Type COUNT [--latched]
+        print {"ready": true}, then each message as {"msg": {...}} (decoded with rclpy)
+    ros2_node.py pub TOPIC pkg/msg/Type JSON RATE COUNT
+        publish JSON (field values) COUNT times at RATE Hz; {"sent": n} at the end
+    ros2_node.py serve SERVICE pkg/srv/Type JSON
+        answer every request with JSON; print {"request": {...}} per call
+    ros2_node.py call SERVICE pkg/srv/Type JSON TIMEOUT
+        wait for the server, call once, print {"response": {...}} or {"error": "..."}
+    ros2_node.py graph SECONDS
+        print {"topics": [[name, [types]], ...]} of the graph after SECONDS
+"""
+
+from __future__ import annotations
+
+import contextlib
+import importlib
+import json
+import sys
+import time
+from typing import Any
+
+import rclpy
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+
+
+def load(name: str) -> Any:
+    package, kind, base = name.split("/")
+    return getattr(importlib.import_module(f"{package}.{kind}"), base)
+
+
+def message_to_ordereddict(msg: Any) -> Any:
+    """Field values as plain JSON data (nested messages as dicts)."""
+    if hasattr(msg, "get_fields_and_field_types"):
+        fields = msg.get_fields_and_field_types()
+        return {k: message_to_ordereddict(getattr(msg, k)) for k in fields}
+    if isinstance(msg, bytes | bytearray):
+        return list(msg)
+    if hasattr(msg, "tolist"):
+        msg = msg.tolist()
+    if isinstance(msg, list | tuple):
+        return [message_to_ordereddict(v) for v in msg]
+    return msg
+
+
+def set_message_fields(msg: Any, values: dict[str, Any]) -> None:
+    """Set fields from a dict (nested messages from nested dicts)."""
+    for key, value in values.items():
+        current = getattr(msg, key)
+        if isinstance(value, dict):
+            set_message_fields(current, value)
+        else:
+            setattr(msg, key, value)
+
+
+def emit(obj: object) -> None:
+    print(json.dumps(obj, default=repr), flush=True)
+
+
+def main(argv: list[str]) -> None:
+    rclpy.init()
+    node = rclpy.create_node(f"simbridge_test_{argv[0]}")
+    try:
+        run(node, argv)
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+
+
+def run(node: Any, argv: list[str]) -> None:
+    mode = argv[0]
+    if mode == "echo":
+        topic, cls, count = argv[1], load(argv[2]), int(argv[3])
+        latched = "--latched" in argv
+        qos = QoSProfile(
+            depth=100,
+            reliability=ReliabilityPolicy.RELIABLE,
+            durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE,
+        )
+        got: list[Any] = []
+        node.create_subscription(cls, topic, got.append, qos)
+        emit({"ready": True})
+        while rclpy.ok() and len(got) < count:
+            rclpy.spin_once(node, timeout_sec=0.1)
+            while got:
+                emit({"msg": message_to_ordereddict(got.pop(0))})
+                count -= 1
+    elif mode == "pub":
+        topic, cls, values = argv[1], load(argv[2]), json.loads(argv[3])
+        rate, count = float(argv[4]), int(argv[5])
+        publisher = node.create_publisher(cls, topic, 10)
+        msg = cls()
+        set_message_fields(msg, values)
+        for _ in range(count):
+            publisher.publish(msg)
+            rclpy.spin_once(node, timeout_sec=1.0 / rate)
+        emit({"sent": count})
+    elif mode == "serve":
+        service, cls, values = argv[1], load(argv[2]), json.loads(argv[3])
+
+        def answer(request: Any, response: Any) -> Any:
+            emit({"request": message_to_ordereddict(request)})
+            set_message_fields(response, values)
+            return response
+
+        node.create_service(cls, service, answer)
+        emit({"ready": True})
+        rclpy.spin(node)
+    elif mode == "call":
+        service, cls, values, timeout = argv[1], load(argv[2]), json.loads(argv[3]), float(argv[4])
+        client = node.create_client(cls, service)
+        if not client.wait_for_service(timeout_sec=timeout):
+            emit({"error": f"no server for {service}"})
+            return
+        request = cls.Request()
+        set_message_fields(request, values)
+        future = client.call_async(request)
+        rclpy.spin_until_future_complete(node, future, timeout_sec=timeout)
+        if future.done():
+            emit({"response": message_to_ordereddict(future.result())})
+        else:
+            emit({"error": f"no answer from {service} within {timeout} s"})
+    elif mode == "graph":
+        deadline = time.monotonic() + float(argv[1])
+        while time.monotonic() < deadline:
+            rclpy.spin_once(node, timeout_sec=0.05)
+        emit({"topics": node.get_topic_names_and_types()})
+    else:
+        raise SystemExit(f"unknown mode {mode!r}")
+
+
+if __name__ == "__main__":
+    with contextlib.suppress(KeyboardInterrupt):
+        main(sys.argv[1:])

@@ -1,0 +1,245 @@
+"""`simbridge endpoint --backend ros2` against real rclpy nodes in other processes.
+
+The endpoint runs as a subprocess with the ROS 2 venv's Python (rclpy cannot live
+beside this process's rospy); the helper nodes are tests/ros2/ros2_node.py. CDR
+payloads on the client side come from rosbags' Jazzy type store, so nothing here
+shares code with the endpoint's relaying.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Iterator
+from typing import Any
+
+import numpy as np
+import pytest
+from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+from tests.endpoint.rawclient import RawClient
+from tests.ros2support import Ros2Process, require_ros2, start_endpoint
+
+from simbridge.protocol import (
+    CommandReceived,
+    ErrorMessage,
+    Handshake,
+    MessageReceived,
+    ProtocolConnection,
+    Publish,
+    RemovePublisher,
+    RosService,
+    ServiceRequestReceived,
+    ServiceResponseReceived,
+    Subscribe,
+    SubscriberCount,
+    TopicListReply,
+    TopicListRequest,
+    UnityService,
+)
+
+pytestmark = [pytest.mark.ros2, pytest.mark.timeout(240)]
+
+TS = get_typestore(Stores.ROS2_JAZZY)
+# Jazzy's store has no std_srvs: its request/response messages (CDR as rosidl lays them out).
+for _name, _text in {
+    "std_srvs/msg/SetBool_Request": "bool data",
+    "std_srvs/msg/SetBool_Response": "bool success\nstring message",
+    "std_srvs/msg/Trigger_Request": "uint8 structure_needs_at_least_one_member",
+    "std_srvs/msg/Trigger_Response": "bool success\nstring message",
+}.items():
+    TS.register(get_types_from_msg(_text, _name))
+
+
+def cdr(msg: object, ros2_type: str) -> bytes:
+    return bytes(TS.serialize_cdr(msg, ros2_type))
+
+
+def twist(x: float, yaw: float) -> bytes:
+    v3 = TS.types["geometry_msgs/msg/Vector3"]
+    tw = TS.types["geometry_msgs/msg/Twist"]
+    return cdr(tw(linear=v3(x=x, y=0.0, z=0.0), angular=v3(x=0.0, y=0.0, z=yaw)),
+               "geometry_msgs/msg/Twist")
+
+
+def command(event: object, cls: type) -> bool:
+    return isinstance(event, CommandReceived) and isinstance(event.command, cls)
+
+
+@pytest.fixture(scope="module")
+def endpoint() -> Iterator[int]:
+    require_ros2()
+    proc, port = start_endpoint("--idle-timeout", "0")
+    try:
+        yield port
+    finally:
+        proc.stop()
+        assert proc.proc.returncode is not None
+
+
+@pytest.fixture
+def client(endpoint: int) -> Iterator[RawClient]:
+    raw = RawClient(endpoint)
+    try:
+        yield raw
+    finally:
+        raw.close()
+
+
+def advertise(client: RawClient, topic: str, msg_type: str, **kw: object) -> None:
+    """__publish, then wait until a ROS 2 subscription has matched (`__subscribers`)."""
+    client.send(Publish(topic, msg_type, report_subscribers=True, **kw).encode())  # type: ignore[arg-type]
+    client.expect(lambda e: command(e, SubscriberCount) and e.command.topic == topic
+                  and e.command.count >= 1, timeout=20)
+
+
+def test_handshake_says_ros2(endpoint: int) -> None:
+    raw = RawClient(endpoint)
+    try:
+        event = raw.expect(lambda e: command(e, Handshake))
+        assert event.command.metadata["protocol"] == "ROS2"
+        assert "subscribers" in event.command.metadata["extensions"]
+    finally:
+        raw.close()
+
+
+def test_twist_reaches_a_ros2_subscriber(client: RawClient) -> None:
+    with Ros2Process.node("echo", "/sb_cmd_vel", "geometry_msgs/msg/Twist", "3") as echo:
+        echo.expect_json("ready")
+        advertise(client, "/sb_cmd_vel", "geometry_msgs/Twist")
+        for i in range(3):
+            client.send(ProtocolConnection.message("/sb_cmd_vel", twist(0.5 + i, -0.25)))
+        got = [echo.expect_json("msg") for _ in range(3)]
+    assert [m["linear"]["x"] for m in got] == [0.5, 1.5, 2.5]
+    assert all(m["angular"]["z"] == -0.25 for m in got)
+
+
+def test_image_reaches_a_ros2_subscriber(client: RawClient) -> None:
+    pixels = (np.arange(480 * 640 * 3) % 251).astype(np.uint8)
+    img_t, hdr_t = TS.types["sensor_msgs/msg/Image"], TS.types["std_msgs/msg/Header"]
+    stamp = TS.types["builtin_interfaces/msg/Time"](sec=12, nanosec=34)
+    image = img_t(header=hdr_t(stamp=stamp, frame_id="camera"), height=480, width=640,
+                  encoding="rgb8", is_bigendian=0, step=640 * 3, data=pixels)
+    with Ros2Process.node("echo", "/sb_image", "sensor_msgs/msg/Image", "1") as echo:
+        echo.expect_json("ready")
+        advertise(client, "/sb_image", "sensor_msgs/Image")
+        client.send(ProtocolConnection.message("/sb_image", cdr(image, "sensor_msgs/msg/Image")))
+        got = echo.expect_json("msg")
+    assert (got["width"], got["height"], got["encoding"]) == (640, 480, "rgb8")
+    assert got["header"] == {"stamp": {"sec": 12, "nanosec": 34}, "frame_id": "camera"}
+    assert got["data"] == pixels.tolist()
+
+
+def test_latched_topic_reaches_a_late_subscriber(client: RawClient) -> None:
+    client.send(Publish("/sb_latched", "std_msgs/String", latch=True).encode())
+    string = TS.types["std_msgs/msg/String"]
+    time.sleep(0.5)
+    client.send(ProtocolConnection.message("/sb_latched", cdr(string(data="kept"),
+                                                              "std_msgs/msg/String")))
+    time.sleep(0.5)
+    with Ros2Process.node("echo", "/sb_latched", "std_msgs/msg/String", "1", "--latched") as echo:
+        assert echo.expect_json("msg") == {"data": "kept"}
+
+
+def test_ros2_publisher_reaches_the_client(client: RawClient) -> None:
+    client.send(Subscribe("/sb_chatter", "std_msgs/String").encode())
+    with Ros2Process.node("pub", "/sb_chatter", "std_msgs/msg/String", '{"data": "hello"}',
+                          "20", "60"):
+        event = client.expect(lambda e: isinstance(e, MessageReceived)
+                              and e.topic == "/sb_chatter", timeout=20)
+    msg: Any = TS.deserialize_cdr(event.payload, "std_msgs/msg/String")
+    assert msg.data == "hello"
+
+
+def test_sim_calls_a_ros2_service(client: RawClient) -> None:
+    with Ros2Process.node("serve", "/sb_set", "std_srvs/srv/SetBool",
+                          '{"success": true, "message": "done"}') as server:
+        server.expect_json("ready")
+        client.send(RosService("/sb_set", "std_srvs/SetBool").encode())
+        req_t = TS.types["std_srvs/msg/SetBool_Request"]
+        client.send(ProtocolConnection.service_request(
+            7, "/sb_set", cdr(req_t(data=True), "std_srvs/msg/SetBool_Request")))
+        event = client.expect(lambda e: isinstance(e, ServiceResponseReceived), timeout=20)
+        assert server.expect_json("request") == {"data": True}
+    assert event.srv_id == 7
+    response: Any = TS.deserialize_cdr(event.payload, "std_srvs/msg/SetBool_Response")
+    assert (response.success, response.message) == (True, "done")
+
+
+def test_a_call_nobody_answers_fails_fast(client: RawClient) -> None:
+    client.send(RosService("/sb_nobody", "std_srvs/Trigger").encode())
+    req_t = TS.types["std_srvs/msg/Trigger_Request"]
+    start = time.monotonic()
+    client.send(ProtocolConnection.service_request(
+        9, "/sb_nobody",
+        cdr(req_t(structure_needs_at_least_one_member=0), "std_srvs/msg/Trigger_Request")))
+    event = client.expect(lambda e: command(e, ErrorMessage), timeout=15)
+    assert event.command.srv_id == 9
+    assert "no ROS 2 server for '/sb_nobody'" in event.command.text
+    assert time.monotonic() - start < 10
+
+
+def test_ros2_client_calls_a_sim_service(client: RawClient) -> None:
+    client.send(UnityService("/sb_reset", "std_srvs/Trigger").encode())
+    time.sleep(0.3)
+    with Ros2Process.node("call", "/sb_reset", "std_srvs/srv/Trigger", "{}", "20") as caller:
+        request = client.expect(lambda e: isinstance(e, ServiceRequestReceived), timeout=20)
+        assert request.service == "/sb_reset"
+        resp_t = TS.types["std_srvs/msg/Trigger_Response"]
+        client.send(ProtocolConnection.service_response(
+            request.srv_id, "/sb_reset",
+            cdr(resp_t(success=True, message="reset"), "std_srvs/msg/Trigger_Response")))
+        assert caller.expect_json("response") == {"success": True, "message": "reset"}
+
+
+def test_topic_list_in_unity_form(client: RawClient) -> None:
+    client.send(Publish("/sb_listed", "geometry_msgs/Twist").encode())
+    deadline = time.monotonic() + 10
+    while True:
+        client.send(TopicListRequest().encode())
+        reply = client.expect(lambda e: command(e, TopicListReply)).command
+        listed = dict(zip(reply.topics, reply.types, strict=True))
+        if "/sb_listed" in listed or time.monotonic() > deadline:
+            break
+        time.sleep(0.2)
+    assert listed["/sb_listed"] == "geometry_msgs/Twist"
+    assert listed["/rosout"] == "rcl_interfaces/Log"
+
+
+def graph_topics() -> dict[str, list[str]]:
+    with Ros2Process.node("graph", "3") as graph:
+        return dict(graph.expect_json("topics"))
+
+
+def test_disconnect_and_remove_unregister(endpoint: int) -> None:
+    first, second = RawClient(endpoint), RawClient(endpoint)
+    try:
+        first.send(Publish("/sb_gone", "std_msgs/String").encode())
+        first.send(UnityService("/sb_gone_srv", "std_srvs/Trigger").encode())
+        second.send(Publish("/sb_removed", "std_msgs/String").encode())
+        time.sleep(0.5)
+        before = graph_topics()
+        assert "/sb_gone" in before
+        assert "/sb_removed" in before
+        first.close()
+        second.send(RemovePublisher("/sb_removed").encode())
+        time.sleep(0.5)
+        after = graph_topics()
+        assert "/sb_gone" not in after
+        assert "/sb_removed" not in after
+    finally:
+        second.close()
+
+
+def test_unknown_type_gets_an_error(client: RawClient) -> None:
+    client.send(Publish("/sb_bad", "nosuch_msgs/Thing").encode())
+    event = client.expect(lambda e: command(e, ErrorMessage), timeout=10)
+    assert "nosuch_msgs/msg/Thing" in event.command.text
+    assert "simbridge msg build" in event.command.text
+
+
+def test_stats_include_backend_counters(client: RawClient) -> None:
+    from simbridge.protocol import StatsReply, StatsRequest
+
+    client.send(StatsRequest().encode())
+    reply = client.expect(lambda e: command(e, StatsReply)).command
+    counters = reply.stats["server"]["backend_counters"]
+    assert counters["publish_errors"] == 0

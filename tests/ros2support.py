@@ -1,0 +1,171 @@
+"""Test support for real ROS 2: the ROS 2 venv's Python, a private domain, helper nodes.
+
+pytest runs in the main venv (beside Debian's rospy), so everything rclpy runs in
+subprocesses with the ROS 2 venv's Python: the endpoint itself and the helper nodes
+in tests/ros2/ros2_node.py. Each pytest process takes a ROS domain of its own (a
+lock file per domain id) and every child gets the localhost-only settings of
+simbridge.endpoint.backends.ros2_env. Children are stopped with SIGINT (so Fast DDS
+removes its shared memory) and killed if that fails; stale /dev/shm files are
+removed at exit.
+"""
+
+from __future__ import annotations
+
+import atexit
+import fcntl
+import json
+import os
+import queue
+import re
+import signal
+import subprocess
+import tempfile
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from simbridge.endpoint.backends.ros2_env import clean_stale_shm, ros2_env, ros2_python
+
+__all__ = [
+    "NODE_SCRIPT",
+    "Ros2Process",
+    "child_env",
+    "domain_id",
+    "require_ros2",
+    "start_endpoint",
+]
+
+NODE_SCRIPT = Path(__file__).parent / "ros2" / "ros2_node.py"
+
+_DOMAIN: int | None = None
+_DOMAIN_LOCK: int | None = None
+
+
+def require_ros2() -> Path:
+    """The ROS 2 venv's Python; skip without it, except on CI (env CI), where that fails."""
+    python = ros2_python()
+    if python is not None:
+        return python
+    if os.environ.get("CI"):
+        pytest.fail("the ROS 2 venv (.venv-ros2) is missing on CI: run `make ros2`")
+    pytest.skip("the ROS 2 venv (.venv-ros2) is not installed: run `make ros2`")
+
+
+def domain_id() -> int:
+    """A ROS domain id no other test process on this machine holds (1..100)."""
+    global _DOMAIN, _DOMAIN_LOCK
+    if _DOMAIN is not None:
+        return _DOMAIN
+    start = os.getpid() % 100
+    for i in range(100):
+        candidate = 1 + (start + i) % 100
+        path = Path(tempfile.gettempdir()) / f"simbridge-ros-domain-{candidate}.lock"
+        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            os.close(fd)
+            continue
+        _DOMAIN, _DOMAIN_LOCK = candidate, fd
+        atexit.register(clean_stale_shm)
+        return candidate
+    raise RuntimeError("no free ROS domain id in 1..100")
+
+
+def child_env() -> dict[str, str]:
+    """The environment of a ROS 2 child: localhost only, this process's domain, no ROS 1."""
+    base = {
+        k: v
+        for k, v in os.environ.items()
+        if k not in ("PYTHONPATH", "ROS_MASTER_URI", "ROS_PACKAGE_PATH", "ROS_DISTRO")
+        and not k.startswith("_ROS_WHEELS")
+    }
+    base["PYTHONUNBUFFERED"] = "1"
+    return ros2_env(base, domain_id=domain_id())
+
+
+class Ros2Process:
+    """A child process run with the ROS 2 venv's Python; stdout lines are collected."""
+
+    def __init__(self, args: list[str], *, env: dict[str, str] | None = None) -> None:
+        python = require_ros2()
+        self.proc = subprocess.Popen(
+            [str(python), *args],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT,
+            env=env or child_env(),
+            text=True,
+            start_new_session=True,
+        )
+        self.lines: queue.Queue[str] = queue.Queue()
+        self.output: list[str] = []
+        threading.Thread(target=self._read, daemon=True).start()
+
+    @classmethod
+    def node(cls, *args: str) -> Ros2Process:
+        """A helper node (see tests/ros2/ros2_node.py for the modes)."""
+        return cls([str(NODE_SCRIPT), *args])
+
+    def _read(self) -> None:
+        assert self.proc.stdout is not None
+        for line in self.proc.stdout:
+            self.output.append(line)
+            self.lines.put(line)
+
+    def expect_line(self, pattern: str, timeout: float = 20.0) -> re.Match[str]:
+        """The next output line matching `pattern` (a regex)."""
+        deadline = time.monotonic() + timeout
+        while True:
+            left = deadline - time.monotonic()
+            if left <= 0:
+                raise AssertionError(
+                    f"no line matching {pattern!r} within {timeout} s; output:\n"
+                    + "".join(self.output[-30:])
+                )
+            try:
+                line = self.lines.get(timeout=min(left, 0.2))
+            except queue.Empty:
+                if self.proc.poll() is not None and self.lines.empty():
+                    raise AssertionError(
+                        f"process exited ({self.proc.returncode}) before {pattern!r}; output:\n"
+                        + "".join(self.output[-30:])
+                    ) from None
+                continue
+            match = re.search(pattern, line)
+            if match:
+                return match
+
+    def expect_json(self, key: str, timeout: float = 20.0) -> Any:
+        """The value of `key` in the next JSON line that has it."""
+        match = self.expect_line(r'^\{"' + re.escape(key) + '"', timeout)
+        return json.loads(match.string)[key]
+
+    def stop(self, timeout: float = 5.0) -> None:
+        """SIGINT (a clean rclpy shutdown frees shared memory), then SIGKILL if needed."""
+        if self.proc.poll() is None:
+            try:
+                os.killpg(self.proc.pid, signal.SIGINT)
+                self.proc.wait(timeout)
+            except subprocess.TimeoutExpired:
+                os.killpg(self.proc.pid, signal.SIGKILL)
+                self.proc.wait(timeout)
+            except ProcessLookupError:
+                pass
+
+    def __enter__(self) -> Ros2Process:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
+
+
+def start_endpoint(*extra: str) -> tuple[Ros2Process, int]:
+    """`simbridge endpoint --backend ros2` on a free port; returns it and the port."""
+    proc = Ros2Process(
+        ["-m", "simbridge.cli", "endpoint", "--backend", "ros2", "--port", "0", *extra]
+    )
+    match = proc.expect_line(r"listening on 127\.0\.0\.1:(\d+)", timeout=60)
+    return proc, int(match.group(1))
