@@ -150,7 +150,9 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         type=float,
         default=None,
         metavar="FACTOR",
-        help="pace at FACTOR x real time (default: as fast as possible)",
+        help="pace at FACTOR x real time, 0 = as fast as possible (default: 1 with "
+        "--endpoint, whatever the scene says, so ROS nodes and commands see real time; "
+        "without --endpoint the scene's physics.realtime_factor, 1 unless set)",
     )
     sim.add_argument("--viewer", action="store_true", help="open MuJoCo's viewer (needs a display)")
     _load_options(sim)

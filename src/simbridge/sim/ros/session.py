@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import logging
 from pathlib import Path
 
 from simbridge.connector import Connector, ConnectorOptions
@@ -15,6 +16,8 @@ from simbridge.sim.sensors.odometry import Odometry
 from simbridge.sim.world.world import RunStats, World
 
 __all__ = ["SimulationSession", "parse_endpoint", "run_scene"]
+
+_log = logging.getLogger("simbridge.sim.ros")
 
 
 def parse_endpoint(text: str) -> tuple[str, int]:
@@ -78,8 +81,25 @@ class SimulationSession:
         realtime_factor: float | None = None,
         viewer: bool = False,
     ) -> RunStats:
-        """Run the world (see `World.run`)."""
-        return self.world.run(duration, realtime_factor, viewer)
+        """Run the world (see `World.run`) at `realtime_factor`, which defaults to
+        `pacing()`."""
+        factor = self.pacing() if realtime_factor is None else realtime_factor
+        return self.world.run(duration, factor, viewer)
+
+    def pacing(self) -> float:
+        """The default real-time factor: 1 while serving a ROS graph, whatever the scene
+        says, because ROS nodes, wall-clock timers and `rostopic pub -r` commands expect
+        sim time to follow real time (an unpaced run turns a 10 Hz command stream into
+        well under 1 Hz of sim time). Without ROS, the scene's `physics.realtime_factor`."""
+        scene_factor = self.scene.physics.realtime_factor
+        if self.connector is None or scene_factor == 1.0:
+            return scene_factor
+        _log.info(
+            "serving ROS at real time; the scene's realtime_factor %g applies only without "
+            "an endpoint (pass realtime_factor / --realtime to change the pace)",
+            scene_factor,
+        )
+        return 1.0
 
     def close(self) -> None:
         """Unregister and disconnect."""
@@ -106,7 +126,9 @@ def run_scene(
     viewer: bool = False,
 ) -> RunStats:
     """Load and run a scene headless (or in the viewer) until `duration` sim seconds pass
-    or the process is interrupted, serving ROS through `endpoint` ("host:port") if given."""
+    or the process is interrupted, serving ROS through `endpoint` ("host:port") if given.
+    `realtime_factor` None: real time with an endpoint, else the scene's
+    (`SimulationSession.pacing`)."""
     with SimulationSession(scene, endpoint) as session:
         try:
             return session.run(duration, realtime_factor, viewer)
