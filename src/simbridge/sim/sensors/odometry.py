@@ -22,9 +22,21 @@ from simbridge.sim.sensors.rosmsg import (
     vector3,
 )
 
-__all__ = ["Odometry", "OdometryConfig", "OdometryReading"]
+__all__ = [
+    "DEFAULT_POSE_COVARIANCE",
+    "DEFAULT_TWIST_COVARIANCE",
+    "Odometry",
+    "OdometryConfig",
+    "OdometryReading",
+]
 
 ODOM_ORIGINS = ("initial", "world")
+
+Vec6 = tuple[float, float, float, float, float, float]
+DEFAULT_POSE_COVARIANCE: Vec6 = (1e-4, 1e-4, 1e-4, 1e-4, 1e-4, 1e-4)
+"""x, y, z (m^2), roll, pitch, yaw (rad^2): 1 cm and 0.6 degree standard deviations."""
+DEFAULT_TWIST_COVARIANCE: Vec6 = (1e-4, 1e-4, 1e-4, 1e-4, 1e-4, 1e-4)
+"""vx, vy, vz ((m/s)^2), wx, wy, wz ((rad/s)^2): 1 cm/s and 0.6 degree/s."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -34,6 +46,10 @@ class OdometryConfig(SensorConfig):
     `origin` "initial": the odom frame is the base's first pose, levelled (yaw only);
     "world": odom coincides with the world frame. `frame_id` is the odom frame (default
     `odom`), `child_frame_id` the base frame (default: the body). Default topic `odom`.
+    `pose_covariance_diagonal` and `twist_covariance_diagonal` (names as in ROS's
+    diff_drive_controller) are the diagonals of the published 6x6 covariances: how far a
+    consumer such as robot_localization should trust the readings (all-zero
+    covariances, which claim perfect readings, are rejected there).
     """
 
     rate: float = 50.0
@@ -41,6 +57,8 @@ class OdometryConfig(SensorConfig):
     origin: str = "initial"
     publish_tf: bool = True
     tf_topic: str = "/tf"
+    pose_covariance_diagonal: Vec6 = DEFAULT_POSE_COVARIANCE
+    twist_covariance_diagonal: Vec6 = DEFAULT_TWIST_COVARIANCE
 
 
 @dataclass(frozen=True)
@@ -60,7 +78,16 @@ class Odometry(Sensor):
             raise SimError(
                 f"odometry {config.name!r}: origin {config.origin!r} is not one of {ODOM_ORIGINS}"
             )
+        for key in ("pose_covariance_diagonal", "twist_covariance_diagonal"):
+            values = getattr(config, key)
+            if not all(math.isfinite(v) and v > 0 for v in values):
+                raise SimError(
+                    f"odometry {config.name!r}: {key} needs 6 finite variances > 0 "
+                    f"(x, y, z, then rotation about x, y, z), got {list(values)}"
+                )
         self.config = config
+        self.pose_covariance = np.diag(config.pose_covariance_diagonal).ravel()
+        self.twist_covariance = np.diag(config.twist_covariance_diagonal).ravel()
         self.topic = config.topic or "odom"
         self.child_frame_id = config.child_frame_id or config.body or "world"
         outputs = {self.topic: "nav_msgs/Odometry"}
@@ -110,7 +137,6 @@ class Odometry(Sensor):
         """Publish nav_msgs/Odometry and, when enabled, the odom -> base transform."""
         reading = self.read(model, data)
         now = float(data.time)
-        zeros = np.zeros(36)
         out: list[Publication] = []
         if self.wanted(self.topic):
             message = new_message(
@@ -120,7 +146,7 @@ class Odometry(Sensor):
                 pose=new_message(
                     "geometry_msgs/PoseWithCovariance",
                     pose=pose_message(reading.pose),
-                    covariance=zeros,
+                    covariance=self.pose_covariance.copy(),
                 ),
                 twist=new_message(
                     "geometry_msgs/TwistWithCovariance",
@@ -129,7 +155,7 @@ class Odometry(Sensor):
                         linear=vector3(reading.linear),
                         angular=vector3(reading.angular),
                     ),
-                    covariance=zeros.copy(),
+                    covariance=self.twist_covariance.copy(),
                 ),
             )
             out.append(self._publication(self.topic, message))
