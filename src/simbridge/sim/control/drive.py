@@ -35,10 +35,11 @@ class DriveSpec:
     """Force = stiffness * (target - q) + damping * (target_velocity - qdot), clipped to the limit.
 
     In VELOCITY mode stiffness is ignored; in EFFORT mode the target is the force itself;
-    NONE leaves the joint passive. `force_limit=None` means "the URDF effort limit if it
-    has one, else unlimited". The defaults (Unity's importer's) hold an arm still under
-    gravity, and stay stable because MuJoCo's implicit integrator treats the damping term
-    implicitly (stable while timestep * stiffness / damping < 2).
+    NONE leaves the joint passive. `force_limit=None` means "as the scene's effort-limit
+    policy says" (by default the URDF effort limit if it has one), `math.inf` unlimited.
+    The defaults (Unity's importer's) hold an arm still under gravity, and stay stable
+    because MuJoCo's implicit integrator treats the damping term implicitly (stable while
+    timestep * stiffness / damping < 2).
     """
 
     mode: DriveMode = DriveMode.POSITION

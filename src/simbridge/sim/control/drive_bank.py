@@ -97,9 +97,11 @@ class DriveBank:
         act = self._check(joint)
         kp, kd = spec.gains()
         self.model.actuator_biasprm[act, :3] = (0.0, -kp, -kd)
-        if spec.force_limit is not None:
-            self.model.actuator_forcelimited[act] = 1
-            self.model.actuator_forcerange[act] = (-spec.force_limit, spec.force_limit)
+        if spec.force_limit is not None:  # inf: unlimited
+            limited = math.isfinite(spec.force_limit)
+            self.model.actuator_forcelimited[act] = int(limited)
+            if limited:
+                self.model.actuator_forcerange[act] = (-spec.force_limit, spec.force_limit)
         self._specs[joint] = spec
         if joint in self._targets:
             self._write(joint)

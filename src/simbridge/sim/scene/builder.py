@@ -3,19 +3,32 @@
 from __future__ import annotations
 
 import math
+import warnings
 import xml.etree.ElementTree as ET
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from simbridge.errors import SimError
-from simbridge.sim.control.drive import DriveSpec
+from simbridge.sim.control.drive import DriveMode, DriveSpec
 from simbridge.sim.control.drive_bank import add_drive_actuator
+from simbridge.sim.scene.efforts import SCALE_MARGIN, effort_limits, gravity_torques
 from simbridge.sim.scene.model import LightSpec, ObjectSpec, PhysicsSettings, RobotSpec, Scene
+from simbridge.sim.urdf.diagnostics import UrdfWarning
 from simbridge.sim.urdf.document import MjcfDocument, fmt
 from simbridge.sim.urdf.inertia import inertial_from_collisions
 from simbridge.sim.urdf.loader import load_urdf
 from simbridge.sim.urdf.meshes import MeshCache
 from simbridge.sim.urdf.mjcf import MjcfOptions, RobotMjcf, add_robot
-from simbridge.sim.urdf.model import Box, Collision, Cylinder, Geometry, Mesh, Sphere
+from simbridge.sim.urdf.model import (
+    Box,
+    Collision,
+    Cylinder,
+    Geometry,
+    JointType,
+    Mesh,
+    Robot,
+    Sphere,
+)
+from simbridge.sim.urdf.transforms import Vec3
 
 __all__ = ["BuiltRobot", "BuiltScene", "build_scene"]
 
@@ -49,11 +62,47 @@ def _physics(doc: MjcfDocument, physics: PhysicsSettings) -> None:
     )
 
 
-def _robot(doc: MjcfDocument, spec: RobotSpec, meshes: MeshCache, strict: bool) -> BuiltRobot:
+def _warn(text: str) -> None:
+    warnings.warn(text, UrdfWarning, stacklevel=4)
+
+
+def _initial_positions(
+    robot: Robot, spec: RobotSpec, name: str, where: str, strict: bool
+) -> dict[str, float]:
+    """Initial positions of the driven joints, clamped into their limits (a warning each;
+    an explicit value out of range is an error in strict mode)."""
+    resolved: dict[str, float] = {}
+    for joint in robot.movable_joints:
+        if joint.mimic is not None:
+            continue
+        explicit = joint.name in spec.initial_positions
+        q = spec.initial_positions.get(joint.name, 0.0)
+        if joint.limited and joint.limit is not None:
+            low, high = joint.limit.lower, joint.limit.upper
+            if not low <= q <= high:
+                clamped = min(max(q, low), high)
+                origin = "initial_positions value" if explicit else "initial position (zero pose)"
+                text = (
+                    f"{where}robot '{name}' joint '{joint.name}': {origin} {q:g} is outside "
+                    f"its limits [{low:g}, {high:g}]"
+                )
+                if explicit and strict:
+                    raise SimError(f"{text} (strict mode)")
+                _warn(f"{text}; starting at {clamped:g}")
+                q = clamped
+        if explicit or q != 0.0:
+            resolved[joint.name] = q
+    return resolved
+
+
+def _robot(
+    doc: MjcfDocument, spec: RobotSpec, meshes: MeshCache, strict: bool, gravity: Vec3
+) -> BuiltRobot:
     robot = load_urdf(
         spec.urdf, search_paths=spec.search_paths, xacro_args=spec.xacro_args, strict=strict
     )
     name = spec.name or robot.name
+    where = f"{robot.source}: " if robot.source is not None else ""
     options = MjcfOptions(
         prefix=spec.prefix,
         base=spec.base.transform,
@@ -75,12 +124,38 @@ def _robot(doc: MjcfDocument, spec: RobotSpec, meshes: MeshCache, strict: bool) 
                 f"robot '{name}' initial_positions: '{joint_name}' is not a drivable joint "
                 f"(valid: {', '.join(drivable) or 'none'})"
             )
+    spec = replace(spec, initial_positions=_initial_positions(robot, spec, name, where, strict))
+    torques = gravity_torques(
+        robot, mjcf.inertials, spec.initial_positions, spec.base.transform, gravity
+    )
+    efforts = {
+        j: joint.limit.effort if joint.limit is not None else 0.0 for j, joint in drivable.items()
+    }
+    limits, factor = effort_limits(spec.effort_limits, efforts, torques)
+    if factor > 1.0:
+        _warn(
+            f"{where}robot '{name}': effort_limits: scale multiplies the URDF efforts by "
+            f"{factor:.3g}, so every joint holds {SCALE_MARGIN:g}x its gravity torque"
+        )
     drives: dict[str, DriveSpec] = {}
     actuators = doc.section("actuator")
     for joint_name, joint in drivable.items():
         drive = spec.joint_drives.get(joint_name, spec.default_drive)
-        if drive.force_limit is None and joint.limit is not None and joint.limit.effort > 0:
-            drive = drive.with_changes(force_limit=joint.limit.effort)
+        source = "scene force_limit"
+        if drive.force_limit is None:
+            limit = limits[joint_name]
+            drive = drive.with_changes(force_limit=math.inf if limit is None else limit)
+            source = "URDF effort" if factor == 1.0 else "scaled URDF effort"
+        needed = torques.get(joint_name, 0.0)
+        assert drive.force_limit is not None
+        if drive.mode is not DriveMode.NONE and drive.force_limit < needed:
+            unit = "N" if joint.type is JointType.PRISMATIC else "N m"
+            _warn(
+                f"{where}robot '{name}' joint '{joint_name}': force limit {drive.force_limit:g} "
+                f"{unit} ({source}) is below the {needed:.3g} {unit} gravity torque it must "
+                "hold at the initial pose, so it will sag (set effort_limits: scale or ignore, "
+                f"or drives.joints.{joint_name}.force_limit)"
+            )
         mj_name = mjcf.joint_name(joint_name)
         add_drive_actuator(actuators, mj_name, drive.force_limit)
         drives[mj_name] = drive
@@ -181,7 +256,9 @@ def build_scene(scene: Scene, meshes: MeshCache | None = None) -> BuiltScene:
         _light(doc, light, i)
     for obj in scene.objects:
         _object(doc, obj, cache)
-    robots = tuple(_robot(doc, spec, cache, scene.strict) for spec in scene.robots)
+    robots = tuple(
+        _robot(doc, spec, cache, scene.strict, scene.physics.gravity) for spec in scene.robots
+    )
     names = [r.name for r in robots]
     if len(set(names)) != len(names):
         raise SimError(f"scene robots: duplicate robot names {names} (set 'name' on each)")

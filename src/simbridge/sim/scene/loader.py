@@ -13,6 +13,7 @@ import yaml
 from simbridge.errors import SimError
 from simbridge.sim.control.diff_drive import DiffDriveConfig, DiffDriveLimits
 from simbridge.sim.control.drive import DriveMode, DriveSpec
+from simbridge.sim.scene.efforts import EFFORT_POLICIES
 from simbridge.sim.scene.model import (
     INTEGRATORS,
     CommandTopics,
@@ -107,6 +108,15 @@ def _str(value: Any, where: str) -> str:
     return value
 
 
+def _choice(valid: tuple[str, ...]) -> Callable[[Any, str], str]:
+    def conv(value: Any, where: str) -> str:
+        if value not in valid:
+            raise SimError(f"scene {where}: expected one of {', '.join(valid)}, got {value!r}")
+        return str(value)
+
+    return conv
+
+
 def _topic(value: Any, where: str) -> str | None:
     if value is False:
         return None
@@ -140,7 +150,17 @@ def _drive(section: _Section, base: DriveSpec) -> DriveSpec:
     limit = base.force_limit
     if "force_limit" in section.data:
         raw = section.data["force_limit"]
-        limit = None if raw is None else _positive(raw, section.key("force_limit"))
+        if raw == "unlimited":
+            limit = math.inf
+        elif raw is None:
+            limit = None
+        elif isinstance(raw, str):
+            raise SimError(
+                f"scene {section.key('force_limit')}: expected a number > 0, 'unlimited' or "
+                f"null (the effort_limits policy), got {raw!r}"
+            )
+        else:
+            limit = _positive(raw, section.key("force_limit"))
     try:
         spec = DriveSpec(
             mode,
@@ -191,7 +211,8 @@ def _robot(section: _Section, base_dir: Path) -> RobotSpec:
         },
         default_drive=default,
         joint_drives=joint_drives,
-        armature=section.get("armature", _non_negative, 0.0),
+        armature=section.get("armature", _non_negative, RobotSpec.armature),
+        effort_limits=section.get("effort_limits", _choice(EFFORT_POLICIES), "urdf"),
     )
     section.done(
         (
@@ -206,6 +227,7 @@ def _robot(section: _Section, base_dir: Path) -> RobotSpec:
             "initial_positions",
             "drives",
             "armature",
+            "effort_limits",
         )
     )
     return spec

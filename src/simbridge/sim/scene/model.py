@@ -65,6 +65,9 @@ class RobotSpec:
     default_drive: DriveSpec = field(default_factory=DriveSpec)
     joint_drives: dict[str, DriveSpec] = field(default_factory=dict)
     armature: float = 0.0
+    effort_limits: str = "urdf"
+    """What URDF `effort` values become: "urdf" (force limits, with a warning where one
+    cannot hold the robot against gravity), "ignore" (unlimited) or "scale"."""
 
 
 @dataclass(frozen=True)

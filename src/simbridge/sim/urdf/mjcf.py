@@ -24,6 +24,7 @@ from simbridge.sim.urdf.model import (
     Box,
     Cylinder,
     Geometry,
+    Inertial,
     Joint,
     JointType,
     Mesh,
@@ -84,6 +85,8 @@ class RobotMjcf:
     options: MjcfOptions
     joints: dict[str, JointMapping]
     warnings: tuple[str, ...]
+    inertials: dict[str, Inertial | None] = field(default_factory=dict)
+    """The inertial each link was simulated with (after replacing unusable ones)."""
 
     def body_name(self, link: str) -> str:
         """The MuJoCo body name of URDF link `link`."""
@@ -105,6 +108,7 @@ class _Builder:
         self.warnings: list[str] = list(robot.warnings)
         self.robot_where = f"{robot.source}: " if robot.source is not None else ""
         self.mappings: dict[str, JointMapping] = {}
+        self.inertials: dict[str, Inertial | None] = {}
         existing = set(doc.body_names())
         clashes = [options.prefix + n for n in robot.links if options.prefix + n in existing]
         if clashes:
@@ -209,6 +213,7 @@ class _Builder:
         moving = joint is not None and joint.type is not JointType.FIXED
         moving = moving or (joint is None and not self.opt.fixed_base)
         inertial, warning = resolve_inertial(link, moving, self.opt.inertia, self.meshes)
+        self.inertials[link_name] = inertial
         if warning is not None:
             self.warn(warning)
         if inertial is not None:
@@ -330,7 +335,7 @@ def add_robot(
     builder = _Builder(doc, robot, opts, meshes or MeshCache())
     builder.link_body(doc.worldbody, robot.root, None, opts.base)
     builder.mimics()
-    return RobotMjcf(robot, opts, builder.mappings, tuple(builder.warnings))
+    return RobotMjcf(robot, opts, builder.mappings, tuple(builder.warnings), builder.inertials)
 
 
 def robot_to_mjcf(
