@@ -76,7 +76,7 @@ def _still_served(client: RawClient) -> None:
         ),
         (
             "__subscribe",
-            b'{"topic": "/a", "message_name": "std_msgs/String", "queue_size": 1000000000}',
+            b'{"topic": "/a", "message_name": "std_msgs/String", "queue_size": -5}',
             "queue_size",
         ),
         ("__request", b'{"srv_id": ' + b"1" * 5000 + b"}", "digits"),

@@ -58,7 +58,8 @@ MAX_NAME_LENGTH = 256
 """Longest topic, service or type name accepted (characters); longer ones are refused
 before any work (close-match suggestions, registration) is spent on them."""
 MAX_QUEUE_SIZE = 10_000
-"""Largest `queue_size` a client may ask for (0 ..= this)."""
+"""Largest `queue_size` the endpoint honours; larger requests are capped to it (a
+negative one is an error), so a client cannot make one queue unbounded."""
 MAX_COMMAND_SIZE = 1024 * 1024
 """Largest system-command payload (JSON) accepted, in bytes."""
 _MAX_DIGITS = 20
@@ -167,6 +168,11 @@ def _get_int(
     return value
 
 
+def _queue_size(name: str, obj: dict[str, Any], default: int) -> int:
+    """`queue_size`: >= 0, capped at MAX_QUEUE_SIZE."""
+    return min(_get_int(name, obj, "queue_size", default, low=0), MAX_QUEUE_SIZE)
+
+
 def _get_bool(name: str, obj: dict[str, Any], key: str, default: bool) -> bool:
     value = obj.get(key, default)
     if not isinstance(value, bool):
@@ -223,9 +229,7 @@ class Subscribe(Command):
 
     @classmethod
     def from_json(cls, obj: dict[str, Any]) -> Command:
-        queue = _get_int(
-            cls.NAME, obj, "queue_size", DEFAULT_SUBSCRIBE_QUEUE, low=0, high=MAX_QUEUE_SIZE
-        )
+        queue = _queue_size(cls.NAME, obj, DEFAULT_SUBSCRIBE_QUEUE)
         return cls(
             _get_name(cls.NAME, obj, "topic"),
             _get_name(cls.NAME, obj, "message_name", kind="type"),
@@ -258,7 +262,7 @@ class Publish(Command):
 
     @classmethod
     def from_json(cls, obj: dict[str, Any]) -> Command:
-        queue = _get_int(cls.NAME, obj, "queue_size", 10, low=0, high=MAX_QUEUE_SIZE)
+        queue = _queue_size(cls.NAME, obj, 10)
         return cls(
             _get_name(cls.NAME, obj, "topic"),
             _get_name(cls.NAME, obj, "message_name", kind="type"),
