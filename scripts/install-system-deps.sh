@@ -12,6 +12,9 @@ PACKAGES=(
   python3-nav-msgs python3-trajectory-msgs
   # rosmsg/rossrv (and rospack-tools): `rosmsg show` of `simbridge msg genpy` output
   python3-rosmsg rospack-tools
+  # robot_state_publisher and tf2 buffers: the sim's /tf against RSP fed its /joint_states
+  # (tests/e2e/test_ros1_robot_state_publisher.py)
+  ros-robot-state-publisher python3-tf2-ros
 )
 
 missing=()
