@@ -214,7 +214,8 @@ def test_twenty_concurrent_clients(endpoint, make_connector, reg):
             t.start()
         for t in threads:
             t.join()
-        assert wait_until(lambda n=n: len(collected) == 20 * (n + 1)), len(collected)
+        expected = 20 * (n + 1)
+        assert wait_until(lambda: len(collected) == expected), len(collected)  # noqa: B023
     assert wait_until(lambda: all(len(box) == 50 for box in inboxes))
     assert all(box == list(range(50)) for box in inboxes)
     assert sorted(collected) == sorted(i * 100 + n for i in range(20) for n in range(10))
