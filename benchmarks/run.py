@@ -20,6 +20,7 @@ SUITES = {
     "sensors": "benchmarks.bench_sensors",
     "pick_and_place": "benchmarks.bench_pick_and_place",
     "mobile_robot": "benchmarks.bench_mobile_robot",
+    "gym": "benchmarks.bench_gym",
 }
 
 
@@ -43,7 +44,12 @@ def main() -> int:
         print(f"\n## {name}\n", flush=True)
         start = time.perf_counter()
         rows = module.run()
-        print(format_table(rows, markdown=args.markdown))
+        # A suite returns one table (a list of rows) or several ({title: rows}).
+        tables = rows if isinstance(rows, dict) else {"": rows}
+        for title, table in tables.items():
+            if title:
+                print(f"### {title}\n")
+            print(format_table(table, markdown=args.markdown) + ("\n" if title else ""))
         print(f"\n({time.perf_counter() - start:.0f} s)", flush=True)
     return 0
 

@@ -37,6 +37,13 @@ __all__ = [
 FloatArray = NDArray[np.float64]
 
 
+def _index(addresses: list[int]) -> slice | list[int]:
+    """A slice when the addresses are consecutive (cheaper to index with), else the list."""
+    if addresses == list(range(addresses[0], addresses[0] + len(addresses))):
+        return slice(addresses[0], addresses[0] + len(addresses))
+    return addresses
+
+
 def _box(low: Sequence[float], high: Sequence[float]) -> spaces.Box:
     return spaces.Box(np.array(low, np.float32), np.array(high, np.float32), dtype=np.float32)
 
@@ -133,8 +140,8 @@ class EndEffectorDelta(ActionAdapter):
         self.damping = damping
         self.space = _box([-max_step] * 3, [max_step] * 3)
         self._body_id = -1
-        self._dofs: list[int] = []
-        self._qpos: list[int] = []
+        self._dofs: slice | list[int] = []
+        self._qpos: slice | list[int] = []
         self._jacp = self._jacr = np.zeros((3, 0))
 
     def bind(self, world: World) -> None:
@@ -144,8 +151,8 @@ class EndEffectorDelta(ActionAdapter):
         if body < 0:
             raise GymError(f"EndEffectorDelta: no body {self.body!r} in the model")
         self._body_id = int(body)
-        self._dofs = [int(world.model.joint(j).dofadr[0]) for j in self.joints]
-        self._qpos = [int(world.model.joint(j).qposadr[0]) for j in self.joints]
+        self._dofs = _index([int(world.model.joint(j).dofadr[0]) for j in self.joints])
+        self._qpos = _index([int(world.model.joint(j).qposadr[0]) for j in self.joints])
         self._jacp = np.zeros((3, world.model.nv))
         self._jacr = np.zeros((3, world.model.nv))
 

@@ -30,8 +30,8 @@ class ARSConfig:
 
     directions: int = 8
     top: int = 4
-    step_size: float = 0.02
-    noise: float = 0.03
+    step_size: float = 0.1
+    noise: float = 0.1
     iterations: int = 60
     eval_episodes: int = 32
     eval_every: int = 5
@@ -39,11 +39,15 @@ class ARSConfig:
     """Stop once an evaluation reaches this success rate (None: run every iteration)."""
     time_budget_s: float | None = None
     seed: int = 0
+    keys: tuple[str, ...] | None = None
+    """Observation entries the policy sees (None: every 1-D entry)."""
 
 
 @dataclass
 class LinearPolicy:
-    """action = clip(W (x - mean) / std, low, high) on the flattened observation `keys`."""
+    """action = centre + half_range * clip(W [(x - mean) / std, 1], -1, 1) on the flattened
+    observation `keys`: W works in normalised units on both sides, so one step size and
+    noise level suit any observation scale and any action units."""
 
     keys: tuple[str, ...]
     weights: FloatArray
@@ -54,16 +58,27 @@ class LinearPolicy:
     count: float = 1e-4
 
     @classmethod
-    def zeros(cls, observation_space: spaces.Dict, action_space: spaces.Box) -> LinearPolicy:
-        """A policy that outputs zeros, for these spaces (image entries are left out)."""
-        keys = tuple(
-            sorted(k for k, s in observation_space.spaces.items() if len(s.shape or ()) == 1)
-        )
+    def zeros(
+        cls,
+        observation_space: spaces.Dict,
+        action_space: spaces.Box,
+        keys: tuple[str, ...] | None = None,
+    ) -> LinearPolicy:
+        """A policy that outputs the action space's centre, reading `keys` (default: every
+        1-D entry, images left out)."""
+        if keys is None:
+            keys = tuple(
+                sorted(k for k, s in observation_space.spaces.items() if len(s.shape or ()) == 1)
+            )
+        unknown = sorted(set(keys) - set(observation_space.spaces))
+        if unknown:
+            raise GymError(f"policy keys {unknown} are not observed; observation has "
+                           f"{sorted(observation_space.spaces)}")
         size = sum(int(np.prod(observation_space.spaces[k].shape or ())) for k in keys)
         act = int(action_space.shape[0])
         return cls(
             keys,
-            np.zeros((act, size)),
+            np.zeros((act, size + 1)),
             action_space.low.astype(np.float64),
             action_space.high.astype(np.float64),
             np.zeros(size),
@@ -75,13 +90,18 @@ class LinearPolicy:
         return np.concatenate([np.asarray(obs[k], np.float64) for k in self.keys], axis=-1)
 
     def normalize(self, x: FloatArray) -> FloatArray:
-        """Whitened features (running statistics)."""
-        return (x - self.mean) / np.sqrt(self.var + 1e-8)
+        """Whitened features (running statistics) and a constant 1 for the bias column."""
+        whitened = (x - self.mean) / np.sqrt(self.var + 1e-8)
+        return np.concatenate([whitened, np.ones((*whitened.shape[:-1], 1))], axis=-1)
+
+    def scale(self, normalised: FloatArray) -> NDArray[np.float32]:
+        """Actions in the action space's units from outputs in [-1, 1] (clipped there)."""
+        half = (self.high - self.low) / 2
+        return (self.low + half + half * np.clip(normalised, -1.0, 1.0)).astype(np.float32)
 
     def __call__(self, obs: dict[str, NDArray[Any]]) -> NDArray[np.float32]:
         """The action for one observation."""
-        action = self.weights @ self.normalize(self.features(obs))
-        return np.clip(action, self.low, self.high).astype(np.float32)
+        return self.scale(self.weights @ self.normalize(self.features(obs)))
 
     def update_statistics(self, batch: FloatArray) -> None:
         """Merge a (n, obs_size) batch of features into the running mean and variance."""
@@ -139,8 +159,7 @@ def run_episodes(
         x = policy.features(obs)
         if record is not None:
             record.append(x[~done])
-        actions = np.einsum("nao,no->na", weights, policy.normalize(x))
-        actions = np.clip(actions, policy.low, policy.high).astype(np.float32)
+        actions = policy.scale(np.einsum("nao,no->na", weights, policy.normalize(x)))
         obs, reward, terminated, truncated, info = vec.step(actions)
         live = ~done
         steps += int(live.sum())
@@ -171,7 +190,7 @@ def train_ars(
     obs_space, act_space = vec.single_observation_space, vec.single_action_space
     assert isinstance(obs_space, spaces.Dict)
     assert isinstance(act_space, spaces.Box)
-    policy = LinearPolicy.zeros(obs_space, act_space)
+    policy = LinearPolicy.zeros(obs_space, act_space, cfg.keys)
     rng = np.random.default_rng(cfg.seed)
     result = ARSResult(policy)
     eval_seeds = [1_000_000 + i for i in range(cfg.eval_episodes)]

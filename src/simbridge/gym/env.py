@@ -170,7 +170,8 @@ class SceneEnv(Env[Observation, NDArray[np.float32]]):
 
     def simulate(self, ctrl: NDArray[np.float64]) -> None:
         """Run `frame_skip` physics steps with `ctrl` (one row, or one row per step), then
-        bring body, geom and site poses up to date (`mj_kinematics`) for observing."""
+        bring poses, Jacobians and body velocities up to date (`mj_kinematics`, `mj_comPos`,
+        `mj_comVel`) for observing; contacts stay those of the last physics step."""
         model, data = self.world.model, self.world.data
         if ctrl.ndim == 1:
             data.ctrl[:] = ctrl
@@ -180,6 +181,8 @@ class SceneEnv(Env[Observation, NDArray[np.float32]]):
                 data.ctrl[:] = row
                 mujoco.mj_step(model, data)
         mujoco.mj_kinematics(model, data)
+        mujoco.mj_comPos(model, data)
+        mujoco.mj_comVel(model, data)
 
     def finish_step(
         self, action: NDArray[np.float32]
@@ -201,7 +204,7 @@ class SceneEnv(Env[Observation, NDArray[np.float32]]):
         if self.joints:
             obs["joint_pos"] = data.qpos[self._qpos].astype(np.float32)
             obs["joint_vel"] = data.qvel[self._dofs].astype(np.float32)
-        obs.update(self.task.observe(self.world))
+        obs.update(self.task.observe(self.world, self.goal))
         obs["goal"] = self.goal.astype(np.float32)
         for sensor in self.sensors:
             obs[sensor.key] = sensor.read(self.world)

@@ -43,8 +43,9 @@ class Task(ABC):
         """Spaces of the entries `observe` adds (none by default)."""
         return {}
 
-    def observe(self, world: World) -> dict[str, NDArray[np.float32]]:
-        """Task-specific observation entries (none by default)."""
+    def observe(self, world: World, goal: NDArray[np.float64]) -> dict[str, NDArray[np.float32]]:
+        """Task-specific observation entries, e.g. the goal relative to the robot (none by
+        default)."""
         return {}
 
     @abstractmethod

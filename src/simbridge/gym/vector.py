@@ -1,30 +1,31 @@
-"""`SceneVectorEnv`: many worlds on one compiled model, their physics stepped in one batch.
+"""`SceneVectorEnv`: many worlds on one compiled model, stepped on a pool of threads.
 
 Every sub-environment is a `SceneEnv` on a `World.clone()` of the first (one `MjModel`,
-one `MjData` each). A vector step applies each action to its world's drives (Python),
-then runs all the worlds' physics in one `mujoco.rollout` call: C++ threads that release
-the GIL, so the physics of N worlds spreads over the cores. Observations, rewards and
-termination are then computed per world. Autoreset follows Gymnasium's default
-(next step): the step after an episode ended resets that world and returns its first
-observation with reward 0.
+one `MjData` each). A vector step hands each thread one contiguous chunk of worlds and
+steps them there, action to observation: `mujoco.mj_step(..., nstep=frame_skip)` releases
+the GIL, so one thread's physics runs while another does its Python (drive targets,
+observations, rewards), and the physics of N worlds spreads over the cores. Each world
+steps exactly as it would alone: a sub-environment matches its single-env twin bit for
+bit. Autoreset follows Gymnasium's default (next step): the step after an episode ended
+resets that world and returns its first observation with reward 0.
 """
 
 from __future__ import annotations
 
 import os
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
-import mujoco
 import numpy as np
 from gymnasium import spaces
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
-from mujoco.rollout import Rollout
 from numpy.typing import NDArray
 
 from simbridge.errors import GymError
 from simbridge.gym.env import Observation, SceneEnv
+from simbridge.gym.sensors import CameraImage
 from simbridge.sim.world import World
 
 __all__ = ["EnvFactory", "SceneVectorEnv"]
@@ -32,7 +33,7 @@ __all__ = ["EnvFactory", "SceneVectorEnv"]
 EnvFactory = Callable[..., SceneEnv]
 """Builds one `SceneEnv`; must accept `world=` (a world to reuse) and `render_mode=`."""
 
-_STATE = mujoco.mjtState.mjSTATE_FULLPHYSICS
+_Result = tuple[Observation, float, bool, dict[str, Any]]
 VectorStep = tuple[
     Observation, NDArray[np.float64], NDArray[np.bool_], NDArray[np.bool_], dict[str, Any]
 ]
@@ -42,7 +43,8 @@ class SceneVectorEnv(VectorEnv[Observation, NDArray[np.float32], NDArray[Any]]):
     """`num_envs` copies of the environment `make_env(**env_kwargs)` builds, one model.
 
     `max_episode_steps` truncates episodes (as `TimeLimit` does for one env); `threads`
-    is the physics thread count (0: one per CPU).
+    is the thread count (0: one per CPU; worlds with camera observations use one, as an
+    OpenGL context belongs to the thread that made it).
     """
 
     def __init__(
@@ -69,10 +71,14 @@ class SceneVectorEnv(VectorEnv[Observation, NDArray[np.float32], NDArray[Any]]):
         self.observation_space = batch_space(first.observation_space, num_envs)
         self.action_space = batch_space(first.action_space, num_envs)
         self.model = first.world.model
-        nthread = max(1, min(threads or os.cpu_count() or 1, num_envs))
-        self._rollout: Rollout | None = Rollout(nthread=nthread if nthread > 1 else 0)
-        self._scratch = [mujoco.MjData(self.model) for _ in range(nthread)]
-        self._nstate = mujoco.mj_stateSize(self.model, _STATE)
+        if any(isinstance(s, CameraImage) for s in first.sensors):
+            threads = 1
+        self._threads = max(1, min(threads or os.cpu_count() or 1, num_envs))
+        self._pool = (
+            ThreadPoolExecutor(self._threads, thread_name_prefix="simbridge-gym")
+            if self._threads > 1
+            else None
+        )
         self._elapsed = np.zeros(num_envs, np.int64)
         self._autoreset = np.zeros(num_envs, np.bool_)
 
@@ -110,55 +116,51 @@ class SceneVectorEnv(VectorEnv[Observation, NDArray[np.float32], NDArray[Any]]):
             raise GymError(
                 f"actions must have shape {self.action_space.shape}, got {actions.shape}"
             )
-        stepping = [i for i in range(self.num_envs) if not self._autoreset[i]]
-        clipped = {i: self.envs[i].clip_action(actions[i]) for i in stepping}
-        ctrl = {
-            i: self.envs[i].action.controls(self.envs[i].world, clipped[i], self.envs[i].frame_skip)
-            for i in stepping
-        }
-        self._simulate(stepping, ctrl)
-        observations: list[Observation] = []
-        rewards = np.zeros(self.num_envs)
-        terminated = np.zeros(self.num_envs, np.bool_)
-        truncated = np.zeros(self.num_envs, np.bool_)
-        infos: dict[str, Any] = {}
-        for i, env in enumerate(self.envs):
-            if self._autoreset[i]:
-                obs, info = env.reset()
-                self._elapsed[i] = 0
-            else:
-                obs, rewards[i], terminated[i], _, info = env.finish_step(clipped[i])
-                self._elapsed[i] += 1
-                limit = self.max_episode_steps
-                truncated[i] = limit is not None and self._elapsed[i] >= limit
-            observations.append(obs)
-            infos = self._add_info(infos, info, i)
+        clipped = [env.clip_action(action) for env, action in zip(self.envs, actions, strict=True)]
+        results: list[_Result | None] = [None] * self.num_envs
+        resetting = self._autoreset.copy()
+
+        def run(chunk: list[int]) -> None:
+            for i in chunk:
+                env = self.envs[i]
+                if resetting[i]:
+                    obs, info = env.reset()
+                    results[i] = (obs, 0.0, False, info)
+                else:
+                    env.simulate(env.action.controls(env.world, clipped[i], env.frame_skip))
+                    obs, reward, terminated, _, info = env.finish_step(clipped[i])
+                    results[i] = (obs, reward, terminated, info)
+
+        chunks = [c.tolist() for c in np.array_split(np.arange(self.num_envs), self._threads)]
+        if self._pool is None or len(chunks) == 1:
+            run(list(range(self.num_envs)))
+        else:
+            list(self._pool.map(run, chunks))
+        done = [result for result in results if result is not None]
+        observations = [result[0] for result in done]
+        rewards = np.array([result[1] for result in done], np.float64)
+        terminated = np.array([result[2] for result in done], np.bool_)
+        infos = self._batch_infos([result[3] for result in done])
+        self._elapsed = np.where(resetting, 0, self._elapsed + 1)
+        limit = self.max_episode_steps
+        truncated = ~resetting & (limit is not None) & (self._elapsed >= (limit or 0))
         self._autoreset = terminated | truncated
         return self._stack(observations), rewards, terminated, truncated, infos
 
-    def _simulate(self, indices: list[int], ctrl: dict[int, NDArray[np.float64]]) -> None:
-        """Physics of the worlds `indices` in one multi-threaded rollout."""
-        if not indices:
-            return
-        assert self._rollout is not None, "the vector env is closed"
-        model = self.model
-        steps = self.envs[indices[0]].frame_skip
-        state = np.empty((len(indices), self._nstate))
-        warmstart = np.empty((len(indices), model.nv))
-        control = np.empty((len(indices), steps, model.nu))
-        for row, i in enumerate(indices):
-            data = self.envs[i].world.data
-            mujoco.mj_getState(model, data, state[row], _STATE)
-            warmstart[row] = data.qacc_warmstart
-            control[row] = ctrl[i]  # broadcasts a constant (nu,) row over the steps
-        trajectory, _ = self._rollout.rollout(
-            model, self._scratch, state, control, nstep=steps, initial_warmstart=warmstart
-        )
-        for row, i in enumerate(indices):
-            data = self.envs[i].world.data
-            mujoco.mj_setState(model, data, trajectory[row, -1], _STATE)
-            data.ctrl[:] = control[row, -1]
-            mujoco.mj_kinematics(model, data)
+    def _batch_infos(self, infos: list[dict[str, Any]]) -> dict[str, Any]:
+        """Gymnasium's vector info layout (key -> array, "_key" -> mask), in one pass when
+        every world reports the same keys (the usual case)."""
+        keys = set(infos[0])
+        if any(set(info) != keys for info in infos):
+            out: dict[str, Any] = {}
+            for i, info in enumerate(infos):
+                out = self._add_info(out, info, i)
+            return out
+        batched: dict[str, Any] = {}
+        for key in keys:
+            batched[key] = np.array([info[key] for info in infos])
+            batched[f"_{key}"] = np.ones(len(infos), np.bool_)
+        return batched
 
     def _stack(self, observations: list[Observation]) -> Observation:
         space = self.single_observation_space
@@ -174,8 +176,8 @@ class SceneVectorEnv(VectorEnv[Observation, NDArray[np.float32], NDArray[Any]]):
 
     def close_extras(self, **kwargs: Any) -> None:
         """Stop the physics threads and free the worlds' renderers."""
-        if self._rollout is not None:
-            self._rollout.close()
-            self._rollout = None
+        if self._pool is not None:
+            self._pool.shutdown()
+            self._pool = None
         for env in self.envs:
             env.close()

@@ -18,6 +18,7 @@ from simbridge.gym.actions import TwistCommand
 from simbridge.gym.env import SceneEnv, look_at
 from simbridge.gym.sensors import CameraImage, LidarRanges, SensorObservation
 from simbridge.gym.task import Task
+from simbridge.sim.control import Pose2D
 from simbridge.sim.scene import ObjectSpec, Scene
 from simbridge.sim.sensors import Odometry, OdometryConfig
 from simbridge.sim.world import World
@@ -31,13 +32,17 @@ NAV_SCENE = Path(
 
 
 def odometry_observation(
-    x: float, y: float, yaw: float, linear: float, angular: float
+    pose: Pose2D, linear: float, angular: float, goal: NDArray[np.float64]
 ) -> dict[str, NDArray[np.float32]]:
-    """The "pose" (x m, y m, cos yaw, sin yaw) and "velocity" (m/s, rad/s) entries, from
-    an odometry reading here or a nav_msgs/Odometry on the ROS side."""
+    """The "pose" (x m, y m, cos yaw, sin yaw), "velocity" (m/s, rad/s) and "goal_delta"
+    (the goal in the robot's frame: ahead m, left m) entries, from an odometry reading
+    here or a nav_msgs/Odometry on the ROS side."""
+    dx, dy = float(goal[0]) - pose.x, float(goal[1]) - pose.y
+    c, s = math.cos(pose.yaw), math.sin(pose.yaw)
     return {
-        "pose": np.array([x, y, math.cos(yaw), math.sin(yaw)], np.float32),
+        "pose": np.array([pose.x, pose.y, c, s], np.float32),
         "velocity": np.array([linear, angular], np.float32),
+        "goal_delta": np.array([c * dx + s * dy, -s * dx + c * dy], np.float32),
     }
 
 
@@ -62,9 +67,9 @@ class NavTask(Task):
     Reset: start pose and goal drawn uniformly in the room at least `margin` m from any
     wall or box, at least 1 m apart, random heading. Reward: progress towards the goal
     (m) per step, +1 on arrival, -1 on a collision (the base closer than `radius` to a
-    box). Terminates on arrival or collision. Observation adds "pose" and "velocity"
-    from the scene's odometry sensor (world-anchored, as /odom when the robot starts at
-    the scene's pose).
+    box). Terminates on arrival or collision. Observation adds "pose", "velocity" and
+    "goal_delta" (see `odometry_observation`) from the scene's odometry sensor
+    (world-anchored, as /odom when the robot starts at the scene's pose).
     """
 
     goal_space = spaces.Box(-2.0, 2.0, (2,), np.float32)
@@ -127,16 +132,18 @@ class NavTask(Task):
         return {
             "pose": spaces.Box(-3.0, 3.0, (4,), np.float32),
             "velocity": spaces.Box(-5.0, 5.0, (2,), np.float32),
+            "goal_delta": spaces.Box(-6.0, 6.0, (2,), np.float32),
         }
 
-    def observe(self, world: World) -> dict[str, NDArray[np.float32]]:
-        """Pose and twist as the odometry sensor reads them."""
+    def observe(self, world: World, goal: NDArray[np.float64]) -> dict[str, NDArray[np.float32]]:
+        """Pose and twist as the odometry sensor reads them, and the goal seen from the base."""
         assert self._odometry is not None, "bind() first"
         reading = self._odometry.read(world.model, world.data)
         rotation = reading.pose.rotation
         yaw = math.atan2(rotation[1, 0], rotation[0, 0])
         x, y = (float(v) for v in reading.pose.position[:2])
-        return odometry_observation(x, y, yaw, float(reading.linear[0]), float(reading.angular[2]))
+        linear, angular = float(reading.linear[0]), float(reading.angular[2])
+        return odometry_observation(Pose2D(x, y, yaw), linear, angular, goal)
 
     def collided(self, world: World) -> bool:
         """The base is closer than `radius` to a box (walls included)."""

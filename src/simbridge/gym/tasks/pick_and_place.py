@@ -132,7 +132,7 @@ class PickAndPlaceEnvTask(Task):
             "cube_quat": spaces.Box(-1.0, 1.0, (4,), np.float32),
         }
 
-    def observe(self, world: World) -> dict[str, NDArray[np.float32]]:
+    def observe(self, world: World, goal: NDArray[np.float64]) -> dict[str, NDArray[np.float32]]:
         """Grasp point, cube position and orientation (w, x, y, z)."""
         data = world.data
         quat = np.empty(4)

@@ -65,7 +65,8 @@ class ReachTask(Task):
     Reset: arm joints at the scene's initial positions plus uniform noise of
     +-`joint_noise` rad; goal drawn uniformly at 0.15-0.32 m from the base axis, within
     +-60 degrees of +x, 0.08-0.35 m high. Reward: minus the distance (m). Success (and
-    termination): distance < tolerance. Observation adds "ee_pos" (m, world frame).
+    termination): distance < tolerance. Observation adds "ee_pos" and "goal_delta" (goal
+    minus ee_pos), m, world frame.
     """
 
     goal_space = spaces.Box(-1.0, 1.0, (3,), np.float32)
@@ -109,12 +110,16 @@ class ReachTask(Task):
         return goal
 
     def observation_spaces(self) -> Mapping[str, spaces.Box]:
-        """"ee_pos": the end effector's position (m)."""
-        return {"ee_pos": spaces.Box(-2.0, 2.0, (3,), np.float32)}
+        """"ee_pos": the end effector's position, "goal_delta": goal - ee_pos (m, world)."""
+        return {
+            "ee_pos": spaces.Box(-2.0, 2.0, (3,), np.float32),
+            "goal_delta": spaces.Box(-4.0, 4.0, (3,), np.float32),
+        }
 
-    def observe(self, world: World) -> dict[str, NDArray[np.float32]]:
-        """The end effector's position."""
-        return {"ee_pos": world.data.xpos[self._body].astype(np.float32)}
+    def observe(self, world: World, goal: NDArray[np.float64]) -> dict[str, NDArray[np.float32]]:
+        """The end effector's position and the goal relative to it."""
+        ee = world.data.xpos[self._body]
+        return {"ee_pos": ee.astype(np.float32), "goal_delta": (goal - ee).astype(np.float32)}
 
     def distance(self, world: World, goal: NDArray[np.float64]) -> float:
         """End effector to goal (m)."""

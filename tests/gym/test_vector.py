@@ -1,0 +1,88 @@
+"""Vectorised envs: the in-process batch of worlds on one model, and Gymnasium's sync/async."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import simbridge.gym  # noqa: F401 - registers the ids
+from simbridge.errors import GymError
+from simbridge.gym import SceneVectorEnv
+
+
+def _actions(space: gym.Space[np.ndarray], steps: int, seed: int) -> list[np.ndarray]:
+    space.seed(seed)
+    return [space.sample() for _ in range(steps)]
+
+
+@pytest.mark.parametrize("env_id", ["simbridge/Reach-v0", "simbridge/DiffDriveNav-v0"])
+def test_batched_worlds_match_single_envs_bit_for_bit(env_id: str) -> None:
+    vec = gym.make_vec(env_id, num_envs=3)
+    assert isinstance(vec, SceneVectorEnv)
+    assert len({id(w.model) for w in vec.worlds}) == 1, "one compiled model for every world"
+    assert len({id(w.data) for w in vec.worlds}) == 3
+    actions = _actions(vec.action_space, 15, 1)
+    obs, _ = vec.reset(seed=20)
+    trace = [obs]
+    for action in actions:
+        obs, _reward, terminated, truncated, _ = vec.step(action)
+        assert not (terminated.any())
+        assert not (truncated.any())
+        trace.append(obs)
+    vec.close()
+    for i in range(3):
+        env = gym.make(env_id)
+        obs, _ = env.reset(seed=20 + i)
+        single = [obs]
+        for action in actions:
+            obs, *_ = env.step(action[i])
+            single.append(obs)
+        for t, (batched, alone) in enumerate(zip(trace, single, strict=True)):
+            for key in alone:
+                np.testing.assert_array_equal(
+                    batched[key][i], alone[key], err_msg=f"world {i} step {t} {key}"
+                )
+
+
+def test_truncation_and_next_step_autoreset() -> None:
+    vec = gym.make_vec("simbridge/Reach-v0", num_envs=2, max_episode_steps=3)
+    first, _ = vec.reset(seed=7)
+    zero = np.zeros((2, 3), np.float32)
+    for _ in range(2):
+        _, _, _, truncated, _ = vec.step(zero)
+        assert not truncated.any()
+    _, _, _, truncated, _ = vec.step(zero)
+    assert truncated.all()
+    obs, reward, terminated, truncated, _ = vec.step(zero)  # the autoreset step
+    assert (reward == 0).all()
+    assert not (terminated.any())
+    assert not (truncated.any())
+    assert not np.array_equal(obs["goal"], first["goal"]), "autoreset draws a new episode"
+    vec.close()
+
+
+def test_vector_rejects_wrong_action_shapes() -> None:
+    vec = gym.make_vec("simbridge/Reach-v0", num_envs=2)
+    vec.reset(seed=0)
+    with pytest.raises(GymError, match="shape"):
+        vec.step(np.zeros((3, 3), np.float32))
+    vec.close()
+
+
+@pytest.mark.parametrize("mode", ["sync", "async"])
+def test_gymnasium_sync_and_async_vector_envs(mode: str) -> None:
+    vec = gym.make_vec("simbridge/Reach-v0", num_envs=2, vectorization_mode=mode)
+    obs, _ = vec.reset(seed=3)
+    assert obs["ee_pos"].shape == (2, 3)
+    for action in _actions(vec.action_space, 5, 0):
+        obs, reward, _terminated, _truncated, _info = vec.step(action)
+    assert reward.shape == (2,)
+    assert obs["joint_pos"].shape == (2, 6)
+    reference = gym.make_vec("simbridge/Reach-v0", num_envs=2)
+    expected, _ = reference.reset(seed=3)
+    for action in _actions(vec.action_space, 5, 0):
+        expected, *_ = reference.step(action)
+    np.testing.assert_allclose(obs["ee_pos"], expected["ee_pos"], atol=1e-4)
+    reference.close()
+    vec.close()
