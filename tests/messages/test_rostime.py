@@ -264,3 +264,16 @@ def test_ros2_time_range_and_cdr_errors(registry: MessageRegistry) -> None:
     assert "std_msgs/Header.stamp.sec: 2147483648 is out of range for CDR time sec (int32)" in str(
         info.value
     )
+
+
+def test_types_added_later_use_the_ros1_layout(fresh_registry: MessageRegistry) -> None:
+    """A type registered after the registry was built still carries uint32 time secs."""
+    fresh_registry.add_message("demo_msgs/Stamps", "time[] stamps\nduration[2] waits\n")
+    msg = fresh_registry.from_dict(
+        "demo_msgs/Stamps",
+        {"stamps": [[UINT32_MAX, 1], [2**31, 0]], "waits": [-1.5, [INT32_MIN, 0]]},
+    )
+    golden = struct.pack("<I4I4i", 2, UINT32_MAX, 1, 2**31, 0, -2, 500_000_000, INT32_MIN, 0)
+    assert fresh_registry.encode(msg) == golden
+    decoded = fresh_registry.decode(golden, "demo_msgs/Stamps")
+    assert [(t.sec, t.nanosec) for t in decoded.stamps] == [(UINT32_MAX, 1), (2**31, 0)]

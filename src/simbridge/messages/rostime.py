@@ -82,6 +82,6 @@ def _deserializer(layout: struct.Struct) -> Any:
 
     def deserialize_ros1(rawdata: Any, pos: int, cls: Any, typestore: Any) -> tuple[Any, int]:
         sec, nanosec = unpack_from(rawdata, pos)
-        return cls(sec=sec, nanosec=nanosec), pos + size
+        return cls(sec, nanosec), pos + size
 
     return deserialize_ros1
