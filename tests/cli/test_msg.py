@@ -20,6 +20,12 @@ def test_md5_of_an_unknown_package_says_so_and_how_to_add_it(
     assert "names look like" not in err
 
 
+def test_unknown_package_without_close_names(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["msg", "md5", "zz_q/Xy"]) == 2
+    err = capsys.readouterr().err
+    assert "package 'zz_q' is unknown. Load the package's .msg/.srv files with --msg-path" in err
+
+
 def test_unknown_package_suggests_close_names(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["msg", "show", "geometry_msg/Pose"]) == 2
     err = capsys.readouterr().err

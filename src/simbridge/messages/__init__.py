@@ -3,8 +3,9 @@
 `default_registry()` returns the shared MessageRegistry: every ROS 1 noetic type
 in rosbags' typestore plus the definitions shipped in `definitions/` (a moveit_msgs
 subset, niryo_moveit from Unity's pick-and-place tutorial, tf2_msgs, std_srvs,
-roscpp, sensor_msgs and nav_msgs services). More packages load from directories in the ROS
-layout with `registry.load_packages(path)`; `.action` files expand like genmsg's.
+move_base_msgs, roscpp, sensor_msgs and nav_msgs services). More packages load from
+directories in the ROS layout with `registry.load_packages(path)`; `.action` files
+expand like genmsg's.
 
 Names: `pkg/Type` is canonical; `pkg/msg/Type` is accepted too. Services are
 `pkg/Srv` (or `pkg/srv/Srv`); their parts `pkg/SrvRequest` / `pkg/SrvResponse`

@@ -230,7 +230,7 @@ class MessageRegistry:
             msg = f"unknown {kind} type {name!r}{hint} (names look like pkg/Type)"
         elif parsed.package not in self.packages():
             msg = (
-                f"unknown {kind} type {name!r}: package {parsed.package!r} is unknown{hint} "
+                f"unknown {kind} type {name!r}: package {parsed.package!r} is unknown{hint or '.'} "
                 "Load the package's .msg/.srv files with --msg-path DIR (a package directory "
                 "or a directory of packages; MessageRegistry.load_packages in Python)"
             )
