@@ -58,13 +58,14 @@ def test_effort_mode_accelerates_as_newton_says(tmp_path: Path) -> None:
     world = arm_world(
         tmp_path,
         physics={"gravity": [0, 0, 0]},
-        robot={"drives": {"joints": {"wrist": {"mode": "effort"}}}},
+        robot={"drives": {"joints": {"wrist": {"mode": "effort"}}}, "armature": 0.002},
     )
     torque = 0.01
     world.drives.set_effort("wrist", torque)
     world.step(250)  # 0.5 s
-    # wrist turns the 'spin' link plus two fingers about X: I = 0.001 + 2 * 1e-5 (at the axis)
-    alpha = torque / (0.001 + 2e-5)
+    # wrist turns the 'spin' link plus two fingers about X: I = 0.001 + 2 * 1e-5 (at the axis),
+    # plus the joint's armature (rotor inertia)
+    alpha = torque / (0.001 + 2e-5 + 0.002)
     assert world.joint_positions()["wrist"] == pytest.approx(0.5 * alpha * 0.25, rel=2e-2)
     assert world.joint_efforts()["wrist"] == pytest.approx(torque)
 

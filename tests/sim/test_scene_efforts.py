@@ -158,3 +158,19 @@ def test_zero_pose_outside_limits_is_clamped_even_in_strict_mode(tmp_path: Path)
     assert len(texts) == 2
     assert "joint 'shoulder': initial position (zero pose) 0 is outside its limits" in texts[0]
     assert np.allclose(list(world.joint_positions().values()), [0.5, 0.5])
+
+
+def test_unstable_position_gains_are_warned_about_at_load(tmp_path: Path) -> None:
+    _, messages = _world(
+        tmp_path,
+        effort_limits="ignore",
+        drives={
+            "default": {"stiffness": 10000, "damping": 2},
+            "joints": {"elbow": {"damping": 20}},
+        },
+    )
+    assert messages == [
+        f"{tmp_path / 'arm.urdf'}: robot 'weak_arm' joint 'shoulder': drive stiffness 10000 "
+        "with damping 2 breaks the stability rule timestep * stiffness / damping < 2 "
+        "(0.002 * 10000 / 2 = 10); raise damping above 10 or lower the stiffness"
+    ]

@@ -28,7 +28,6 @@ from simbridge.sim.urdf.model import (
     Robot,
     Sphere,
 )
-from simbridge.sim.urdf.transforms import Vec3
 
 __all__ = ["BuiltRobot", "BuiltScene", "build_scene"]
 
@@ -95,8 +94,23 @@ def _initial_positions(
     return resolved
 
 
+def _check_stability(where: str, name: str, joint: str, drive: DriveSpec, dt: float) -> None:
+    """Warn about position gains the integrator cannot keep stable (implicit damping
+    needs timestep * stiffness / damping < 2)."""
+    if drive.mode is not DriveMode.POSITION or drive.stiffness == 0:
+        return
+    ratio = math.inf if drive.damping == 0 else dt * drive.stiffness / drive.damping
+    if ratio >= 2:
+        _warn(
+            f"{where}robot '{name}' joint '{joint}': drive stiffness {drive.stiffness:g} with "
+            f"damping {drive.damping:g} breaks the stability rule timestep * stiffness / "
+            f"damping < 2 ({dt:g} * {drive.stiffness:g} / {drive.damping:g} = {ratio:.3g}); "
+            f"raise damping above {dt * drive.stiffness / 2:g} or lower the stiffness"
+        )
+
+
 def _robot(
-    doc: MjcfDocument, spec: RobotSpec, meshes: MeshCache, strict: bool, gravity: Vec3
+    doc: MjcfDocument, spec: RobotSpec, meshes: MeshCache, strict: bool, physics: PhysicsSettings
 ) -> BuiltRobot:
     robot = load_urdf(
         spec.urdf, search_paths=spec.search_paths, xacro_args=spec.xacro_args, strict=strict
@@ -126,7 +140,7 @@ def _robot(
             )
     spec = replace(spec, initial_positions=_initial_positions(robot, spec, name, where, strict))
     torques = gravity_torques(
-        robot, mjcf.inertials, spec.initial_positions, spec.base.transform, gravity
+        robot, mjcf.inertials, spec.initial_positions, spec.base.transform, physics.gravity
     )
     efforts = {
         j: joint.limit.effort if joint.limit is not None else 0.0 for j, joint in drivable.items()
@@ -156,6 +170,7 @@ def _robot(
                 "hold at the initial pose, so it will sag (set effort_limits: scale or ignore, "
                 f"or drives.joints.{joint_name}.force_limit)"
             )
+        _check_stability(where, name, joint_name, drive, physics.timestep)
         mj_name = mjcf.joint_name(joint_name)
         add_drive_actuator(actuators, mj_name, drive.force_limit)
         drives[mj_name] = drive
@@ -256,9 +271,7 @@ def build_scene(scene: Scene, meshes: MeshCache | None = None) -> BuiltScene:
         _light(doc, light, i)
     for obj in scene.objects:
         _object(doc, obj, cache)
-    robots = tuple(
-        _robot(doc, spec, cache, scene.strict, scene.physics.gravity) for spec in scene.robots
-    )
+    robots = tuple(_robot(doc, spec, cache, scene.strict, scene.physics) for spec in scene.robots)
     names = [r.name for r in robots]
     if len(set(names)) != len(names):
         raise SimError(f"scene robots: duplicate robot names {names} (set 'name' on each)")

@@ -64,7 +64,9 @@ class RobotSpec:
     initial_positions: dict[str, float] = field(default_factory=dict)
     default_drive: DriveSpec = field(default_factory=DriveSpec)
     joint_drives: dict[str, DriveSpec] = field(default_factory=dict)
-    armature: float = 0.0
+    armature: float = 0.01
+    """Rotor inertia (kg m^2, or kg for prismatic joints) added to every joint: keeps stiff
+    drives on light links (wrists, fingers) stable; URDF has no field for it."""
     effort_limits: str = "urdf"
     """What URDF `effort` values become: "urdf" (force limits, with a warning where one
     cannot hold the robot against gravity), "ignore" (unlimited) or "scale"."""
