@@ -191,3 +191,52 @@ def test_structural_errors_name_file_line_and_element(
     with pytest.raises(UrdfError, match=message) as info:
         load_urdf(path)
     assert str(info.value).count(str(path)) == 1  # the file is named once
+
+
+def test_robot_without_name_is_named_after_the_file(tmp_path: Path) -> None:
+    # ur3.urdf in example-robot-data has <robot> without a name
+    path = _write(tmp_path, "<robot>\n  <link name='a'/>\n</robot>", "ur3.urdf")
+    robot, messages = _load(path)
+    assert robot.name == "ur3"  # type: ignore[attr-defined]
+    assert messages == [f"{path}:1: <robot> is missing attribute 'name'; calling it 'ur3'"]
+    with pytest.raises(UrdfError, match="strict mode"):
+        load_urdf(path, strict=True)
+
+
+def test_mimic_on_a_fixed_joint_is_ignored(tmp_path: Path) -> None:
+    # Talos' gripper: <joint type="fixed"> with a <mimic>
+    text = """<robot name="r">
+  <link name="a"/><link name="b"/><link name="c"/>
+  <joint name="j" type="continuous"><parent link="a"/><child link="b"/></joint>
+  <joint name="f" type="fixed"><parent link="b"/><child link="c"/>
+    <mimic joint="j"/></joint>
+</robot>"""
+    path = _write(tmp_path, text)
+    robot, messages = _load(path)
+    assert messages == [f"{path}:5: joint 'f': a fixed joint cannot mimic; ignoring <mimic>"]
+    assert robot.joints["f"].mimic is None  # type: ignore[attr-defined]
+
+
+def test_package_uri_with_three_slashes_resolves(tmp_path: Path) -> None:
+    # Talos: package:///example-robot-data/robots/talos_data/meshes/...
+    from tests.sim.mesh_samples import ascii_stl
+
+    (tmp_path / "pkg" / "meshes").mkdir(parents=True)
+    ascii_stl(tmp_path / "pkg" / "meshes" / "m.stl")
+    text = """<robot name="r"><link name="a"><visual><geometry>
+  <mesh filename="package:///pkg/meshes/m.stl"/></geometry></visual></link></robot>"""
+    path = _write(tmp_path, text)
+    robot = load_urdf(path, search_paths=[tmp_path], strict=True)
+    mesh = robot.links["a"].visuals[0].geometry
+    assert mesh.path == (tmp_path / "pkg" / "meshes" / "m.stl").resolve()  # type: ignore[union-attr]
+
+
+def test_vanishing_inertia_is_replaced(tmp_path: Path) -> None:
+    # iCub's ankle: principal moments of 1e-20 kg m^2, which MuJoCo refuses
+    from simbridge.sim.urdf import inertial_problem
+    from simbridge.sim.urdf.model import Inertial
+
+    problem = inertial_problem(Inertial(0.746, ixx=2.7e-20, iyy=5.4e-20, izz=1.4e-20))
+    assert problem is not None
+    assert "not positive definite" in problem
+    assert inertial_problem(Inertial(0.01, ixx=1e-9, iyy=1e-9, izz=1e-9)) is None

@@ -15,6 +15,8 @@ from simbridge.sim.urdf.model import Box, Collision, Cylinder, Inertial, Link, M
 __all__ = ["InertiaPolicy", "inertial_from_collisions", "inertial_problem", "resolve_inertial"]
 
 Matrix = NDArray[np.float64]
+MIN_INERTIA = 1e-12
+"""Principal moments (kg m^2) at or below this count as zero (e.g. iCub's 1e-20 values)."""
 
 
 @dataclass(frozen=True)
@@ -34,8 +36,11 @@ def inertial_problem(inertial: Inertial) -> str | None:
     if inertial.mass <= 0.0:
         return f"has mass {inertial.mass} (must be positive)"
     eigen = np.linalg.eigvalsh(inertial.tensor)
-    if float(eigen.min()) <= 0.0:
-        return f"has an inertia tensor that is not positive definite (eigenvalues {eigen.round(9)})"
+    if float(eigen.min()) <= MIN_INERTIA:
+        return (
+            "has an inertia tensor that is not positive definite "
+            f"(eigenvalues {' '.join(f'{e:.3g}' for e in eigen)}; MuJoCo needs > {MIN_INERTIA:g})"
+        )
     return None
 
 

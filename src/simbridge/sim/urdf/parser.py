@@ -294,14 +294,17 @@ class _Parser:
             leader = mimic_elem.get("joint")
             if not leader:
                 raise UrdfError(f"{where} <mimic>: missing attribute 'joint'")
-            if not jtype.is_single_dof:
-                raise UrdfError(f"{where}: a {jtype.value} joint cannot mimic another joint")
             mw = f"{where} <mimic>"
-            mimic = Mimic(
-                leader,
-                _float(mimic_elem, "multiplier", mw, 1.0),
-                _float(mimic_elem, "offset", mw, 0.0),
-            )
+            if not jtype.is_single_dof:
+                self.lenient(
+                    mimic_elem, f"{where}: a {jtype.value} joint cannot mimic; ignoring <mimic>"
+                )
+            else:
+                mimic = Mimic(
+                    leader,
+                    _float(mimic_elem, "multiplier", mw, 1.0),
+                    _float(mimic_elem, "offset", mw, 0.0),
+                )
         return Joint(
             name,
             jtype,
@@ -343,10 +346,11 @@ def parse_urdf(
     root = tree.root
     if root.tag != "robot":
         raise UrdfError(f"{tree.at(root)}root element is <{root.tag}>, expected <robot>")
+    parser = _Parser(tree, resolver, strict)
     robot_name = root.get("name")
     if not robot_name:
-        raise UrdfError(f"{tree.at(root)}<robot> is missing attribute 'name'")
-    parser = _Parser(tree, resolver, strict)
+        robot_name = source.name.split(".")[0] if source is not None else "robot"
+        parser.lenient(root, f"<robot> is missing attribute 'name'; calling it '{robot_name}'")
     for elem in root.findall("material"):
         mat = parser.material(elem, "robot")
         if not mat.name:

@@ -58,7 +58,7 @@ class ResourceResolver:
     def resolve(self, uri: str, element: str) -> Path:
         """The existing file `uri` names; `element` (e.g. "link 'arm' mesh") is used in errors."""
         if uri.startswith("package://"):
-            rest = uri[len("package://") :]
+            rest = uri[len("package://") :].lstrip("/")  # Talos files say package:///pkg
             package, _, relative = rest.partition("/")
             pkg_dir = self.package_dir(package)
             if pkg_dir is None:
