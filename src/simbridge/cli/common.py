@@ -9,7 +9,13 @@ if TYPE_CHECKING:
     from simbridge.connector import Connector
     from simbridge.messages import MessageRegistry
 
-__all__ = ["add_endpoint_arg", "connect", "endpoint_address", "print_msg"]
+__all__ = [
+    "add_endpoint_arg",
+    "connect",
+    "endpoint_address",
+    "print_msg",
+    "reexec_in_ros2_venv",
+]
 
 
 def endpoint_address(text: str) -> tuple[str, int]:
@@ -55,3 +61,29 @@ def strip_arrays(value: object) -> object:
     if isinstance(value, list):
         return [strip_arrays(v) for v in value]
     return value
+
+
+def reexec_in_ros2_venv() -> None:
+    """rclpy lives in the ROS 2 venv (it cannot share an interpreter with rospy): run this
+    same command with that venv's Python, without the ROS 1 paths (`--backend ros2` of
+    the endpoint and the demos). Returns when rclpy is importable here already."""
+    import importlib.util
+    import os
+    import sys
+
+    if importlib.util.find_spec("rclpy") is not None:
+        return
+    from simbridge.endpoint.backends.ros2_env import ros2_python
+    from simbridge.errors import EndpointError
+
+    python = ros2_python()
+    if python is None:
+        raise EndpointError(
+            "--backend ros2 needs the ROS 2 venv: run `make ros2` in the simbridge checkout, "
+            "or set SIMBRIDGE_ROS2_PYTHON to a Python that has rclpy"
+        )
+    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "PYTHONHOME")}
+    argv = [str(python), "-m", "simbridge.cli", *sys.argv[1:]]
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os.execve(python, argv, env)

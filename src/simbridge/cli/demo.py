@@ -4,10 +4,14 @@ from __future__ import annotations
 
 import argparse
 
+from .common import reexec_in_ros2_venv
+
 __all__ = ["add_parser"]
 
 
 def run_demo(args: argparse.Namespace) -> int:
+    if args.backend == "ros2":
+        reexec_in_ros2_venv()
     if args.name == "bridge":
         from simbridge.apps.bridge_demo import run_bridge_demo
 
@@ -43,10 +47,12 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     )
     demo.add_argument(
         "--backend",
-        choices=["local", "ros1"],
+        choices=["local", "ros1", "ros2"],
         default="local",
         help="every demo: local (the embedded bus, no ROS needed) or ros1 (real ROS topics and "
-        "services on the master at ROS_MASTER_URI, else a private roscore)",
+        "services on the master at ROS_MASTER_URI, else a private roscore); mobile-robot and "
+        "pick-and-place: ros2 (real ROS 2 topics and services, localhost-only DDS, in the "
+        "ROS 2 venv)",
     )
     demo.add_argument(
         "--json",

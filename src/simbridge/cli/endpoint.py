@@ -7,37 +7,14 @@ import asyncio
 import contextlib
 import signal
 
+from .common import reexec_in_ros2_venv
+
 __all__ = ["add_parser"]
-
-
-def _reexec_in_ros2_venv() -> None:
-    """rclpy lives in the ROS 2 venv (it cannot share an interpreter with rospy): run this
-    same command with that venv's Python, without the ROS 1 paths."""
-    import importlib.util
-    import os
-    import sys
-
-    if importlib.util.find_spec("rclpy") is not None:
-        return
-    from simbridge.endpoint.backends.ros2_env import ros2_python
-    from simbridge.errors import EndpointError
-
-    python = ros2_python()
-    if python is None:
-        raise EndpointError(
-            "--backend ros2 needs the ROS 2 venv: run `make ros2` in the simbridge checkout, "
-            "or set SIMBRIDGE_ROS2_PYTHON to a Python that has rclpy"
-        )
-    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "PYTHONHOME")}
-    argv = [str(python), "-m", "simbridge.cli", *sys.argv[1:]]
-    sys.stdout.flush()
-    sys.stderr.flush()
-    os.execve(python, argv, env)
 
 
 def run_endpoint(args: argparse.Namespace) -> int:
     if args.backend == "ros2":
-        _reexec_in_ros2_venv()
+        reexec_in_ros2_venv()
     from simbridge.endpoint import EndpointOptions, EndpointServer, make_backend
 
     backend = make_backend(
@@ -109,9 +86,7 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         help="TCP port (default: ros1 param ~tcp_port, else 10000; 0 = any free port)",
     )
     ep.add_argument("--backend", choices=["local", "ros1", "ros2"], default="local")
-    ep.add_argument(
-        "--node-name", default="/simbridge_endpoint", help="ROS node name (ros1, ros2)"
-    )
+    ep.add_argument("--node-name", default="/simbridge_endpoint", help="ROS node name (ros1, ros2)")
     ep.add_argument(
         "--protocol",
         type=str.upper,

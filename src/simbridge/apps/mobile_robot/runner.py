@@ -28,7 +28,7 @@ from simbridge.sim.world import World
 
 __all__ = ["BACKENDS", "BASE_LINK", "SCENE_PATH", "main", "run_mobile_robot"]
 
-BACKENDS = ("local", "ros1")
+BACKENDS = ("local", "ros1", "ros2")
 
 SCENE_PATH = Path(__file__).resolve().parent / "scene.yaml"
 BASE_LINK = "base_link"
@@ -90,9 +90,11 @@ def run_mobile_robot(
     node closing the loop on /odom. `backend` "local" puts the endpoint and the driver on
     the embedded bus; "ros1" makes the endpoint a rospy node (on the master at
     ROS_MASTER_URI, else a private roscore) and the driver's topics real ROS topics, so
-    `rostopic echo /odom` sees the run. `realtime_factor` 0 runs as fast as possible;
-    `subscribe_sensors` False leaves lidar, camera and IMU without subscribers (so they
-    are never computed). `json` prints the summary as the last line.
+    `rostopic echo /odom` sees the run; "ros2" makes the endpoint an rclpy node (ROS 2
+    venv; localhost-only DDS in ROS_DOMAIN_ID) and the driver's topics real ROS 2
+    topics, and the sim speaks ROS 2 (CDR, ROS 2 layouts). `realtime_factor` 0 runs as
+    fast as possible; `subscribe_sensors` False leaves lidar, camera and IMU without
+    subscribers (so they are never computed). `json` prints the summary as the last line.
     """
     if backend not in BACKENDS:
         raise AppError(f"unknown backend {backend!r}; choose one of {', '.join(BACKENDS)}")
@@ -102,6 +104,9 @@ def run_mobile_robot(
         graph: Backend
         if backend == "local":
             graph, where = LocalBus(), "local bus"
+        elif backend == "ros2":
+            graph = make_backend("ros2", node_name="/simbridge_mobile_robot")
+            where = "ros2 backend"
         else:
             master = stack.enter_context(DemoMaster())
             graph = make_backend("ros1", node_name=unique_node_name("simbridge_mobile_robot"))
