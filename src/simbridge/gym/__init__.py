@@ -22,6 +22,7 @@ from simbridge.gym.actions import (
 from simbridge.gym.ars import ARSConfig, ARSResult, LinearPolicy, train_ars
 from simbridge.gym.env import Observation, SceneEnv, look_at
 from simbridge.gym.registration import ENV_IDS, register_envs
+from simbridge.gym.ros_policy import Policy, RosPolicyRunner
 from simbridge.gym.sensors import CameraImage, LidarRanges, SensorObservation
 from simbridge.gym.task import Task
 from simbridge.gym.vector import SceneVectorEnv
@@ -41,6 +42,8 @@ __all__ = [
     "LidarRanges",
     "LinearPolicy",
     "Observation",
+    "Policy",
+    "RosPolicyRunner",
     "SceneEnv",
     "SceneVectorEnv",
     "SensorObservation",

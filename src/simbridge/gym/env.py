@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -197,8 +197,10 @@ class SceneEnv(Env[Observation, NDArray[np.float32]]):
         terminated = bool(self.task.terminated(world, goal))
         return self.observe(), reward, terminated, False, {"is_success": success}
 
-    def observe(self) -> Observation:
-        """The observation for the world's current state."""
+    def observe(self, readings: Mapping[str, NDArray[Any]] | None = None) -> Observation:
+        """The observation for the world's current state; `readings` replace sensor entries
+        by key (the ROS side passes the ranges and images it received)."""
+        readings = readings or {}
         data = self.world.data
         obs: Observation = {}
         if self.joints:
@@ -207,5 +209,6 @@ class SceneEnv(Env[Observation, NDArray[np.float32]]):
         obs.update(self.task.observe(self.world, self.goal))
         obs["goal"] = self.goal.astype(np.float32)
         for sensor in self.sensors:
-            obs[sensor.key] = sensor.read(self.world)
+            reading = readings.get(sensor.key)
+            obs[sensor.key] = sensor.read(self.world) if reading is None else reading
         return obs
