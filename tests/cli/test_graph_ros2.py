@@ -100,3 +100,34 @@ def test_list_hz_and_service_call(
     rates = [float(line.split()[2]) for line in capsys.readouterr().out.splitlines()]
     assert rates
     assert 20 < rates[-1] < 60  # published every 20 ms
+
+
+def test_endpoint_command_plays_a_ros2_graph() -> None:
+    """`simbridge endpoint --protocol ros2`: the local bus, announced as ROS2 in the handshake."""
+    import re
+    import subprocess
+    import sys
+
+    from simbridge.connector import Connector
+
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "simbridge.cli", "endpoint", "--protocol", "ros2", "--port", "0"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
+    try:
+        assert proc.stdout is not None
+        match = None
+        for line in proc.stdout:
+            match = re.search(r"listening on 127\.0\.0\.1:(\d+) \(backend local\)", line)
+            if match:
+                break
+        assert match
+        with Connector("127.0.0.1", int(match.group(1))).connect() as conn:
+            assert conn.handshake is not None
+            assert conn.handshake.protocol == "ROS2"
+            assert conn.registry is REG2
+    finally:
+        proc.terminate()
+        proc.wait(10)
