@@ -74,8 +74,8 @@ class PickAndPlaceEnvTask(Task):
     Reset: the gripper open, pointing down 0.12 m above the table at (0.2, 0), the cube
     (yaw 0) and the target drawn on a ring 0.17-0.28 m from the base, 0.1 m apart or
     more. Reward: -(grasp point to cube) - 2 (cube to target), in m. Success (and
-    termination): the cube's centre within `tolerance` of the target centre, i.e. set
-    down there. Observation adds "ee_pos" (grasp point), "cube_pos" and "cube_quat" (w,
+    termination): the cube's centre within `tolerance` of the target centre (set down
+    there) with the fingers opened wider than the cube (let go). Observation adds "ee_pos" (grasp point), "cube_pos" and "cube_quat" (w,
     x, y, z).
     """
 
@@ -89,6 +89,7 @@ class PickAndPlaceEnvTask(Task):
         self._cube_qpos = -1
         self._cube_half = 0.025
         self._mocap = -1
+        self._finger_qpos = -1
 
     def extensions(self) -> Sequence[ModelExtension]:
         """Grasp contacts and the target marker."""
@@ -107,6 +108,7 @@ class PickAndPlaceEnvTask(Task):
         geom = int(body.geomadr[0])
         self._cube_half = float(model.geom_size[geom][2])
         self._mocap = int(model.body_mocapid[model.body(TARGET_MARKER).id])
+        self._finger_qpos = int(model.joint(GRIPPER_JOINT).qposadr[0])
 
     def reset(self, world: World, rng: np.random.Generator) -> NDArray[np.float64]:
         """Arm to the ready pose, cube and target on the ring."""
@@ -152,8 +154,10 @@ class PickAndPlaceEnvTask(Task):
         )
 
     def success(self, world: World, goal: NDArray[np.float64]) -> bool:
-        """The cube rests on the target."""
-        return float(np.linalg.norm(world.data.xpos[self._cube_body] - goal)) < self.tolerance
+        """The cube is on the target and the fingers have let go of it."""
+        released = float(world.data.qpos[self._finger_qpos]) > self._cube_half + 0.004
+        at_target = float(np.linalg.norm(world.data.xpos[self._cube_body] - goal)) < self.tolerance
+        return released and at_target
 
 
 def make_pick_and_place(
