@@ -23,12 +23,12 @@ def _pick_and_place(seed: int, close_gripper: bool) -> tuple[bool, float]:
         ee, cube, goal = obs["ee_pos"], obs["cube_pos"], obs["goal"]
         closed = -1.0 if close_gripper else 1.0
         target, grip = {
-            0: (cube + [0, 0, 0.06], 1.0),
+            0: (cube + np.array([0, 0, 0.06]), 1.0),
             1: (cube, 1.0),
             2: (ee, closed),
             3: (np.array([ee[0], ee[1], 0.1]), closed),
-            4: (goal + [0, 0, 0.07], closed),
-            5: (goal + [0, 0, 0.003], closed),
+            4: (goal + np.array([0, 0, 0.07]), closed),
+            5: (goal + np.array([0, 0, 0.003]), closed),
         }.get(phase, (ee, 1.0))
         error = target - ee
         if phase in (2, 6):

@@ -75,8 +75,8 @@ class PickAndPlaceEnvTask(Task):
     (yaw 0) and the target drawn on a ring 0.17-0.28 m from the base, 0.1 m apart or
     more. Reward: -(grasp point to cube) - 2 (cube to target), in m. Success (and
     termination): the cube's centre within `tolerance` of the target centre (set down
-    there) with the fingers opened wider than the cube (let go). Observation adds "ee_pos" (grasp point), "cube_pos" and "cube_quat" (w,
-    x, y, z).
+    there) with the fingers opened wider than the cube (let go). Observation adds
+    "ee_pos" (grasp point), "cube_pos" and "cube_quat" (w, x, y, z).
     """
 
     goal_space = spaces.Box(-1.0, 1.0, (3,), np.float32)
