@@ -81,3 +81,18 @@ def test_field_inside_a_list_is_named_with_its_index(registry: MessageRegistry) 
     cloud.fields[0].name = 7
     with pytest.raises(MessageError, match=r"PointCloud2\.fields\[0\]\.name: expected a string"):
         registry.encode(cloud)
+
+
+def test_wrong_nested_message_is_named(registry: MessageRegistry) -> None:
+    twist = registry.new("geometry_msgs/Twist")
+    twist.linear = registry.new("std_msgs/String", data="fast")
+    with pytest.raises(
+        MessageError,
+        match=r"Twist\.linear: expected a geometry_msgs/Vector3 message, got std_msgs/String",
+    ):
+        registry.encode(twist)
+    twist.linear = 0.5
+    with pytest.raises(
+        MessageError, match=r"Twist\.linear: expected a geometry_msgs/Vector3 message, got 0\.5"
+    ):
+        registry.encode(twist)

@@ -16,7 +16,7 @@ from rosbags.interfaces import Nodetype
 from rosbags.typesys.base import normalize_fieldname
 
 from .rostime import field_layouts
-from .schema import NUMPY_DTYPES
+from .schema import NUMPY_DTYPES, canonical_of
 
 if TYPE_CHECKING:
     from rosbags.typesys.store import Typestore
@@ -47,13 +47,15 @@ class _Walker:
         layouts = field_layouts(self._fmt, key)
         if layouts is not None:
             return self._time(key, layouts, msg, path)
+        got = getattr(msg, "__msgtype__", None)
+        if got != key:
+            shown = canonical_of(got) if isinstance(got, str) else repr(msg)
+            return f"{path}: expected a {canonical_of(key)} message, got {shown}"
         for name, desc in self._store.fielddefs[key][1]:
             if name == "structure_needs_at_least_one_member":
                 continue
-            attr = normalize_fieldname(name)
-            if not hasattr(msg, attr):
-                return f"{path}: {type(msg).__name__} has no field {name!r}"
-            problem = self._field(desc, getattr(msg, attr), f"{path}.{name}")
+            value = getattr(msg, normalize_fieldname(name))
+            problem = self._field(desc, value, f"{path}.{name}")
             if problem is not None:
                 return problem
         return None
