@@ -31,15 +31,16 @@ __all__ = [
     "TwistCommand",
     "WheelVelocity",
     "damped_least_squares",
+    "index_of",
     "orientation_error",
 ]
 
 FloatArray = NDArray[np.float64]
 
 
-def _index(addresses: list[int]) -> slice | list[int]:
+def index_of(addresses: list[int]) -> slice | list[int]:
     """A slice when the addresses are consecutive (cheaper to index with), else the list."""
-    if addresses == list(range(addresses[0], addresses[0] + len(addresses))):
+    if addresses and addresses == list(range(addresses[0], addresses[0] + len(addresses))):
         return slice(addresses[0], addresses[0] + len(addresses))
     return addresses
 
@@ -151,8 +152,8 @@ class EndEffectorDelta(ActionAdapter):
         if body < 0:
             raise GymError(f"EndEffectorDelta: no body {self.body!r} in the model")
         self._body_id = int(body)
-        self._dofs = _index([int(world.model.joint(j).dofadr[0]) for j in self.joints])
-        self._qpos = _index([int(world.model.joint(j).qposadr[0]) for j in self.joints])
+        self._dofs = index_of([int(world.model.joint(j).dofadr[0]) for j in self.joints])
+        self._qpos = index_of([int(world.model.joint(j).qposadr[0]) for j in self.joints])
         self._jacp = np.zeros((3, world.model.nv))
         self._jacr = np.zeros((3, world.model.nv))
 

@@ -13,7 +13,7 @@ from gymnasium import Env, spaces
 from numpy.typing import NDArray
 
 from simbridge.errors import GymError
-from simbridge.gym.actions import ActionAdapter
+from simbridge.gym.actions import ActionAdapter, index_of
 from simbridge.gym.sensors import SensorObservation
 from simbridge.gym.task import Task
 from simbridge.sim.scene import Scene
@@ -78,8 +78,9 @@ class SceneEnv(Env[Observation, NDArray[np.float32]]):
         self.render_camera = render_camera or look_at((1.0, -1.0, 1.0), (0.0, 0.0, 0.2))
         self.metadata = {**self.metadata, "render_fps": round(1 / self.dt)}
         self.joints = tuple(action.joints if observe_joints is None else observe_joints)
-        self._qpos = [int(self.world.model.joint(j).qposadr[0]) for j in self.joints]
-        self._dofs = [int(self.world.model.joint(j).dofadr[0]) for j in self.joints]
+        model = self.world.model
+        self._qpos = index_of([int(model.joint(j).qposadr[0]) for j in self.joints])
+        self._dofs = index_of([int(model.joint(j).dofadr[0]) for j in self.joints])
         task.bind(self.world)
         action.bind(self.world)
         for sensor in self.sensors:
