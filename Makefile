@@ -32,12 +32,15 @@ STAMP_ROS2 := $(VENV_ROS2)/.installed
 $(STAMP_ROS2): requirements-ros2.txt constraints-ros2.txt pyproject.toml constraints.txt scripts/install-ros2.sh
 	@bash scripts/install-ros2.sh $(VENV_ROS2)
 
+# Interface packages without a wheel (tf2_msgs, moveit_msgs subset, niryo_moveit,
+# simbridge_msgs) are built into the ROS 2 venv; unchanged ones are skipped.
 ros2: $(STAMP_ROS2)
+	@$(VENV_ROS2)/bin/python -m simbridge.cli msg build --shipped --venv $(VENV_ROS2)
 
 constraints-ros2: $(STAMP_ROS2)
 	{ echo "# Pinned versions of the ROS 2 venv (.venv-ros2); regenerate with \`make constraints-ros2\`."; \
 	  $(VENV_ROS2)/bin/pip freeze --path $$($(VENV_ROS2)/bin/python -c "import site; print(site.getsitepackages()[0])") \
-	  | grep -v -e '^-e' -e '^#' -e '^simbridge' -e '^pip==' -e '^setuptools=='; } > constraints-ros2.txt
+	  | grep -v -e '^-e' -e '^#' -e '^simbridge' -e '^pip==' -e '^setuptools==' -e '==0.0.0$$'; } > constraints-ros2.txt
 
 demo: sysdeps $(STAMP)
 	$(BIN)/simbridge demo

@@ -243,3 +243,48 @@ def test_stats_include_backend_counters(client: RawClient) -> None:
     reply = client.expect(lambda e: command(e, StatsReply)).command
     counters = reply.stats["server"]["backend_counters"]
     assert counters["publish_errors"] == 0
+
+
+def test_tf_message_reaches_a_ros2_subscriber(client: RawClient) -> None:
+    """tf2_msgs has no wheel: `make ros2` builds it from the shipped definitions."""
+    tf_t = TS.types["tf2_msgs/msg/TFMessage"]
+    ts_t = TS.types["geometry_msgs/msg/TransformStamped"]
+    tr_t, v3, q = (TS.types[n] for n in ("geometry_msgs/msg/Transform",
+                                         "geometry_msgs/msg/Vector3",
+                                         "geometry_msgs/msg/Quaternion"))
+    hdr = TS.types["std_msgs/msg/Header"](
+        stamp=TS.types["builtin_interfaces/msg/Time"](sec=5, nanosec=6), frame_id="world")
+    transform = ts_t(header=hdr, child_frame_id="base_link",
+                     transform=tr_t(translation=v3(x=1.0, y=2.0, z=3.0),
+                                    rotation=q(x=0.0, y=0.0, z=0.0, w=1.0)))
+    with Ros2Process.node("echo", "/sb_tf", "tf2_msgs/msg/TFMessage", "1") as echo:
+        echo.expect_json("ready")
+        advertise(client, "/sb_tf", "tf2_msgs/TFMessage")
+        client.send(ProtocolConnection.message(
+            "/sb_tf", cdr(tf_t(transforms=[transform]), "tf2_msgs/msg/TFMessage")))
+        got = echo.expect_json("msg")
+    (only,) = got["transforms"]
+    assert only["child_frame_id"] == "base_link"
+    assert only["header"]["frame_id"] == "world"
+    assert only["transform"]["translation"] == {"x": 1.0, "y": 2.0, "z": 3.0}
+
+
+def test_custom_type_reaches_a_ros2_subscriber(client: RawClient) -> None:
+    """niryo_moveit (shipped, built by `make ros2`): a package of the user's kind."""
+    TS.register(get_types_from_msg("float64[6] joints\ngeometry_msgs/Pose pick_pose\n"
+                                   "geometry_msgs/Pose place_pose",
+                                   "niryo_moveit/msg/NiryoMoveitJoints"))
+    joints_t = TS.types["niryo_moveit/msg/NiryoMoveitJoints"]
+    pose_t, point_t, q = (TS.types[n] for n in ("geometry_msgs/msg/Pose",
+                                                "geometry_msgs/msg/Point",
+                                                "geometry_msgs/msg/Quaternion"))
+    pose = pose_t(position=point_t(x=0.1, y=0.2, z=0.3), orientation=q(x=0.0, y=0.0, z=0.0, w=1.0))
+    msg = joints_t(joints=np.arange(6, dtype=np.float64) / 10, pick_pose=pose, place_pose=pose)
+    with Ros2Process.node("echo", "/sb_joints", "niryo_moveit/msg/NiryoMoveitJoints", "1") as echo:
+        echo.expect_json("ready")
+        advertise(client, "/sb_joints", "niryo_moveit/NiryoMoveitJoints")
+        client.send(ProtocolConnection.message(
+            "/sb_joints", cdr(msg, "niryo_moveit/msg/NiryoMoveitJoints")))
+        got = echo.expect_json("msg")
+    assert got["joints"] == (np.arange(6, dtype=np.float64) / 10).tolist()
+    assert got["pick_pose"]["position"] == {"x": 0.1, "y": 0.2, "z": 0.3}

@@ -7,6 +7,33 @@ import argparse
 __all__ = ["add_parser"]
 
 
+def run_build(args: argparse.Namespace) -> int:
+    """Build interface packages into the ROS 2 venv (cached by content)."""
+    from pathlib import Path
+
+    from simbridge.endpoint.backends.ros2_build import SHIPPED_ROS2_PACKAGES, build_packages
+    from simbridge.endpoint.backends.ros2_env import ros2_python
+    from simbridge.errors import EndpointError
+    from simbridge.messages.registry import SHIPPED_DEFINITIONS
+
+    if args.venv:
+        venv = Path(args.venv)
+    else:
+        python = ros2_python()
+        if python is None:
+            raise EndpointError("no ROS 2 venv: run `make ros2`, or pass --venv DIR")
+        venv = python.parent.parent
+    paths = [Path(p) for p in args.packages]
+    if args.shipped:
+        paths += [SHIPPED_DEFINITIONS / name for name in SHIPPED_ROS2_PACKAGES]
+    if not paths:
+        raise EndpointError("nothing to build: name package directories or pass --shipped")
+    build_packages(
+        paths, venv, force=args.force, progress=lambda line: print(f"simbridge msg build: {line}")
+    )
+    return 0
+
+
 def run_msg(args: argparse.Namespace) -> int:
     from simbridge.messages import MessageRegistry, default_registry
 
@@ -49,6 +76,17 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     )
     m_genpy.add_argument("out", help="output directory")
     m_genpy.add_argument("types", nargs="+", help="message or service types")
+    m_build = msub.add_parser(
+        "build",
+        help="build ROS 2 interface packages (msg/, srv/, action/) into the ROS 2 venv",
+    )
+    m_build.add_argument("packages", nargs="*", metavar="PKG_DIR", help="package directories")
+    m_build.add_argument(
+        "--shipped", action="store_true", help="also the shipped ones without a wheel"
+    )
+    m_build.add_argument("--venv", help="the ROS 2 venv (default: the checkout's .venv-ros2)")
+    m_build.add_argument("--force", action="store_true", help="rebuild even when unchanged")
+    m_build.set_defaults(func=run_build)
     for p in (m_show, m_md5, m_list, m_genpy):
         p.add_argument("--msg-path", action="append", default=[], metavar="DIR")
         p.set_defaults(func=run_msg)

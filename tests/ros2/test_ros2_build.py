@@ -1,0 +1,97 @@
+"""`simbridge msg build`: ROS 1/2 definitions -> rosidl packages built into the ROS 2 venv."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+
+from simbridge.endpoint.backends.ros2_build import (
+    InterfaceBuildError,
+    build_packages,
+    load_package,
+    ros2_definition,
+)
+from simbridge.messages.registry import SHIPPED_DEFINITIONS
+from tests.ros2support import child_env, require_ros2
+
+
+def test_ros1_spellings_become_ros2_ones() -> None:
+    text = "Header header  # stamp\ntime[] stamps\nduration wait\nmy_pkg/Thing a\nThing b\n" \
+           "geometry_msgs/Pose[3] poses\nuint8 MODE=1\n---\nbool ok\n"
+    converted, deps = ros2_definition(text, "my_pkg")
+    assert converted.splitlines() == [
+        "std_msgs/Header header  # stamp",
+        "builtin_interfaces/Time[] stamps",
+        "builtin_interfaces/Duration wait",
+        "Thing a",
+        "Thing b",
+        "geometry_msgs/Pose[3] poses",
+        "uint8 MODE=1",
+        "---",
+        "bool ok",
+    ]
+    assert deps == {"std_msgs", "builtin_interfaces", "geometry_msgs"}
+
+
+def test_shipped_moveit_depends_on_what_it_uses() -> None:
+    pkg = load_package(SHIPPED_DEFINITIONS / "moveit_msgs")
+    assert "object_recognition_msgs" in pkg.dependencies
+    assert "trajectory_msgs" in pkg.dependencies
+    assert "moveit_msgs" not in pkg.dependencies
+
+
+def test_a_directory_without_interfaces_is_refused(tmp_path: Path) -> None:
+    with pytest.raises(InterfaceBuildError, match="neither an interface package"):
+        build_packages([tmp_path], tmp_path)
+
+
+def test_missing_tools_are_named(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    (tmp_path / "pkg" / "msg").mkdir(parents=True)
+    (tmp_path / "pkg" / "msg" / "A.msg").write_text("int32 a\n")
+    monkeypatch.setenv("PATH", str(tmp_path / "nothing"))
+    monkeypatch.delenv("CC", raising=False)
+    monkeypatch.delenv("CXX", raising=False)
+    with pytest.raises(InterfaceBuildError, match="needs cmake, ninja, a C compiler"):
+        build_packages([tmp_path / "pkg"], tmp_path / "venv", progress=lambda _: None)
+
+
+@pytest.mark.ros2
+@pytest.mark.timeout(900)
+def test_msg_build_makes_a_user_package_importable_in_rclpy(tmp_path: Path) -> None:
+    python = require_ros2()
+    pkg = tmp_path / "sb_test_msgs"
+    (pkg / "msg").mkdir(parents=True)
+    (pkg / "srv").mkdir()
+    (pkg / "msg" / "Reading.msg").write_text(textwrap.dedent("""\
+        # a ROS 1 style definition
+        Header header
+        time taken
+        float64[] values
+        geometry_msgs/Point where
+        """))
+    (pkg / "srv" / "Ask.srv").write_text("Reading reading\n---\nbool ok\n")
+    venv = python.parent.parent
+    build = [sys.executable, "-m", "simbridge.cli", "msg", "build", str(pkg), "--venv", str(venv)]
+    first = subprocess.run(build, capture_output=True, text=True, timeout=850, check=False)
+    assert first.returncode == 0, first.stdout + first.stderr
+    again = subprocess.run(build, capture_output=True, text=True, timeout=60, check=True)
+    assert "sb_test_msgs: up to date" in again.stdout
+    check = textwrap.dedent("""\
+        from rclpy.serialization import deserialize_message, serialize_message
+        from sb_test_msgs.msg import Reading
+        from sb_test_msgs.srv import Ask
+        r = Reading(values=[1.5, 2.5])
+        r.header.frame_id = "x"
+        r.taken.sec = 7
+        r.where.z = 3.0
+        back = deserialize_message(serialize_message(r), Reading)
+        print(back.header.frame_id, back.taken.sec, list(back.values), back.where.z)
+        print(Ask.Response().ok)
+        """)
+    out = subprocess.run([str(python), "-c", check], env=child_env(), capture_output=True,
+                         text=True, timeout=60, check=False)
+    assert out.stdout.split() == ["x", "7", "[1.5,", "2.5]", "3.0", "False"], out.stderr
