@@ -100,3 +100,14 @@ def test_command_payload_cap_applies_to_commands_only() -> None:
     other = FrameDecoder(64 * MIB, max_command=1000)
     assert other.feed(encode_frame("/topic", b"x" * 2000))[0].payload == b"x" * 2000
     assert isinstance(FrameTooLargeError("x"), ProtocolError)
+
+
+def test_large_frames_reuse_one_buffer_and_keep_their_bytes() -> None:
+    ledger = Ledger(10**12)
+    decoder = FrameDecoder(reserve=ledger.reserve, release=ledger.release)
+    payloads = [bytes([i]) * (900_000 + i * 1000) for i in range(5)]
+    frames = _receive(decoder, b"".join(encode_frame("/img", p) for p in payloads))
+    assert [f.payload for f in frames] == payloads  # type: ignore[attr-defined]
+    assert ledger.peak <= 2 * 904_000  # one buffer, grown at most once; not one per frame
+    decoder.discard()
+    assert ledger.held == 0

@@ -5,6 +5,7 @@ from __future__ import annotations
 import asyncio
 import itertools
 import logging
+import os
 import socket
 import struct
 import time
@@ -59,6 +60,9 @@ __all__ = ["ClientSession"]
 log = logging.getLogger("simbridge.endpoint")
 _pack_u32 = struct.Struct("<I").pack
 
+_IOV_MAX = 1024
+"""Most buffers one writev takes (Linux IOV_MAX)."""
+
 _WRITE_ALONE = 64 * 1024
 """Chunks at least this big are written without joining them to their neighbours."""
 
@@ -112,6 +116,8 @@ class ClientSession(asyncio.BufferedProtocol):
         self._out: list[bytes] = []
         self._discard = bytearray(4096)
         self._out_size = 0
+        self._fd = -1
+        """The socket's descriptor, for scatter-gather writes while the transport is idle."""
         self._flush_scheduled = False
         self._paused = False
         self._control: deque[bytes] = deque()
@@ -142,6 +148,7 @@ class ClientSession(asyncio.BufferedProtocol):
         sock = transport.get_extra_info("socket")
         if sock is not None:
             sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+            self._fd = sock.fileno()
         peer = transport.get_extra_info("peername")
         self.peer = f"{peer[0]}:{peer[1]}" if isinstance(peer, tuple) else str(peer)
         transport.set_write_buffer_limits(high=self.options.write_high_water)
@@ -247,22 +254,38 @@ class ClientSession(asyncio.BufferedProtocol):
     def _flush(self) -> None:
         self._flush_scheduled = False
         out, self._out = self._out, []
-        self._out_size = 0
+        size, self._out_size = self._out_size, 0
         transport = self.transport
         if not out or transport is None or transport.is_closing():
             return
         self.last_sent = time.monotonic()
-        small: list[bytes] = []
+        self.stats.bytes_out += size
+        sent = 0
+        if self._fd >= 0 and not transport.get_write_buffer_size():
+            # Nothing queued in the transport: one scatter-gather syscall for headers and
+            # payloads, none of them copied or joined (asyncio 3.11 would copy a partly
+            # sent buffer and join writelines).
+            try:
+                sent = os.writev(self._fd, out[:_IOV_MAX])
+            except (BlockingIOError, InterruptedError):
+                sent = 0
+            except OSError:
+                sent = 0  # the transport sees the error on its own write and reports it
+        small: list[bytes | memoryview] = []
         for chunk in out:
-            self.stats.bytes_out += len(chunk)
-            if len(chunk) < _WRITE_ALONE:
-                small.append(chunk)
+            if sent >= len(chunk):
+                sent -= len(chunk)
+                continue
+            rest: bytes | memoryview = memoryview(chunk)[sent:] if sent else chunk
+            sent = 0
+            if len(rest) < _WRITE_ALONE:
+                small.append(rest)
                 continue
             # Large payloads go out as they are: joining would copy them again.
             if small:
                 transport.write(b"".join(small))
                 small = []
-            transport.write(chunk)
+            transport.write(rest)
         if small:
             transport.write(b"".join(small) if len(small) > 1 else small[0])
 

@@ -110,6 +110,7 @@ class FrameDecoder:
         "_max_payload",
         "_release",
         "_reserve",
+        "_spare",
         "_start",
     )
 
@@ -136,6 +137,7 @@ class FrameDecoder:
         self._big_dest = ""
         self._big_filled = 0
         self._big_size = 0
+        self._spare: bytearray | None = None
         self._max_payload = max_payload
         self._max_command = max_payload if max_command is None else max_command
         self._reserve = reserve
@@ -167,7 +169,7 @@ class FrameDecoder:
                 self._grow(big)
             if self._broken is not None:
                 return memoryview(self._buf)
-            return memoryview(big)[self._big_filled :]
+            return memoryview(big)[self._big_filled : self._big_size]
         if self._end == len(self._buf):
             pending = self._end - self._start
             if pending * 2 > len(self._buf):
@@ -185,9 +187,13 @@ class FrameDecoder:
             self._big_filled += nbytes
             if self._big_filled < self._big_size:
                 return []
-            frame = Frame(self._big_dest, bytes(big))
+            with memoryview(big) as view:
+                frame = Frame(self._big_dest, bytes(view[: self._big_size]))
             self._big, self._big_filled = None, 0
-            self._release(len(big))
+            if len(big) <= self.FIRST_CHUNK:
+                self._spare = big  # the next large frame reuses it (still reserved)
+            else:
+                self._release(len(big))
             return [frame]
         self._end += nbytes
         frames = self._parse()
@@ -223,12 +229,26 @@ class FrameDecoder:
             return
         _extend_zeros(big, extra)
 
+    def _large_buffer(self, plen: int, have: int) -> bytearray | None:
+        """A buffer for a large payload: the spare one from the last large frame when big
+        enough (no allocation, no page faults), else a new one; None if refused."""
+        size = max(min(plen, self.FIRST_CHUNK), have)
+        spare, self._spare = self._spare, None
+        if spare is not None:
+            if len(spare) >= size:
+                return spare
+            self._release(len(spare))
+        if not self._reserve(size):
+            return None
+        return bytearray(size)
+
     def discard(self) -> None:
         """Drop a partly received large frame and hand its memory back (connection closed)."""
-        if self._big is not None:
-            self._release(len(self._big))
-            self._big = None
-            self._big_filled = 0
+        for buf in (self._big, self._spare):
+            if buf is not None:
+                self._release(len(buf))
+        self._big = self._spare = None
+        self._big_filled = 0
 
     def _parse(self) -> list[Frame]:
         buf = self._buf
@@ -274,14 +294,13 @@ class FrameDecoder:
                     if len(self._dests) < 1024:
                         self._dests[raw_dest] = dest
                 if stop > end:
-                    size = max(min(plen, self.FIRST_CHUNK), end - body)
-                    if not self._reserve(size):
+                    big = self._large_buffer(plen, end - body)
+                    if big is None:
                         self._broken = FrameBudgetError(
                             f"the endpoint's memory budget is exhausted: cannot buffer a "
                             f"{plen:,}-byte frame for {dest[:80]!r}"
                         )
                         break
-                    big = bytearray(size)
                     big[: end - body] = view[body:end]
                     self._big, self._big_dest, self._big_filled = big, dest, end - body
                     self._big_size = plen
