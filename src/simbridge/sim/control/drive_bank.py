@@ -53,6 +53,8 @@ class DriveBank:
         self.model, self.data = model, data
         self._specs: dict[str, DriveSpec] = {}
         self._targets: dict[str, DriveTarget] = {}
+        self._gains: dict[str, tuple[float, float]] = {}
+        self._ctrl = data.ctrl  # a view on data's memory: no pybind property per write
         self._actuator: dict[str, int] = {}
         self._qpos: dict[str, int] = {}
         self._range: dict[str, tuple[float, float] | None] = {}
@@ -103,19 +105,20 @@ class DriveBank:
             if limited:
                 self.model.actuator_forcerange[act] = (-spec.force_limit, spec.force_limit)
         self._specs[joint] = spec
+        self._gains[joint] = (kp, kd)
         if joint in self._targets:
             self._write(joint)
 
     def _write(self, joint: str) -> None:
         spec, target = self._specs[joint], self._targets[joint]
-        kp, kd = spec.gains()
         if spec.mode is DriveMode.EFFORT:
             ctrl = target.effort
         elif spec.mode is DriveMode.NONE:
             ctrl = 0.0
         else:
+            kp, kd = self._gains[joint]
             ctrl = kp * target.position + kd * target.velocity
-        self.data.ctrl[self._actuator[joint]] = ctrl
+        self._ctrl[self._actuator[joint]] = ctrl
 
     def set_position(self, joint: str, position: float, velocity: float = 0.0) -> None:
         """Aim `joint` at `position` (clamped to its limits) moving at `velocity`."""
