@@ -29,7 +29,7 @@ from simbridge.sim.urdf import parse_urdf
 from simbridge.sim.urdf.kinematics import joint_motion
 from simbridge.sim.urdf.transforms import Transform, quat_wxyz_to_matrix
 from simbridge.sim.world import World
-from tests.sim.urdf_samples import GRAVITY_ARM
+from tests.sim.urdf_samples import GRAVITY_ARM, inertial, joint, link, robot
 from tests.sim.worlds import arm_world
 
 
@@ -182,3 +182,59 @@ def test_sensors_and_callbacks_keep_their_rate_and_grid_for_minutes(tmp_path: Pa
     assert world.step_count == 0
     world.step(10)
     assert steps["callback 100 Hz"][-3:] == [60_000, 5, 10]  # back on the grid from t = 0
+
+
+SPRING = robot(
+    link("base", inertial(10.0, 0.1)),
+    link("slider", inertial(2.0, 0.01)),
+    joint("slide", "prismatic", "base", "slider",
+          '<axis xyz="1 0 0"/><limit lower="-1" upper="1" effort="1000" velocity="10"/>'),
+    name="spring",
+)  # fmt: skip
+STIFFNESS, MASS = 50.0, 2.0
+
+
+def test_imu_acceleration_is_the_acceleration_at_its_stamp(tmp_path: Path) -> None:
+    """A 2 kg slider on a 50 N/m spring drive (no damping): at stamp t the IMU must read
+    -k x(t) / m with x(t) the position /joint_states gives for t. A one-step lag is
+    k v dt / m, about 1e-2 m/s^2 here."""
+    (tmp_path / "spring.urdf").write_text(SPRING)
+    scene = {
+        "physics": {"timestep": 0.002, "realtime_factor": 0, "integrator": "euler"},
+        "robots": [{
+            "urdf": "spring.urdf",
+            "initial_positions": {"slide": 0.2},
+            "armature": 0.0,  # no rotor inertia: the moving mass is the link's 2 kg
+            "drives": {"default": {"stiffness": STIFFNESS, "damping": 0.0}},
+        }],
+    }  # fmt: skip
+    (tmp_path / "scene.yaml").write_text(yaml.safe_dump(scene))
+    world = World.from_scene(load_scene(tmp_path / "scene.yaml"))
+    positions: dict[int, tuple[float, float]] = {}
+    world.add_step_callback(
+        lambda w: positions.__setitem__(
+            w.step_count, (w.joint_positions()["slide"], w.joint_velocities()["slide"])
+        )
+    )
+    imu: list[Any] = []
+    sensors = [{"type": "imu", "name": "imu", "body": "slider", "rate": 100}]
+    attach_sensors(world, sensors, lambda pub: imu.append(pub.message))
+    world.drives.set_position("slide", 0.0)
+    world.step(1000)
+    assert len(imu) == 201
+    fastest = 0.0
+    for msg in imu[1:]:
+        x, v = positions[round(_stamp(msg.header.stamp) * 1e-9 / 0.002)]
+        fastest = max(fastest, abs(v))
+        expected = -STIFFNESS * x / MASS
+        assert msg.linear_acceleration.x == pytest.approx(expected, abs=1e-9)
+        assert msg.linear_acceleration.z == pytest.approx(9.81, abs=1e-9)
+    assert fastest > 0.5  # moving: a lag would show
+
+
+@pytest.mark.parametrize("integrator", ["euler", "implicit", "implicitfast", "rk4"])
+def test_every_documented_integrator_builds(tmp_path: Path, integrator: str) -> None:
+    world = arm_world(tmp_path, physics={"integrator": integrator})
+    expected = {"euler": 0, "rk4": 1, "implicit": 2, "implicitfast": 3}[integrator]
+    assert int(world.model.opt.integrator) == expected
+    world.step(10)

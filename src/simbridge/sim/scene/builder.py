@@ -52,12 +52,16 @@ class BuiltScene:
     robots: tuple[BuiltRobot, ...]
 
 
+# Scene files spell integrators in lower case; MJCF's keywords are case-sensitive.
+_MJCF_INTEGRATORS = {"euler": "Euler", "rk4": "RK4"}
+
+
 def _physics(doc: MjcfDocument, physics: PhysicsSettings) -> None:
     doc.option.attrib.update(
         timestep=fmt(physics.timestep),
         gravity=fmt(physics.gravity),
         iterations=str(physics.solver_iterations),
-        integrator=physics.integrator,
+        integrator=_MJCF_INTEGRATORS.get(physics.integrator, physics.integrator),
     )
 
 
