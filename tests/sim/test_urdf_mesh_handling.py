@@ -112,11 +112,12 @@ def test_vertex_colours_split_into_coloured_parts(tmp_path: Path) -> None:
 
 
 def test_diffuse_texture_is_drawn(tmp_path: Path) -> None:
-    Image.new("RGB", (8, 8), (20, 200, 40)).save(tmp_path / "skin.png")
+    Image.new("RGB", (2048, 2048), (20, 200, 40)).save(tmp_path / "skin.png")
     (tmp_path / "skinned.dae").write_text(collada(texture="skin.png"))
     model, _ = _build(_urdf(tmp_path, "skinned.dae", collision=False), tmp_path)
     assert model.ntex == 1
     assert model.nmat == 1
+    assert model.tex_width[0] == 1024  # downscaled: MuJoCo keeps textures uncompressed
     geom = model.geom("base/visual/0")
     assert model.geom_matid[geom.id] == 0
     assert model.mat_texid[0][mujoco.mjtTextureRole.mjTEXROLE_RGB] == 0
@@ -162,3 +163,12 @@ def test_truncated_binary_stl_is_a_clear_error_in_check_and_sim(tmp_path: Path) 
         _build(path, tmp_path)
     with pytest.raises(UrdfError, match=message):
         urdf_check(path)
+
+
+def test_single_triangle_colour_parts_are_dropped(tmp_path: Path) -> None:
+    # 12 faces over 7 materials: two parts of one triangle (3 vertices), which MuJoCo
+    # cannot take as a mesh; the other five parts are drawn.
+    colours = tuple((i / 7, 0.5, 0.5, 1.0) for i in range(7))
+    (tmp_path / "many.dae").write_text(collada(colours=colours))
+    model, _ = _build(_urdf(tmp_path, "many.dae", collision=False), tmp_path)
+    assert model.ngeom == 5

@@ -234,12 +234,13 @@ def read_mesh(path: Path, honour_up_axis: bool = False) -> list[ColouredMesh]:
     for part in coloured:
         part.mesh.apply_transform(transform)
         parts.append(part)
-    for loaded_mesh in meshes:
-        mesh = loaded_mesh.copy()
+    for mesh in meshes:  # fresh objects from trimesh: transformed in place
         if not np.allclose(transform, np.eye(4)):
             mesh.apply_transform(transform)
         parts.extend(_parts_of(mesh))
-    return parts
+    # MuJoCo refuses meshes of fewer than 4 vertices (a stray triangle of one colour)
+    solid = [p for p in parts if len(np.unique(p.mesh.faces)) >= 4]
+    return solid or parts
 
 
 def simplify(mesh: trimesh.Trimesh, max_faces: int) -> trimesh.Trimesh:

@@ -25,9 +25,11 @@ from simbridge.sim.urdf.mesh_files import (
 )
 from simbridge.sim.urdf.transforms import Vec3
 
-__all__ = ["MeshCache", "MeshPart"]
+__all__ = ["MAX_TEXTURE", "MeshCache", "MeshPart"]
 
-_FORMAT = "4"  # bump when conversions change, so stale cache files are not reused
+MAX_TEXTURE = 1024
+"""Textures are downscaled to at most this many pixels a side."""
+_FORMAT = "6"  # bump when conversions change, so stale cache files are not reused
 _Rgba = tuple[float, float, float, float]
 
 
@@ -51,15 +53,22 @@ def _write_atomic(target: Path, data: bytes) -> None:
     tmp.replace(target)
 
 
-def _obj_bytes(mesh: trimesh.Trimesh, with_uv: bool) -> bytes:
+def _stl_bytes(mesh: trimesh.Trimesh) -> bytes:
+    """Binary STL (what MuJoCo reads fastest); float32 coordinates, as the format has."""
+    triangles = np.asarray(mesh.vertices, dtype=np.float64)[np.asarray(mesh.faces)]
+    record = np.zeros(len(triangles), dtype=[("n", "<f4", 3), ("v", "<f4", (3, 3)), ("a", "<u2")])
+    record["v"] = triangles
+    header = b"simbridge".ljust(80, b" ") + np.uint32(len(triangles)).tobytes()
+    return header + record.tobytes()
+
+
+def _obj_bytes(mesh: trimesh.Trimesh) -> bytes:
+    """OBJ text with the mesh's UV coordinates (for textured parts)."""
     lines = [f"v {x!r} {y!r} {z!r}" for x, y, z in np.asarray(mesh.vertices, float).tolist()]
+    uv = np.asarray(getattr(mesh.visual, "uv", None), dtype=float)
+    lines.extend(f"vt {u!r} {v!r}" for u, v in uv[:, :2].tolist())
     faces = (np.asarray(mesh.faces) + 1).tolist()
-    uv = getattr(mesh.visual, "uv", None) if with_uv else None
-    if uv is not None:
-        lines.extend(f"vt {u!r} {v!r}" for u, v in np.asarray(uv, float)[:, :2].tolist())
-        lines.extend(f"f {a}/{a} {b}/{b} {c}/{c}" for a, b, c in faces)
-    else:
-        lines.extend(f"f {a} {b} {c}" for a, b, c in faces)
+    lines.extend(f"f {a}/{a} {b}/{b} {c}/{c}" for a, b, c in faces)
     return ("\n".join(lines) + "\n").encode()
 
 
@@ -142,13 +151,29 @@ class MeshCache:
             and len(self.load(path).faces) <= MUJOCO_STL_FACES
         ):
             return path
-        target = self.directory / f"{path.stem}-{self._digest(path)}.obj"
+        target = self.directory / f"{path.stem}-{self._digest(path)}.stl"
         note = target.with_suffix(".note")
         if not target.is_file():
             self.directory.mkdir(parents=True, exist_ok=True)
             mesh = self._fit(self.load(path), note)
-            _write_atomic(target, _obj_bytes(mesh, with_uv=False))
+            _write_atomic(target, _stl_bytes(mesh))
         self._warn(path, element, note)
+        return target
+
+    def _texture_file(self, image: object, stem: str) -> Path:
+        """A PNG of `image` for MuJoCo, at most `MAX_TEXTURE` pixels a side (MuJoCo keeps
+        textures uncompressed in memory: a 4096^2 texture is 64 MB)."""
+        picture = image
+        factor = -(-max(picture.size) // MAX_TEXTURE)  # type: ignore[attr-defined]
+        if factor > 1:
+            picture = picture.reduce(factor)  # type: ignore[attr-defined]
+        picture = picture.convert("RGBA")  # type: ignore[attr-defined]
+        if picture.getextrema()[3] == (255, 255):
+            picture = picture.convert("RGB")
+        target = self.directory / f"{stem}.png"
+        tmp = target.with_suffix(f".{os.getpid()}.tmp.png")
+        picture.save(tmp, compress_level=1)
+        tmp.replace(target)
         return target
 
     @staticmethod
@@ -169,16 +194,13 @@ class MeshCache:
             self.directory.mkdir(parents=True, exist_ok=True)
             entries = []
             for i, part in enumerate(self.parts(path)):
-                file = self.directory / f"{path.stem}-{digest}-{i}.obj"
                 mesh = self._fit(part.mesh, note)
                 textured = part.look.texture is not None and mesh is part.mesh
-                _write_atomic(file, _obj_bytes(mesh, with_uv=textured))
+                file = self.directory / f"{path.stem}-{digest}-{i}.{'obj' if textured else 'stl'}"
+                _write_atomic(file, _obj_bytes(mesh) if textured else _stl_bytes(mesh))
                 texture = None
                 if textured:
-                    texture = self.directory / f"{path.stem}-{digest}-{i}.png"
-                    tmp = texture.with_suffix(f".{os.getpid()}.tmp.png")
-                    part.look.texture.convert("RGBA").save(tmp)  # type: ignore[attr-defined]
-                    tmp.replace(texture)
+                    texture = self._texture_file(part.look.texture, f"{path.stem}-{digest}-{i}")
                 entries.append(
                     {"file": file.name, "rgba": part.look.rgba, "texture": texture and texture.name}
                 )
