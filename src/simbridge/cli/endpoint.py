@@ -24,6 +24,16 @@ def run_endpoint(args: argparse.Namespace) -> int:
         from simbridge.messages import registry_for
 
         registry_for(backend.protocol).load_packages(*args.msg_path)
+    if args.msg_path and args.backend == "ros2":
+        # rclpy needs the interface packages built (once; unchanged ones are skipped).
+        import importlib
+        import sys
+        from pathlib import Path
+
+        from simbridge.endpoint.backends.ros2_build import build_packages
+
+        build_packages(args.msg_path, Path(sys.prefix), progress=print)
+        importlib.invalidate_caches()
 
     async def run() -> None:
         # Precedence: command-line flag, then the original node's ~tcp_ip/~tcp_port, then default.
