@@ -60,7 +60,7 @@ test: sysdeps $(STAMP) ros2
 	$(BIN)/pytest
 
 bench: sysdeps $(STAMP)
-	$(BIN)/python benchmarks/run.py
+	$(BIN)/python benchmarks/run.py --readme README.md
 
 constraints: $(STAMP)
 	$(BIN)/pip freeze --path $$($(BIN)/python -c "import site; print(site.getsitepackages()[0])") \

@@ -7,12 +7,14 @@ MB/s, round-trip latency p50/p99, and loss.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import statistics
 import subprocess
 import sys
 import threading
 import time
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -51,39 +53,50 @@ def _wait_topic(conn: Connector, topic: str) -> None:
         time.sleep(0.02)
 
 
-def _throughput(port: int, topic: str, msg_type: str, payload: bytes, count: int) -> dict[str, Any]:
-    done = threading.Event()
-    received = [0]
+def _throughput(
+    port: int, topic: str, msg_type: str, payload: bytes, count: int, *, subscribers: int = 1
+) -> dict[str, Any]:
+    """One publisher to `subscribers` subscribers; rates are per subscriber (each gets all)."""
+    done = [threading.Event() for _ in range(subscribers)]
+    received = [0] * subscribers
 
-    def on_msg(data: bytes) -> None:
-        received[0] += 1
-        if received[0] == count:
-            done.set()
+    def counter(index: int) -> Callable[[bytes], None]:
+        def on_msg(data: bytes) -> None:
+            received[index] += 1
+            if received[index] == count:
+                done[index].set()
 
-    with (
-        Connector("127.0.0.1", port, OPTS).connect() as sub,
-        Connector("127.0.0.1", port, OPTS).connect() as pub_conn,
-    ):
-        sub.subscribe(topic, msg_type, on_msg, raw=True, queue_size=BIG_QUEUE)
+        return on_msg
+
+    with contextlib.ExitStack() as stack:
+        subs = [
+            stack.enter_context(Connector("127.0.0.1", port, OPTS).connect())
+            for _ in range(subscribers)
+        ]
+        pub_conn = stack.enter_context(Connector("127.0.0.1", port, OPTS).connect())
+        for i, sub in enumerate(subs):
+            sub.subscribe(topic, msg_type, counter(i), raw=True, queue_size=BIG_QUEUE)
         pub = pub_conn.register_publisher(topic, msg_type, queue_size=BIG_QUEUE)
-        _wait_topic(sub, topic)
+        _wait_topic(subs[0], topic)
         time.sleep(0.2)
         start = time.perf_counter()
         for _ in range(count):
             pub.publish(payload)
-        done.wait(120)
+        for event in done:
+            event.wait(120)
         elapsed = time.perf_counter() - start
         dropped = sum(pub_conn.stats().publish_drops.values()) + sum(
-            sub.stats().subscribe_drops.values()
+            sum(sub.stats().subscribe_drops.values()) for sub in subs
         )
-        ep_stats = sub.endpoint_stats()
+        ep_stats = subs[0].endpoint_stats()
+    got = min(received)
     return {
-        "received": received[0],
+        "received": got,
         "sent": count,
         "seconds": elapsed,
-        "msg_per_s": received[0] / elapsed,
-        "mb_per_s": received[0] * len(payload) / elapsed / 1e6,
-        "lost": count - received[0],
+        "msg_per_s": got / elapsed,
+        "mb_per_s": got * len(payload) / elapsed / 1e6,
+        "lost": count * subscribers - sum(received),
         "connector_drops": dropped,
         "endpoint_drops": ep_stats["server"]["dropped_total"],
     }
@@ -131,13 +144,23 @@ def run(
     image_bytes = reg.encode(image)
     load = os.getloadavg()[0]
     proc, port = _start_endpoint()
-    smalls, images, lats = [], [], []
+    smalls, images, pairs, lats = [], [], [], []
     try:
         for _ in range(repeats):
             smalls.append(_throughput(port, "/cmd_vel", "geometry_msgs/Twist", small, small_count))
             images.append(
                 _throughput(
                     port, "/camera/image_raw", "sensor_msgs/Image", image_bytes, image_count
+                )
+            )
+            pairs.append(
+                _throughput(
+                    port,
+                    "/camera/image_pair",
+                    "sensor_msgs/Image",
+                    image_bytes,
+                    image_count,
+                    subscribers=2,
                 )
             )
             lats.append(_latency(port, rounds))
@@ -157,6 +180,7 @@ def run(
 
     lost_small = sum(r["lost"] + r["connector_drops"] + r["endpoint_drops"] for r in smalls)
     lost_image = sum(r["lost"] + r["connector_drops"] + r["endpoint_drops"] for r in images)
+    lost_pair = sum(r["lost"] + r["connector_drops"] + r["endpoint_drops"] for r in pairs)
     return [
         row(
             "small msgs (Twist, 48 B) end to end",
@@ -178,6 +202,13 @@ def run(
             "frames/s",
             "",
             lost_image,
+        ),
+        row(
+            "640x480 rgb8 Image, 2 subscribers (each)",
+            [r["mb_per_s"] for r in pairs],
+            "MB/s",
+            "",
+            lost_pair,
         ),
         row("round trip ping/pong, p50", [r["p50_us"] for r in lats], "us", "", 0),
         row("round trip ping/pong, p99", [r["p99_us"] for r in lats], "us", "", 0),

@@ -1,16 +1,17 @@
-"""Run every benchmark and print its table; `--markdown` for the README, `--only NAME`."""
+"""Run every benchmark and print its table; `--markdown` for Markdown, `--only NAME`;
+`--readme README.md` also writes the tables between the README's BENCH markers."""
 
 from __future__ import annotations
 
 import argparse
 import importlib
-import platform
 import sys
 import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from benchmarks.readme import machine_line, write_tables
 from benchmarks.table import format_table
 
 SUITES = {
@@ -21,20 +22,41 @@ SUITES = {
     "pick_and_place": "benchmarks.bench_pick_and_place",
     "mobile_robot": "benchmarks.bench_mobile_robot",
     "gym": "benchmarks.bench_gym",
+    "attacks": "benchmarks.bench_attacks",
 }
+
+TITLES = {
+    "endpoint": "Endpoint, local backend (targets: >= 50,000 small msg/s, >= 1 GB/s images)",
+    "ros1": "ROS 1 backend against the rospy ceiling, same run (target: >= 90%, zero loss)",
+    "sim": "Simulator (Niryo One arm)",
+    "sensors": "Sensors (targets: camera >= 15 fps on CPU, mobile robot >= 2x real time)",
+    "pick_and_place": "Pick and place, 20 random seeds (target: >= 95% success)",
+    "mobile_robot": "Mobile robot square with and without sensor subscribers (laziness)",
+    "gym": "Gym environments",
+    "attacks": "Endpoint under attack: peak resident memory beside the memory budget",
+}
+"""README heading of each suite that returns a single table."""
+
+NOTES = """Notes:
+- **Machine and load:** the line above says where and under what load this run was taken;
+  figures swing with load (other jobs on the same cores), so compare rows of one run.
+- **Best and median:** endpoint rows give the best and the median of three runs.
+- **ROS 1 ceiling:** a rospy publisher feeding a rospy subscriber, measured with the same
+  payloads in the same run.
+- **Attacks:** peak resident memory of an endpoint process under each attack, beside its
+  memory budget (`--max-memory-mb`)."""
 
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--markdown", action="store_true")
     parser.add_argument("--only", action="append", choices=sorted(SUITES), default=[])
+    parser.add_argument("--readme", type=Path, help="write the tables into this README")
     args = parser.parse_args()
     names = args.only or list(SUITES)
-    uname = platform.uname()
-    print(
-        f"# machine: {uname.system} {uname.machine}, python {platform.python_version()}, "
-        f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}"
-    )
+    machine = machine_line()
+    print(f"# {machine}")
+    sections = [machine]
     for name in names:
         try:
             module = importlib.import_module(SUITES[name])
@@ -50,7 +72,12 @@ def main() -> int:
             if title:
                 print(f"### {title}\n")
             print(format_table(table, markdown=args.markdown) + ("\n" if title else ""))
+            heading = title or TITLES.get(name, name)
+            sections.append(f"### {heading}\n\n{format_table(table, markdown=True)}")
         print(f"\n({time.perf_counter() - start:.0f} s)", flush=True)
+    if args.readme is not None:
+        write_tables(args.readme, "\n\n".join([*sections, NOTES]))
+        print(f"\nwrote the tables into {args.readme}")
     return 0
 
 
