@@ -194,6 +194,7 @@ SPRING = robot(
 STIFFNESS, MASS = 50.0, 2.0
 
 
+@pytest.mark.filterwarnings("ignore:.*breaks the stability rule")  # undamped on purpose
 def test_imu_acceleration_is_the_acceleration_at_its_stamp(tmp_path: Path) -> None:
     """A 2 kg slider on a 50 N/m spring drive (no damping): at stamp t the IMU must read
     -k x(t) / m with x(t) the position /joint_states gives for t. A one-step lag is
