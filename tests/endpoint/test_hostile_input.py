@@ -3,18 +3,20 @@
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
+import time
 from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+from benchmarks.attacks import EndpointProcess
 
 from simbridge.endpoint import EndpointOptions, EndpointThread
 from simbridge.protocol import (
     CommandReceived,
     ErrorMessage,
     Handshake,
+    Publish,
+    Subscribe,
     TopicListReply,
     TopicListRequest,
     encode_frame,
@@ -121,16 +123,23 @@ def test_message_on_huge_unregistered_topic_is_echoed_shortened(client: RawClien
     _still_served(client)
 
 
-def test_recursive_user_type_refused_at_startup_with_clear_error(tmp_path: Path) -> None:
+def test_bad_user_types_start_fast_and_fail_clearly_at_first_use(tmp_path: Path) -> None:
     pkg = tmp_path / "rec_msgs" / "msg"
     pkg.mkdir(parents=True)
     (pkg / "Tree.msg").write_text("int32 value\nrec_msgs/Tree[] children\n")
-    proc = subprocess.run(
-        [sys.executable, "-m", "simbridge.cli", "endpoint", "--port", "0", "--msg-path", tmp_path],
-        capture_output=True,
-        text=True,
-        timeout=60,
-        check=False,
-    )
-    assert proc.returncode != 0
-    assert "rec_msgs/Tree is recursive" in proc.stderr
+    (pkg / "Huge.msg").write_text("".join(f"float64 f{i}\n" for i in range(20_000)))
+    start = time.monotonic()
+    with EndpointProcess("--msg-path", str(tmp_path)) as ep:
+        assert time.monotonic() - start < 30  # eager parsing of Huge alone took longer
+        client = RawClient(ep.port)
+        client.send(Publish("/tree", "rec_msgs/Tree").encode())
+        text = _error(client)
+        assert "__publish" in text
+        assert "rec_msgs/Tree is recursive" in text
+        client.send(Subscribe("/huge", "rec_msgs/Huge").encode())
+        text = _error(client)
+        assert "__subscribe" in text
+        assert "rec_msgs/Huge" in text
+        assert "at most" in text
+        _still_served(client)
+        client.close()

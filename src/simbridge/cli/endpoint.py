@@ -23,7 +23,7 @@ def run_endpoint(args: argparse.Namespace) -> int:
     if args.msg_path:
         from simbridge.messages import registry_for
 
-        registry_for(backend.protocol).load_packages(*args.msg_path)
+        registry_for(backend.protocol).load_packages(*args.msg_path, lazy=True)
     if args.msg_path and args.backend == "ros2":
         # rclpy needs the interface packages built (once; unchanged ones are skipped).
         import importlib

@@ -22,6 +22,7 @@ from simbridge.errors import MessageError, UnknownMessageTypeError
 from .codec import Codec, WireFormat
 from .construct import Builder
 from .export import Exporter
+from .lazy import MAX_DEFINITION_BYTES, MAX_DEFINITION_FIELDS, PendingSources
 from .loader import InterfaceSources, load_interface_dirs, split_sections
 from .names import parse_type_name, store_name
 from .rostime import ROS1_TIME_RANGES, ROS2_TIME_RANGES, use_ros1_layout
@@ -46,6 +47,8 @@ ROS2_STORE = Stores.ROS2_JAZZY
 _TIME_KEYS = {"time": "builtin_interfaces/msg/Time", "duration": "builtin_interfaces/msg/Duration"}
 _ALIASES = {"Header": "std_msgs/Header"}
 _SEPARATOR = "=" * 80 + "\n"
+_MAX_MATCHED_NAME = 256
+"""Longest name close matches are looked for."""
 _CONSTANT_LINE = re.compile(
     r"^\s*(?P<type>bool|byte|char|u?int(?:8|16|32|64)|float(?:32|64)|string)\s+"
     r"(?P<name>[A-Za-z][A-Za-z0-9_]*)\s*=(?P<value>.*)$"
@@ -76,6 +79,7 @@ class MessageRegistry:
         self._schemas: dict[str, MessageSchema] = {}
         self._md5s: dict[str, str] = {}
         self._codecs: dict[str, Codec] = {}
+        self._pending = PendingSources()
         ros1 = self.protocol == "ROS1"
         self._builder = Builder(self, ROS1_TIME_RANGES if ros1 else ROS2_TIME_RANGES)
         self._exporter = Exporter(self.schema, ros2_time=not ros1)
@@ -84,9 +88,25 @@ class MessageRegistry:
 
     # -- adding types -----------------------------------------------------------------------
 
-    def load_packages(self, *paths: str | Path) -> list[str]:
-        """Add the packages under `paths` (package dirs or dirs of packages); returns new types."""
-        return self.add_sources(load_interface_dirs(*paths, ros2=self.protocol == "ROS2"))
+    def load_packages(self, *paths: str | Path, lazy: bool = False) -> list[str]:
+        """Add the packages under `paths` (package dirs or dirs of packages); returns new types.
+
+        With `lazy`, files are read now but each type is parsed on first use (startup stays
+        fast with large user types); a bad definition is then reported at that use.
+        """
+        sources = load_interface_dirs(*paths, ros2=self.protocol == "ROS2")
+        if not lazy:
+            return self.add_sources(sources)
+        with self._lock:
+            self._pending.add(sources)
+        return sorted(sources.messages)
+
+    def _load_pending(self, found: InterfaceSources | None) -> bool:
+        """Parse deferred definitions now (first use); False when there were none."""
+        if found is None:
+            return False
+        self.add_sources(found)
+        return True
 
     def _load_shipped(self, *, strict: bool) -> None:
         """Shipped packages are written for noetic; other stores get those whose
@@ -175,13 +195,12 @@ class MessageRegistry:
 
     def names(self) -> list[str]:
         """Every message type, canonical and sorted."""
-        return sorted(
-            canonical_of(k) for k in self._store.fielddefs if k not in _TIME_KEYS.values()
-        )
+        loaded = (canonical_of(k) for k in self._store.fielddefs if k not in _TIME_KEYS.values())
+        return sorted({*loaded, *self._pending.messages})
 
     def service_names(self) -> list[str]:
         """Every service type, canonical and sorted."""
-        return sorted(self._services)
+        return sorted({*self._services, *self._pending.services})
 
     def has(self, name: str) -> bool:
         """Whether `name` is a known message type."""
@@ -214,13 +233,23 @@ class MessageRegistry:
         if parsed is None:
             return None
         canonical = parsed.canonical
-        return canonical if store_name(canonical) in self._store.fielddefs else None
+        if store_name(canonical) in self._store.fielddefs:
+            return canonical
+        if self._pending.messages and canonical in self._pending.messages:
+            with self._lock:
+                self._load_pending(self._pending.take_message(canonical))
+            return canonical if store_name(canonical) in self._store.fielddefs else None
+        return None
 
     def _service_lookup(self, name: str) -> str | None:
         parsed = parse_type_name(name) if isinstance(name, str) else None
         if parsed is None:
             return None
-        return parsed.canonical if parsed.canonical in self._services else None
+        canonical = parsed.canonical
+        if canonical not in self._services and canonical in self._pending.services:
+            with self._lock:
+                self._load_pending(self._pending.take_service(canonical))
+        return canonical if canonical in self._services else None
 
     def _unknown(self, name: str, kind: str) -> NoReturn:
         close = self._close_matches(str(name))
@@ -244,6 +273,8 @@ class MessageRegistry:
         return sorted(found)
 
     def _close_matches(self, name: str) -> list[str]:
+        if len(name) > _MAX_MATCHED_NAME:
+            return []  # difflib's cost grows with the name: no suggestions for absurd ones
         candidates = [*self.names(), *self._services]
         by_lower = {c.lower(): c for c in candidates}
         found = difflib.get_close_matches(name.lower(), list(by_lower), n=5, cutoff=0.6)
@@ -497,7 +528,21 @@ def _check_no_cycles(typs: Mapping[str, Any]) -> None:
 
 
 def _check_field_lines(canonical: str, text: str) -> None:
-    """Reject ROS 2-only syntax rosbags would accept, such as field default values."""
+    """Reject ROS 2-only syntax rosbags would accept, such as field default values, and
+    definitions too big to parse in bounded time."""
+    if len(text) > MAX_DEFINITION_BYTES:
+        msg = (
+            f"definition of {canonical} is {len(text):,} bytes; at most "
+            f"{MAX_DEFINITION_BYTES:,} are accepted"
+        )
+        raise MessageError(msg)
+    lines = sum(1 for line in text.splitlines() if line.split("#", 1)[0].strip())
+    if lines > MAX_DEFINITION_FIELDS:
+        msg = (
+            f"definition of {canonical} has {lines:,} fields and constants; at most "
+            f"{MAX_DEFINITION_FIELDS:,} are accepted"
+        )
+        raise MessageError(msg)
     for number, line in enumerate(text.splitlines(), start=1):
         if "=" in line:
             continue
