@@ -17,6 +17,7 @@ from benchmarks.table import format_table
 SUITES = {
     "endpoint": "benchmarks.bench_endpoint",
     "ros1": "benchmarks.bench_ros1",
+    "ros2": "benchmarks.bench_ros2",
     "sim": "benchmarks.bench_sim",
     "sensors": "benchmarks.bench_sensors",
     "pick_and_place": "benchmarks.bench_pick_and_place",

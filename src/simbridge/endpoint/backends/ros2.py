@@ -19,6 +19,7 @@ import asyncio
 import logging
 import threading
 import time
+from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -47,6 +48,9 @@ from simbridge.errors import EndpointError, ServiceError
 __all__ = ["Ros2Backend", "Ros2Options", "Ros2TypeCheck", "ros2_cli_args"]
 
 _log = logging.getLogger(__name__)
+
+_TAKE_BURST = 256
+"""Messages one subscription callback takes beyond its own before yielding to others."""
 
 _ERROR_LOG_INTERVAL = 5.0
 """Shortest time between two log lines about failed publishes."""
@@ -127,6 +131,8 @@ class Ros2Backend(Backend):
         self._thread: threading.Thread | None = None
         self._clients: dict[tuple[str, str], Any] = {}
         self._live: set[_Entity] = set()
+        self._inbox: deque[tuple[Callable[[bytes], None], bytes]] = deque()
+        self._inbox_scheduled = False
         self.settings: dict[str, str] = {}
         self.counters: dict[str, int] = {"publish_errors": 0, "service_failures": 0}
 
@@ -204,6 +210,23 @@ class Ros2Backend(Backend):
     def stats(self) -> dict[str, int]:
         return dict(self.counters)
 
+    def _post(self, deliver: Callable[[bytes], None], payload: bytes) -> None:
+        """From the rclpy thread: queue a message for the event loop, waking it only when
+        no drain is pending (one wake-up per burst, not per message)."""
+        self._inbox.append((deliver, payload))
+        if not self._inbox_scheduled and self._loop is not None:
+            self._inbox_scheduled = True
+            _call_soon(self._loop, self._drain)
+
+    def _drain(self) -> None:
+        """On the event loop: deliver everything queued (the flag is cleared first, so a
+        message posted meanwhile is either drained here or schedules another drain)."""
+        self._inbox_scheduled = False
+        inbox = self._inbox
+        while inbox:
+            deliver, payload = inbox.popleft()
+            deliver(payload)
+
     # ---- topics ----------------------------------------------------------------------
 
     def advertise(
@@ -245,8 +268,11 @@ class Ros2Backend(Backend):
         latched = bool(infos) and all(
             i.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL for i in infos
         )
+        # A reliable subscription keeps all: when the rclpy thread falls behind a burst, DDS
+        # flow control slows the publisher instead of overwriting samples. The sim side's
+        # bound is the client's queue_size (its outbox), where drops are counted.
         return QoSProfile(
-            history=HistoryPolicy.KEEP_LAST,
+            history=HistoryPolicy.KEEP_ALL if reliable else HistoryPolicy.KEEP_LAST,
             depth=100,
             reliability=ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT,
             durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE,
@@ -458,6 +484,7 @@ class _Ros2Subscription(_Entity, BackendSubscription):
     ) -> None:
         self._loop = loop
         self._callback = callback
+        self._cls = cls
         try:
             self._subscription = backend.node.create_subscription(
                 cls, topic, self._on_message, qos, raw=True
@@ -468,8 +495,20 @@ class _Ros2Subscription(_Entity, BackendSubscription):
         super().__init__(backend)
 
     def _on_message(self, payload: bytes) -> None:
-        """Runs on the rclpy thread."""
-        _call_soon(self._loop, self._deliver, payload)
+        """Runs on the rclpy thread. Also takes what else is waiting (up to _TAKE_BURST):
+        the executor would otherwise rebuild its wait set for every message of a burst."""
+        post, deliver = self._backend._post, self._deliver
+        post(deliver, payload)
+        handle = self._subscription.handle
+        try:
+            with handle:
+                for _ in range(_TAKE_BURST):
+                    taken = handle.take_message(self._cls, True)
+                    if taken is None:
+                        return
+                    post(deliver, taken[0])
+        except Exception:  # destroyed meanwhile: the executor's next take will say so
+            return
 
     def _deliver(self, payload: bytes) -> None:
         if not self.closed:

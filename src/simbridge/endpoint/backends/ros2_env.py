@@ -34,6 +34,10 @@ __all__ = [
 DEFAULT_SHM_SEGMENT = 16 * 1024 * 1024
 """Shared-memory segment per participant; Fast DDS's 0.5 MiB default cannot hold an image."""
 
+SHM_PORT_QUEUE = 4096
+"""Messages a shared-memory port holds (Fast DDS: 512); bursts beyond it wait for
+reliability's repair (a 3 s heartbeat), which stalls a fast publisher."""
+
 FASTDDS_PROFILE_VARS = ("FASTRTPS_DEFAULT_PROFILES_FILE", "FASTDDS_DEFAULT_PROFILES_FILE")
 """Fast DDS 2.x reads the first, 3.x the second; both are set to the same file."""
 
@@ -53,6 +57,7 @@ _PROFILE = """<?xml version="1.0" encoding="UTF-8" ?>
         <transport_id>simbridge_shm</transport_id>
         <type>SHM</type>
         <segment_size>{segment}</segment_size>
+        <port_queue_capacity>{queue}</port_queue_capacity>
       </transport_descriptor>
     </transport_descriptors>
     <participant profile_name="simbridge_localhost" is_default_profile="true">
@@ -83,7 +88,7 @@ def ros2_python() -> Path | None:
 
 def fastdds_profile_xml(shm_segment: int = DEFAULT_SHM_SEGMENT) -> str:
     """The Fast DDS XML profile: loopback UDP and shared memory, nothing else."""
-    return _PROFILE.format(segment=int(shm_segment))
+    return _PROFILE.format(segment=int(shm_segment), queue=SHM_PORT_QUEUE)
 
 
 def write_fastdds_profile(

@@ -1,0 +1,347 @@
+"""Throughput of the ROS 2 backend in both directions against the rclpy ceiling, and latency.
+
+Everything rclpy runs with the ROS 2 venv's Python (.venv-ros2), in a ROS domain of
+its own, localhost only (ros2_env). Ceiling: a raw rclpy publisher process -> a raw
+rclpy subscriber process (`publish(bytes)`, `raw=True`). Through the endpoint: a
+Connector in this process -> `simbridge endpoint --backend ros2` (a subprocess) ->
+the same subscriber process (sim -> ros), and the same publisher process -> the
+endpoint -> the Connector (ros -> sim). QoS is reliable with a history as deep as
+the run, so loss should be zero. Payloads: geometry_msgs/Twist and a 640x480 rgb8
+sensor_msgs/Image. Latency: Twists sent by the Connector, echoed back by an rclpy
+node (raw), timed per message at a modest rate: sim -> ROS 2 -> sim.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import queue
+import struct
+import subprocess
+import sys
+import tempfile
+import textwrap
+import threading
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+__all__ = ["run"]
+
+SCALE = float(os.environ.get("SIMBRIDGE_BENCH_SCALE", "1"))
+"""Multiplies the message counts (smaller for a quick look)."""
+IDLE_END = 4.0
+"""Seconds without a message after which a receiver stops counting (more than Fast DDS's
+3 s heartbeat, so a sample repaired by reliability still counts)."""
+LATENCY_COUNT = max(int(500 * SCALE), 20)
+LATENCY_RATE = 200.0
+
+
+@dataclass(frozen=True, slots=True)
+class Payload:
+    """One benchmark payload: its type, CDR bytes and how many to send."""
+
+    label: str
+    msg_type: str
+    data: bytes
+    count: int
+
+
+def _cdr_string(text: str) -> bytes:
+    raw = text.encode() + b"\0"
+    return struct.pack("<I", len(raw)) + raw
+
+
+def _pad(data: bytes, align: int) -> bytes:
+    """Pad CDR body (after the 4-byte encapsulation header) to `align`."""
+    return data + b"\0" * (-(len(data) - 4) % align)
+
+
+def _image(width: int, height: int) -> bytes:
+    """sensor_msgs/Image rgb8 in CDR: Header(stamp, frame_id), height, width, encoding,
+    is_bigendian, step, data."""
+    out = b"\x00\x01\x00\x00" + struct.pack("<iI", 0, 0) + _cdr_string("camera")
+    out = _pad(out, 4) + struct.pack("<II", height, width) + _cdr_string("rgb8") + b"\x00"
+    pixels = bytes(range(256)) * (width * height * 3 // 256)
+    return _pad(out, 4) + struct.pack("<II", width * 3, len(pixels)) + pixels
+
+
+def _twist(seq: float = 1.0) -> bytes:
+    return b"\x00\x01\x00\x00" + struct.pack("<6d", seq, 2, 3, 4, 5, 6)
+
+
+PAYLOADS = (
+    Payload("Twist 48 B", "geometry_msgs/Twist", _twist(), max(int(10000 * SCALE), 10)),
+    Payload("Image 640x480 rgb8", "sensor_msgs/Image", _image(640, 480), max(int(300 * SCALE), 5)),
+)
+
+_NODE_SCRIPT = textwrap.dedent(
+    """
+    import importlib, json, sys, time
+    import rclpy
+    from rclpy.qos import QoSProfile, ReliabilityPolicy, HistoryPolicy
+
+    role, topic, msg_type, count = sys.argv[1], sys.argv[2], sys.argv[3], int(sys.argv[4])
+    pkg, name = msg_type.split("/")
+    cls = getattr(importlib.import_module(pkg + ".msg"), name)
+    qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=max(count, 10),
+                     reliability=ReliabilityPolicy.RELIABLE)
+    rclpy.init()
+    node = rclpy.create_node("bench_" + role)
+    if role == "pub":
+        payload = open(sys.argv[5], "rb").read()
+        pub = node.create_publisher(cls, topic, qos)
+        while pub.get_subscription_count() == 0:
+            time.sleep(0.01)
+        time.sleep(0.3)
+        print("READY", flush=True)
+        sys.stdin.readline()
+        for _ in range(count):
+            pub.publish(payload)
+        print(json.dumps({"sent": count}), flush=True)
+        sys.stdin.readline()
+    elif role == "sub":
+        times = []
+        node.create_subscription(cls, topic, lambda b: times.append(time.perf_counter()), qos,
+                                 raw=True)
+        from rclpy.experimental import EventsExecutor  # the fastest rclpy executor
+
+        executor = EventsExecutor()
+        executor.add_node(node)
+        print("READY", flush=True)
+        deadline = time.time() + 60
+        while not times and time.time() < deadline:
+            executor.spin_once(timeout_sec=0.05)
+        last, last_len = time.time(), 0
+        while len(times) < count and time.time() - last < %(idle)s:
+            executor.spin_once(timeout_sec=0.05)
+            if len(times) != last_len:
+                last, last_len = time.time(), len(times)
+        print(json.dumps({"times": [times[0], times[-1]] if times else [], "count": len(times)}),
+              flush=True)
+    else:  # echo: topic -> topic + "_back", raw
+        back = node.create_publisher(cls, topic + "_back", qos)
+        node.create_subscription(cls, topic, back.publish, qos, raw=True)
+        print("READY", flush=True)
+        rclpy.spin(node)
+    node.destroy_node()
+    rclpy.try_shutdown()
+    """
+)
+
+
+class _Proc:
+    """A ROS 2 venv process whose stdout lines are read on a thread."""
+
+    def __init__(self, args: list[str], env: dict[str, str]) -> None:
+        from tests.ros2support import require_ros2
+
+        self.proc = subprocess.Popen(
+            [str(require_ros2()), *args],
+            env=env,
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            text=True,
+            start_new_session=True,
+        )
+        self.lines: queue.Queue[str] = queue.Queue()
+        threading.Thread(target=self._read, daemon=True).start()
+
+    def _read(self) -> None:
+        assert self.proc.stdout is not None
+        for line in self.proc.stdout:
+            self.lines.put(line.strip())
+
+    def line(self, timeout: float = 60.0) -> str:
+        try:
+            return self.lines.get(timeout=timeout)
+        except queue.Empty:
+            raise RuntimeError(f"{self.proc.args!r} said nothing within {timeout} s") from None
+
+    def tell(self, text: str = "go") -> None:
+        assert self.proc.stdin is not None
+        self.proc.stdin.write(text + "\n")
+        self.proc.stdin.flush()
+
+    def stop(self) -> None:
+        from tests.ros2support import Ros2Process
+
+        holder = Ros2Process.__new__(Ros2Process)
+        holder.proc = self.proc
+        holder.stop()
+
+
+def _row(direction: str, p: Payload, received: int, span: float) -> dict[str, Any]:
+    rate = (received - 1) / span if received > 1 and span > 0 else 0.0
+    return {
+        "direction": direction,
+        "payload": p.label,
+        "sent": p.count,
+        "received": received,
+        "msg_per_s": rate,
+        "mb_per_s": rate * len(p.data) / 1e6,
+        "loss": 1 - received / p.count,
+    }
+
+
+def _node(env: dict[str, str], script: Path, role: str, topic: str, p: Payload,
+          *, payload_file: Path | None = None) -> _Proc:  # fmt: skip
+    args = [str(script), role, topic, p.msg_type, str(p.count)]
+    if payload_file is not None:
+        args.append(str(payload_file))
+    return _Proc(args, env)
+
+
+def _ceiling(env: dict[str, str], script: Path, data: Path, p: Payload, topic: str) -> Any:
+    sub = _node(env, script, "sub", topic, p)
+    pub = _node(env, script, "pub", topic, p, payload_file=data)
+    try:
+        assert sub.line() == "READY"
+        assert pub.line() == "READY"
+        pub.tell()
+        result = json.loads(sub.line(timeout=120))
+    finally:
+        pub.stop()
+        sub.stop()
+    span = result["times"][1] - result["times"][0] if result["times"] else 0.0
+    return _row("rclpy -> rclpy (ceiling)", p, result["count"], span)
+
+
+def _connector(port: int, count: int) -> Any:
+    from simbridge.connector import Connector, ConnectorOptions
+
+    options = ConnectorOptions(publish_queue_size=count + 10, subscribe_queue_size=count + 10)
+    return Connector("127.0.0.1", port, options).connect(wait=10)
+
+
+def _sim_to_ros(env: dict[str, str], script: Path, port: int, p: Payload, topic: str) -> Any:
+    conn = _connector(port, p.count)
+    sub = _node(env, script, "sub", topic, p)
+    try:
+        publisher = conn.register_publisher(topic, p.msg_type, queue_size=p.count,
+                                            report_subscribers=True)
+        assert sub.line() == "READY"
+        deadline = time.monotonic() + 30
+        while (publisher.subscriber_count or 0) < 1 and time.monotonic() < deadline:
+            time.sleep(0.01)
+        time.sleep(0.3)
+        for _ in range(p.count):
+            publisher.publish(p.data)
+        result = json.loads(sub.line(timeout=120))
+    finally:
+        sub.stop()
+        conn.close()
+    span = result["times"][1] - result["times"][0] if result["times"] else 0.0
+    return _row("sim -> ros2 (connector -> endpoint)", p, result["count"], span)
+
+
+def _ros_to_sim(env: dict[str, str], script: Path, data: Path, port: int, p: Payload,
+                *, topic: str) -> Any:  # fmt: skip
+    conn = _connector(port, p.count)
+    times: list[float] = []
+    sizes: set[int] = set()
+
+    def got(payload: bytes) -> None:
+        times.append(time.perf_counter())
+        sizes.add(len(payload))
+
+    conn.subscribe(topic, p.msg_type, got, raw=True, queue_size=p.count + 10)
+    time.sleep(0.5)
+    pub = _node(env, script, "pub", topic, p, payload_file=data)
+    try:
+        assert pub.line() == "READY"
+        pub.tell()
+        deadline = time.monotonic() + 60
+        while not times and time.monotonic() < deadline:
+            time.sleep(0.01)
+        while len(times) < p.count:
+            before = len(times)
+            time.sleep(IDLE_END)
+            if len(times) == before:
+                break
+    finally:
+        pub.stop()
+        conn.close()
+    if sizes and max(sizes) - min(sizes) > 4:
+        raise RuntimeError(f"payload sizes {sizes} differ from the {len(p.data)} sent")
+    span = times[-1] - times[0] if times else 0.0
+    return _row("ros2 -> sim (endpoint -> connector)", p, len(times), span)
+
+
+def _latency(env: dict[str, str], script: Path, port: int) -> dict[str, Any]:
+    """Round trips sim -> endpoint -> rclpy echo -> endpoint -> sim, one at a time."""
+    p = Payload("Twist 48 B", "geometry_msgs/Twist", _twist(), LATENCY_COUNT)
+    topic = "/bench/latency"
+    conn = _connector(port, p.count)
+    echo = _node(env, script, "echo", topic, p)
+    sent: dict[int, float] = {}
+    rtts: list[float] = []
+
+    def back(payload: bytes) -> None:
+        seq = int(struct.unpack_from("<d", payload, 4)[0])
+        if seq in sent:
+            rtts.append(time.perf_counter() - sent[seq])
+
+    try:
+        assert echo.line() == "READY"
+        conn.subscribe(topic + "_back", p.msg_type, back, raw=True)
+        publisher = conn.register_publisher(topic, p.msg_type, report_subscribers=True)
+        deadline = time.monotonic() + 30
+        while (publisher.subscriber_count or 0) < 1 and time.monotonic() < deadline:
+            time.sleep(0.01)
+        time.sleep(1.0)
+        for seq in range(p.count):
+            sent[seq] = time.perf_counter()
+            publisher.publish(_twist(float(seq)))
+            time.sleep(1.0 / LATENCY_RATE)
+        time.sleep(IDLE_END)
+    finally:
+        echo.stop()
+        conn.close()
+    rtts.sort()
+
+    def pct(q: float) -> float:
+        return rtts[min(len(rtts) - 1, int(q * len(rtts)))] * 1e3 if rtts else float("nan")
+
+    return {"messages": p.count, "returned": len(rtts), "p50_ms": pct(0.5), "p99_ms": pct(0.99),
+            "max_ms": rtts[-1] * 1e3 if rtts else float("nan")}  # fmt: skip
+
+
+def run() -> dict[str, list[dict[str, Any]]]:
+    """Ceiling and endpoint rows per payload (each with its share of the ceiling), then
+    the latency row. Bounded: a few thousand messages per row, each receiver stops
+    after IDLE_END s without a message."""
+    from tests.ros2support import child_env, start_endpoint
+
+    env = child_env()
+    rows: list[dict[str, Any]] = []
+    with tempfile.TemporaryDirectory() as tmp:
+        script = Path(tmp, "bench_ros2_node.py")
+        script.write_text(_NODE_SCRIPT % {"idle": IDLE_END})
+        endpoint, port = start_endpoint("--idle-timeout", "0")
+        try:
+            for i, p in enumerate(PAYLOADS):
+                data = Path(tmp, f"payload{i}.bin")
+                data.write_bytes(p.data)
+                topic = f"/bench/p{i}"
+                group = [
+                    _ceiling(env, script, data, p, topic + "/ceiling"),
+                    _sim_to_ros(env, script, port, p, topic + "/sim_to_ros"),
+                    _ros_to_sim(env, script, data, port, p, topic=topic + "/ros_to_sim"),
+                ]
+                for row in group:
+                    row["of_ceiling"] = row["msg_per_s"] / max(group[0]["msg_per_s"], 1e-9)
+                rows += group
+            latency = _latency(env, script, port)
+        finally:
+            endpoint.stop()
+    return {"throughput": rows, "latency sim -> ROS 2 -> sim (Twist, 200 Hz)": [latency]}
+
+
+if __name__ == "__main__":
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+    for title, table in run().items():
+        print(title)
+        for row in table:
+            print(row, flush=True)
