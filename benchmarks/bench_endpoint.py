@@ -23,6 +23,10 @@ from simbridge.connector import Connector, ConnectorOptions
 from simbridge.messages import default_registry
 
 BIG_QUEUE = 1_000_000
+BENCH_MEMORY_MB = 4096
+"""The publisher sends as fast as it can with no pacing, so a subscriber that falls behind
+(a busy machine) leaves a backlog in the endpoint: a budget of 4 GiB (512 MiB per client)
+holds it rather than dropping (the default, 1024 MiB, would drop beyond ~140 images)."""
 OPTS = ConnectorOptions(publish_queue_size=BIG_QUEUE, subscribe_queue_size=BIG_QUEUE)
 
 
@@ -37,6 +41,8 @@ def _start_endpoint() -> tuple[subprocess.Popen[str], int]:
             "endpoint",
             "--port",
             "0",
+            "--max-memory-mb",
+            str(BENCH_MEMORY_MB),
         ],
         stdout=subprocess.PIPE,
         text=True,

@@ -60,6 +60,10 @@ __all__ = ["ClientSession"]
 log = logging.getLogger("simbridge.endpoint")
 _pack_u32 = struct.Struct("<I").pack
 
+_ENTRY_OVERHEAD = 64
+"""Bytes a queued message costs beyond its payload (object header, queue slot), charged to
+the memory budget so a million empty messages are not free."""
+
 _IOV_MAX = 1024
 """Most buffers one writev takes (Linux IOV_MAX)."""
 
@@ -326,9 +330,9 @@ class ClientSession(asyncio.BufferedProtocol):
             return
         queue = outbox.queue
         memory = self.memory
-        size = len(payload)
+        size = len(payload) + _ENTRY_OVERHEAD
         while queue and (len(queue) >= outbox.size or not memory.fits(size)):
-            memory.give(len(queue.popleft()))
+            memory.give(len(queue.popleft()) + _ENTRY_OVERHEAD)
             self._dropped(outbox.topic)
         if not memory.take(size):
             self._dropped(outbox.topic)  # alone it does not fit this client's share
@@ -353,7 +357,7 @@ class ClientSession(asyncio.BufferedProtocol):
                     break
                 if outbox.queue:
                     payload = outbox.queue.popleft()
-                    self.memory.give(len(payload))
+                    self.memory.give(len(payload) + _ENTRY_OVERHEAD)
                     self.stats.frames_out += 1
                     self._write(outbox.prefix + _pack_u32(len(payload)))
                     self._write(payload)
@@ -616,7 +620,7 @@ class ClientSession(asyncio.BufferedProtocol):
             entry[0].close()
             self._backlogged.pop(topic, None)
             queue = entry[1].queue
-            self.memory.give(sum(map(len, queue)))
+            self.memory.give(sum(map(len, queue)) + _ENTRY_OVERHEAD * len(queue))
             queue.clear()
 
     def _drop_unity_service(self, topic: str) -> None:

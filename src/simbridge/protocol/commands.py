@@ -57,7 +57,7 @@ DEFAULT_SUBSCRIBE_QUEUE = 100
 MAX_NAME_LENGTH = 256
 """Longest topic, service or type name accepted (characters); longer ones are refused
 before any work (close-match suggestions, registration) is spent on them."""
-MAX_QUEUE_SIZE = 10_000
+MAX_QUEUE_SIZE = 1_000_000
 """Largest `queue_size` the endpoint honours; larger requests are capped to it (a
 negative one is an error), so a client cannot make one queue unbounded."""
 MAX_COMMAND_SIZE = 1024 * 1024
