@@ -24,6 +24,7 @@ SUITES = {
     "mobile_robot": "benchmarks.bench_mobile_robot",
     "gym": "benchmarks.bench_gym",
     "attacks": "benchmarks.bench_attacks",
+    "urdf": "benchmarks.bench_urdf",
 }
 
 TITLES = {
@@ -35,6 +36,7 @@ TITLES = {
     "mobile_robot": "Mobile robot square with and without sensor subscribers (laziness)",
     "gym": "Gym environments",
     "attacks": "Endpoint under attack: peak resident memory beside the memory budget",
+    "urdf": "URDF import: example-robot-data load time per robot, cold and warm mesh cache",
 }
 """README heading of each suite that returns a single table."""
 
