@@ -129,5 +129,10 @@ def test_warnings_print_plainly_and_strict_refuses(
     assert "strict mode" in capsys.readouterr().err
     scene = tmp_path / "scene.yaml"
     scene.write_text(f"robots:\n  - urdf: {path}\n")
+    assert main(["sim", str(scene), "--duration", "0.01", "--realtime", "0"]) == 0
+    err = capsys.readouterr().err
+    assert err.startswith(f"simbridge: warning: {path}:3: link 'a' is defined twice")
+    assert "UrdfWarning" not in err
+    assert "warnings.warn" not in err
     assert main(["sim", str(scene), "--duration", "0.01", "--realtime", "0", "--strict"]) == 2
     assert "defined twice" in capsys.readouterr().err
