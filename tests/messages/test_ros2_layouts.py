@@ -212,3 +212,17 @@ def test_translator_ros1_to_ros2(ros2: MessageRegistry) -> None:
     twist = ros1.new("geometry_msgs/Twist", linear={"x": 1.0})
     assert translate(twist) is twist  # same layout: passed through
     assert ros2.encode(twist) == ros2.encode(ros2.new("geometry_msgs/Twist", linear={"x": 1.0}))
+
+
+def test_cdr_from_rclpy_may_end_in_unused_bytes(ros2: MessageRegistry) -> None:
+    """rmw sizes serialized messages by an upper bound: the bytes past the message (as
+    rclpy returned them for a MoverService response, garbage included) are ignored."""
+    response = ros2.new(
+        "niryo_moveit/MoverServiceResponse",
+        trajectories=[
+            {"joint_trajectory": {"joint_names": ["a"], "points": [{"positions": [1.0]}]}}
+        ],
+    )
+    wire = ros2.encode(response) + bytes.fromhex("b01eca457e7f0000f01eca45")
+    back = ros2.decode(wire, "niryo_moveit/MoverServiceResponse")
+    assert ros2.to_dict(back) == ros2.to_dict(response)

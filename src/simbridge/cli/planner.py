@@ -2,6 +2,8 @@
 
 With `--backend ros1` it is a rospy node serving /niryo_moveit to the ROS graph
 (`rosservice call`, a rospy client, or a sim through `simbridge endpoint --backend ros1`).
+With `--backend ros2` it is an rclpy node (in the ROS 2 venv; localhost-only DDS)
+serving /niryo_moveit to the ROS 2 graph.
 With `--backend local` it runs an endpoint on the embedded bus with the planner on it,
 so a ROS-TCP client (a Unity scene, a connector) can call /niryo_moveit with no ROS.
 """
@@ -14,6 +16,8 @@ import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
+
+from .common import reexec_in_ros2_venv
 
 __all__ = ["add_parser"]
 
@@ -38,7 +42,20 @@ def run_planner(args: argparse.Namespace) -> int:
     from simbridge.apps.pick_and_place.scene import SCENE_PATH
 
     scene: Path = args.scene or SCENE_PATH
+    if args.backend == "ros2":
+        reexec_in_ros2_venv()
     with _stop_on_signals() as stop:
+        if args.backend == "ros2":
+            from simbridge.apps.pick_and_place.ros2_planner import Ros2PlannerNode
+
+            with Ros2PlannerNode(scene, node_name=args.node_name.lstrip("/")):
+                print(
+                    f"simbridge planner: serving {PLANNER_SERVICE} [{SERVICE_TYPE}] as ROS 2 "
+                    f"node /{args.node_name.lstrip('/')}",
+                    flush=True,
+                )
+                stop.wait()
+            return 0
         if args.backend == "ros1":
             from simbridge.apps.pick_and_place.ros1_planner import serve
 
@@ -75,10 +92,10 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     )
     planner.add_argument(
         "--backend",
-        choices=["ros1", "local"],
+        choices=["ros1", "ros2", "local"],
         default="ros1",
-        help="ros1 (default): a rospy node on ROS_MASTER_URI; local: an endpoint on the "
-        "embedded bus that ROS-TCP clients connect to",
+        help="ros1 (default): a rospy node on ROS_MASTER_URI; ros2: an rclpy node (ROS 2 "
+        "venv); local: an endpoint on the embedded bus that ROS-TCP clients connect to",
     )
     planner.add_argument(
         "--scene",
@@ -86,7 +103,9 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         default=None,
         help="scene YAML whose static boxes are obstacles (default: the pick-and-place scene)",
     )
-    planner.add_argument("--node-name", default="niryo_moveit_planner", help="ROS node name (ros1)")
+    planner.add_argument(
+        "--node-name", default="niryo_moveit_planner", help="ROS node name (ros1, ros2)"
+    )
     planner.add_argument(
         "--connect-timeout",
         type=float,

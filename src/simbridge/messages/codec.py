@@ -120,7 +120,13 @@ class Codec:
         return buf
 
     def decode_cdr(self, data: bytes | bytearray | memoryview) -> Any:
-        """Deserialize CDR (either byte order); at most 3 bytes of trailing padding."""
+        """Deserialize CDR (either byte order); bytes after the message are ignored.
+
+        rmw sizes a serialized message by an upper bound, so CDR from rclpy can end in
+        bytes that belong to no field (12 after a niryo_moveit/MoverService response
+        holding one trajectory point, measured with rclpy 7.1 / Fast DDS): only the
+        decoded values count, never the length.
+        """
         try:
             raw = _frozen(data)
         except TypeError as exc:
@@ -130,12 +136,9 @@ class Codec:
             raise MessageError(msg_)
         func = self._de_cdr_le if raw[1] else self._de_cdr_be
         try:
-            msg, pos = func(memoryview(raw)[4:], 0, self._cls, self._store)
+            msg, _end = func(memoryview(raw)[4:], 0, self._cls, self._store)
         except Exception as exc:
             raise MessageError(f"malformed CDR {self.name} ({len(data)} bytes): {exc}") from exc
-        if pos + 4 + 3 < len(data):
-            msg_ = f"malformed CDR {self.name}: {len(data) - pos - 4} trailing byte(s)"
-            raise MessageError(msg_)
         return msg
 
     def _encode_error(self, fmt: WireFormat, msg: object, exc: Exception) -> str:

@@ -1,6 +1,6 @@
 """Run the whole chain headless: endpoint, planner node, simulator; and its command line.
 
-`main(argv)` is `simbridge demo pick-and-place [--backend local|ros1] [--json]
+`main(argv)` is `simbridge demo pick-and-place [--backend local|ros1|ros2] [--json]
 [--video PATH] [--seed N]`.
 """
 
@@ -28,7 +28,7 @@ from simbridge.errors import AppError, SimbridgeError
 
 __all__ = ["BACKENDS", "main", "run_pick_and_place"]
 
-BACKENDS = ("local", "ros1")
+BACKENDS = ("local", "ros1", "ros2")
 
 
 def run_pick_and_place(
@@ -47,9 +47,10 @@ def run_pick_and_place(
     The task is ``task``, else drawn from ``seed``, else the default one. ``backend`` "local"
     runs the planner as an in-process node on the endpoint's bus; "ros1" runs it as a rospy
     node (starting a roscore when ROS_MASTER_URI does not answer) and bridges with the ROS 1
-    backend. ``video`` writes a .gif (or .mp4 with ffmpeg); ``json`` prints the summary as
-    the last line. Planning failures end in a result with ``error`` set; setup failures
-    (bad backend, no master, bad video path) raise AppError.
+    backend; "ros2" (in the ROS 2 venv) runs it as an rclpy node and bridges with the ROS 2
+    backend, the sim speaking ROS 2. ``video`` writes a .gif (or .mp4 with ffmpeg);
+    ``json`` prints the summary as the last line. Planning failures end in a result with
+    ``error`` set; setup failures (bad backend, no master, bad video path) raise AppError.
     """
     if backend not in BACKENDS:
         raise AppError(f"unknown backend {backend!r}; choose one of {', '.join(BACKENDS)}")
@@ -65,6 +66,15 @@ def run_pick_and_place(
             endpoint = stack.enter_context(EndpointThread(EndpointOptions(port=0), bus))
             stack.enter_context(LocalPlannerNode(bus, scene))
             say(f"[pick-and-place] endpoint on port {endpoint.port} (local bus), planner node up")
+        elif backend == "ros2":
+            from simbridge.apps.pick_and_place.ros2_planner import (  # noqa: PLC0415 - rclpy
+                Ros2PlannerNode,
+            )
+
+            stack.enter_context(Ros2PlannerNode(scene))
+            ros2 = make_backend("ros2", node_name="/simbridge_endpoint")
+            endpoint = stack.enter_context(EndpointThread(EndpointOptions(port=0), ros2))
+            say(f"[pick-and-place] endpoint on port {endpoint.port} (ros2 backend), planner up")
         else:
             graph = stack.enter_context(Ros1Graph(scene))
             say(f"[pick-and-place] ROS master {graph.master.describe()}, planner node up")

@@ -36,7 +36,7 @@ from simbridge.apps.pick_and_place.task import PickAndPlaceTask
 from simbridge.apps.pick_and_place.video import VideoRecorder
 from simbridge.connector import Connector
 from simbridge.errors import AppError, SimbridgeError
-from simbridge.messages import MessageRegistry, default_registry
+from simbridge.messages import MessageRegistry
 from simbridge.sim import World
 
 __all__ = ["ARM_JOINTS", "GRIPPER_JOINT", "STAGES", "ExecutionOptions", "PickAndPlaceSim"]
@@ -64,15 +64,20 @@ class ExecutionOptions:
     """After an empty plan, how long to wait for the planner's reason on /rosout (wall)."""
 
 
+_ROS2_LOG = ("rcl_interfaces/Log", 40)
+"""/rosout in ROS 2: rcl_interfaces/msg/Log, whose ERROR level is 40."""
+
+
 class _PlannerErrors:
     """Collects the planner node's ERROR messages from /rosout."""
 
-    def __init__(self) -> None:
+    def __init__(self, error_level: int = LOG_ERROR) -> None:
+        self.error_level = error_level
         self.messages: list[str] = []
         self._event = threading.Event()
 
     def __call__(self, msg: Any) -> None:
-        if msg.level >= LOG_ERROR and msg.name.lstrip("/") == NODE_NAME:
+        if msg.level >= self.error_level and msg.name.lstrip("/") == NODE_NAME:
             self.messages.append(str(msg.msg))
             self._event.set()
 
@@ -106,16 +111,19 @@ class PickAndPlaceSim:
         self.options = options or ExecutionOptions()
         self.recorder = recorder
         self.progress = progress or (lambda _text: None)
-        self.registry = registry or default_registry()
+        self.registry = registry or connector.registry  # the endpoint's ROS 1 or ROS 2 layouts
         self.phases: list[PhaseTiming] = []
         self._track: list[tuple[float, float, float, float]] = []
         self._cube = world.model.body(CUBE).id
-        self._errors = _PlannerErrors()
+        log_type, error_level = (
+            _ROS2_LOG if connector.protocol == "ROS2" else ("rosgraph_msgs/Log", LOG_ERROR)
+        )
+        self._errors = _PlannerErrors(error_level)
         self._gripper_closed_at: float | None = None
         gripper = world.model.joint(GRIPPER_JOINT)
         self._gripper_open, self._gripper_closed = float(gripper.range[1]), float(gripper.range[0])
         connector.register_ros_service(PLANNER_SERVICE, SERVICE_TYPE)
-        connector.subscribe(LOG_TOPIC, "rosgraph_msgs/Log", self._errors)
+        connector.subscribe(LOG_TOPIC, log_type, self._errors)
 
     # --- stepping --------------------------------------------------------------------------
 
