@@ -208,7 +208,7 @@ def test_endpoint_replaced_by_same_name_tells_clients_and_exits(
         assert "/e2e_twin" in told[0]
         assert "new node registered with same name" in told[0]
         assert "simbridge: error: the ROS node /e2e_twin was shut down" in first.output()
-        assert second.process.poll() is None
+        assert second.process.poll() is None, first.output() + "\n=====\n" + second.output()
         assert "pub:/e2e/twin_pub" not in node_registrations(master, "/e2e_twin")
     finally:
         first.stop()

@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import asyncio
+import struct
 import subprocess
 import textwrap
+import xmlrpc.client
 from collections.abc import Awaitable, Callable
 from pathlib import Path
-from typing import TypeVar
+from typing import Any, TypeVar
 
 import pytest
 from tests.ros1support import SYSTEM_PYTHON, RosMaster, require_ros, shared_master
@@ -16,7 +18,10 @@ from simbridge.endpoint.backends.base import TopicInfo
 
 require_ros(module_level=True)
 
+import rospy  # noqa: E402
+
 from simbridge.endpoint.backends.ros1 import Ros1Backend  # noqa: E402
+from simbridge.endpoint.backends.ros1_rejoin import register_again  # noqa: E402
 
 T = TypeVar("T")
 
@@ -105,3 +110,48 @@ def test_topic_list_forgets_topics_of_a_node_that_exited(master: RosMaster, tmp_
     assert "/sb/staying" in names_after
     assert TopicInfo("/rosout", "rosgraph_msgs/Log") in after
     assert after == sorted(after, key=lambda t: t.name)
+
+
+def test_register_again_restores_what_a_new_master_lacks(master: RosMaster) -> None:
+    """What a restarted master looks like to a node: none of its registrations.
+    register_again (what MasterWatch runs then) gives it every one back; the restart
+    itself (kill -9 of roscore) is tested in tests/e2e/test_ros1_master_restart.py."""
+    api: Any = xmlrpc.client.ServerProxy(master.uri)
+
+    def ours() -> set[str]:
+        _, _, state = api.getSystemState("/sb_test")
+        return {
+            f"{kind}:{name}"
+            for kind, entries in zip(("pub", "sub", "srv"), state, strict=True)
+            for name, nodes in entries
+            if rospy.get_name() in nodes
+        }
+
+    async def handler(request: bytes) -> bytes:
+        return b"\x01" + struct.pack("<I", 0)
+
+    async def scenario(backend: Ros1Backend) -> tuple[int, int, int]:
+        backend.advertise("/sb/forgotten_pub", "std_msgs/String", queue_size=1, latch=False)
+        backend.subscribe("/sb/forgotten_sub", "std_msgs/String", lambda _: None)
+        backend.advertise_service("/sb/forgotten_srv", "std_srvs/SetBool", handler)
+        held = ours()
+        assert {"pub:/sb/forgotten_pub", "sub:/sb/forgotten_sub", "srv:/sb/forgotten_srv"} <= held
+        node, node_uri = rospy.get_name(), rospy.core.get_node_uri()
+        for entry in held:  # the master forgets this node entirely
+            kind, name = entry.split(":", 1)
+            if kind == "pub":
+                api.unregisterPublisher(node, name, node_uri)
+            elif kind == "sub":
+                api.unregisterSubscriber(node, name, node_uri)
+            else:
+                (_, _, uri) = api.lookupService(node, name)
+                api.unregisterService(node, name, uri)
+        assert ours() == set()  # as a new master would have it
+        counts = register_again(master.uri)
+        assert ours() == held
+        return counts
+
+    published, subscribed, served = with_backend(scenario)
+    assert published >= 2  # /sb/forgotten_pub and rospy's /rosout
+    assert subscribed >= 1
+    assert served >= 1

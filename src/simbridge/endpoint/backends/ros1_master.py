@@ -157,6 +157,17 @@ class RosCore:
             self._process = None
         shutil.rmtree(self.home, ignore_errors=True)
 
+    def kill(self) -> None:
+        """Crash the master: SIGKILL roscore, rosmaster and rosout at once, no cleanup.
+        ROS_HOME stays, so `start()` may bring a new master up on the same port."""
+        if self._process is None:
+            return
+        for pid in [self._process.pid, *(pid for pid, _ in _descendants(self._process.pid))]:
+            with contextlib.suppress(ProcessLookupError):
+                os.kill(pid, signal.SIGKILL)
+        self._process.wait()
+        self._process = None
+
     def __enter__(self) -> RosCore:
         return self.start()
 

@@ -2,7 +2,8 @@
 
 rospy allows a single node per process and cannot re-initialise it, so every
 Ros1Backend in a process shares the node joined first; asking for another
-name or master is an error rather than a silent reuse.
+name or master is an error rather than a silent reuse. A MasterWatch registers the
+node's topics and services again whenever the master restarts.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ from dataclasses import dataclass
 import rosgraph
 import rospy
 
+from simbridge.endpoint.backends.ros1_rejoin import MasterWatch
 from simbridge.errors import EndpointError
 
 __all__ = ["NodeIdentity", "join_graph", "on_node_shutdown", "read_drop_in_params", "ros_args"]
@@ -83,6 +85,7 @@ def join_graph(name: str, args: Sequence[str], connect_timeout: float) -> NodeId
             root.handlers = [*handlers, *added]
             root.setLevel(level)
         _joined = wanted
+        MasterWatch(master_uri).start()  # re-registers everything if the master restarts
         return wanted
 
 
