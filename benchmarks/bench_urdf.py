@@ -45,8 +45,8 @@ def run() -> list[dict[str, Any]]:
                 start = time.perf_counter()
                 try:
                     world = _load(path, SHARE)
-                except Exception as exc:  # a robot that fails is reported, not fatal
-                    rows.append({"robot": rel, "cold_s": f"error: {exc}"[:60]})
+                except Exception:  # a robot that fails (see the corpus test) is not fatal
+                    rows.append({"robot": rel, "cold_s": "fails", "warm_s": "fails"})
                     continue
                 cold = time.perf_counter() - start
                 start = time.perf_counter()
