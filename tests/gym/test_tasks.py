@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 import simbridge.gym  # noqa: F401 - registers the ids
-from simbridge.gym import Observation, SceneEnv
+from simbridge.gym import Observation, SceneEnv, WheelVelocity
+from simbridge.gym.tasks import NAV_SCENE, NavTask
 
 
 def _pick_and_place(seed: int, close_gripper: bool) -> tuple[bool, float]:
@@ -98,3 +99,27 @@ def test_nav_observation_is_the_odometry_and_lidar_reading() -> None:
         float(np.linalg.norm(obs["goal"] - base.translation[:2])), abs=1e-4
     )
     assert ((obs["lidar"] >= 0.0) & (obs["lidar"] <= 8.0)).all()
+
+
+def test_wheel_velocity_actions_on_the_nav_scene() -> None:
+    """An env of your own on a shipped scene: equal wheel speeds roll the base straight."""
+    env = SceneEnv(NAV_SCENE, NavTask(), WheelVelocity("left_wheel_joint", "right_wheel_joint"))
+    obs, _ = env.reset(seed=1)
+    start, heading = obs["pose"][:2].copy(), obs["pose"][2:].copy()
+    for _ in range(25):  # 0.5 s at 4 rad/s: about 0.1 m on 0.05 m wheels
+        obs, *_ = env.step(np.array([4.0, 4.0], np.float32))
+    travelled = obs["pose"][:2] - start
+    assert 0.05 < float(np.linalg.norm(travelled)) < 0.12
+    assert float(np.dot(travelled / np.linalg.norm(travelled), heading)) > 0.99
+    assert obs["joint_pos"].shape == (2,)  # the wheels it drives are observed
+    assert obs["joint_vel"] == pytest.approx([4.0, 4.0], abs=0.5)
+
+
+def test_camera_images_in_a_vector_of_nav_envs() -> None:
+    vec = gym.make_vec("simbridge/DiffDriveNav-v0", num_envs=2, image_size=(48, 64))
+    obs, _ = vec.reset(seed=0)
+    assert obs["image"].shape == (2, 48, 64, 3)
+    obs, *_ = vec.step(np.zeros((2, 2), np.float32))
+    assert obs["image"].std() > 5
+    assert not np.array_equal(obs["image"][0], obs["image"][1]), "two robots, two views"
+    vec.close()
