@@ -172,3 +172,18 @@ def test_single_triangle_colour_parts_are_dropped(tmp_path: Path) -> None:
     (tmp_path / "many.dae").write_text(collada(colours=colours))
     model, _ = _build(_urdf(tmp_path, "many.dae", collision=False), tmp_path)
     assert model.ngeom == 5
+
+
+def test_scene_key_honours_collada_up_axis(tmp_path: Path) -> None:
+    import yaml
+
+    from simbridge.sim.scene import load_scene
+    from simbridge.sim.world import World
+
+    (tmp_path / "cube.dae").write_text(collada(up="Y_UP"))
+    _urdf(tmp_path, "cube.dae")
+    for key, centre in (("ignore", [0.5, 0.5, 0.5]), ("honour", [0.5, -0.5, 0.5])):
+        robot = {"urdf": "robot.urdf", "collada_up_axis": key}
+        (tmp_path / "scene.yaml").write_text(yaml.safe_dump({"robots": [robot]}))
+        world = World.from_scene(load_scene(tmp_path / "scene.yaml"))
+        np.testing.assert_allclose(_centre(world.model, "base/collision/0"), centre, atol=1e-6)

@@ -128,6 +128,8 @@ def _robot(
         self_collision=spec.self_collision,
         armature=spec.armature,
     )
+    if spec.collada_up_axis == "honour":
+        meshes = MeshCache(meshes.directory, honour_up_axis=True)
     mjcf = add_robot(doc, robot, options, meshes)
     drivable = {j.name: j for j in robot.movable_joints if j.mimic is None}
     for joint_name in spec.joint_drives:

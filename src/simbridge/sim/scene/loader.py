@@ -213,6 +213,7 @@ def _robot(section: _Section, base_dir: Path) -> RobotSpec:
         joint_drives=joint_drives,
         armature=section.get("armature", _non_negative, RobotSpec.armature),
         effort_limits=section.get("effort_limits", _choice(EFFORT_POLICIES), "urdf"),
+        collada_up_axis=section.get("collada_up_axis", _choice(("ignore", "honour")), "ignore"),
     )
     section.done(
         (
@@ -228,6 +229,7 @@ def _robot(section: _Section, base_dir: Path) -> RobotSpec:
             "drives",
             "armature",
             "effort_limits",
+            "collada_up_axis",
         )
     )
     return spec

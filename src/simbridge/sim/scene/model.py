@@ -67,6 +67,9 @@ class RobotSpec:
     armature: float = 0.01
     """Rotor inertia (kg m^2, or kg for prismatic joints) added to every joint: keeps stiff
     drives on light links (wrists, fingers) stable; URDF has no field for it."""
+    collada_up_axis: str = "ignore"
+    """"ignore" (as rviz: files are authored to look right there) or "honour" COLLADA
+    `<up_axis>` (Y_UP/X_UP meshes rotated to Z up)."""
     effort_limits: str = "urdf"
     """What URDF `effort` values become: "urdf" (force limits, with a warning where one
     cannot hold the robot against gravity), "ignore" (unlimited) or "scale"."""
