@@ -15,6 +15,8 @@ PACKAGES=(
   # robot_state_publisher and tf2 buffers: the sim's /tf against RSP fed its /joint_states
   # (tests/e2e/test_ros1_robot_state_publisher.py)
   ros-robot-state-publisher python3-tf2-ros
+  # `rosbag info` of the sim's ROS 1 recordings (tests/sim/test_record.py)
+  python3-rosbag
 )
 
 missing=()

@@ -72,6 +72,9 @@ def run_urdf(args: argparse.Namespace) -> int:
 
 
 def run_sim(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from simbridge.sim.record import RecordOptions
     from simbridge.sim.ros import run_scene
     from simbridge.sim.scene import load_scene, with_overrides
 
@@ -84,6 +87,7 @@ def run_sim(args: argparse.Namespace) -> int:
             duration=args.duration,
             realtime_factor=args.realtime,
             viewer=args.viewer,
+            record=RecordOptions(Path(args.record), args.record_buffer) if args.record else None,
         )
     print(
         f"simulated {stats.sim_time:.3f} s in {stats.wall_time:.3f} s wall "
@@ -155,5 +159,19 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         "without --endpoint the scene's physics.realtime_factor, 1 unless set)",
     )
     sim.add_argument("--viewer", action="store_true", help="open MuJoCo's viewer (needs a display)")
+    sim.add_argument(
+        "--record",
+        metavar="FILE",
+        default=None,
+        help="record every topic in and out (sim-time stamps) to FILE: .mcap (rosbag2 "
+        "MCAP) or .bag (ROS 1); needs --endpoint",
+    )
+    sim.add_argument(
+        "--record-buffer",
+        type=int,
+        default=10000,
+        metavar="N",
+        help="messages waiting to be written before new ones are dropped (default 10000)",
+    )
     _load_options(sim)
     sim.set_defaults(func=run_sim)

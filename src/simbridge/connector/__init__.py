@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from simbridge.connector.calls import ServiceHandler
 from simbridge.connector.connector import Connector
-from simbridge.connector.handles import MessageCallback, Publisher, Subscription
+from simbridge.connector.handles import MessageCallback, MessageTap, Publisher, Subscription
 from simbridge.connector.options import ConnectorOptions
 from simbridge.connector.stats import ConnectorStats
 
@@ -18,6 +18,7 @@ __all__ = [
     "ConnectorOptions",
     "ConnectorStats",
     "MessageCallback",
+    "MessageTap",
     "Publisher",
     "ServiceHandler",
     "Subscription",

@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Any
 from simbridge.connector.calls import PendingCall, ServiceHandler, ServiceImpl
 from simbridge.connector.codec import is_raw
 from simbridge.connector.engine import ConnectorEngine
-from simbridge.connector.handles import MessageCallback, Publisher, Subscription
+from simbridge.connector.handles import MessageCallback, MessageTap, Publisher, Subscription
 from simbridge.connector.stats import ConnectorStats
 from simbridge.connector.writer import OutTopic
 from simbridge.errors import ConnectorError, ServiceError
@@ -190,6 +190,7 @@ class Connector(ConnectorEngine):
                 fifo=self._out,
                 codec=self._codec,
                 counters=self._counters,
+                taps=self._taps,
             )
             self._publishers[topic] = pub
             self._send_command(self._publish_command(pub))
@@ -202,6 +203,24 @@ class Connector(ConnectorEngine):
             if pub is not None:
                 pub.closed = True
                 self._send_command(RemovePublisher(topic))
+
+    def add_tap(self, tap: MessageTap) -> None:
+        """Show `tap` every payload published or received from now on, with its topic and
+        type (a recorder's hook). It runs on the publishing or reader thread: never block."""
+        with self._lock:
+            if tap not in self._taps:
+                self._taps.append(tap)
+
+    def remove_tap(self, tap: MessageTap) -> None:
+        """Stop showing messages to `tap`."""
+        with self._lock:
+            if tap in self._taps:
+                self._taps.remove(tap)
+
+    @property
+    def wire_format(self) -> str:
+        """How payloads are serialized right now: "ros1" or "cdr" (ROS 2)."""
+        return "cdr" if self.protocol == "ROS2" else "ros1"
 
     def publish(self, topic: str, msg: object) -> None:
         """Queue a message on a registered topic; thread-safe and never blocks."""

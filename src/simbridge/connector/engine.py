@@ -24,7 +24,7 @@ from simbridge.connector.codec import PayloadCodec
 from simbridge.connector.dispatcher import Dispatcher, Task
 from simbridge.connector.fifo import BoundedFifo
 from simbridge.connector.framer import Framer
-from simbridge.connector.handles import Publisher, Subscription
+from simbridge.connector.handles import MessageTap, Publisher, Subscription
 from simbridge.connector.link import Link, open_link
 from simbridge.connector.options import ConnectorOptions
 from simbridge.connector.reader import FrameReader, Received
@@ -90,6 +90,9 @@ class ConnectorEngine:
         self._lock = threading.RLock()
         self._publishers: dict[str, Publisher] = {}
         self._subscriptions: dict[str, tuple[Subscription, ...]] = {}
+        self._taps: list[MessageTap] = []
+        """Observers of every message in and out (`Connector.add_tap`); the same list
+        object is shared with every publisher."""
         self._ros_services: dict[str, str] = {}
         self._unity_services: dict[str, ServiceImpl] = {}
         self._calls: dict[int, PendingCall] = {}
@@ -320,6 +323,8 @@ class ConnectorEngine:
                 if subs is None:
                     _log.debug("message on %r, which is not subscribed; ignored", topic)
                     continue
+                for tap in self._taps:
+                    tap(topic, subs[0].msg_type, payload, False)
                 for sub in subs:
                     batch.append((sub, payload, sub.queue_size))
                 continue

@@ -11,10 +11,15 @@ from simbridge.connector.stats import StatsCounters
 from simbridge.connector.writer import OutTopic
 from simbridge.errors import ConnectorError
 
-__all__ = ["MessageCallback", "Publisher", "Subscription"]
+__all__ = ["MessageCallback", "MessageTap", "Publisher", "Subscription"]
 
 MessageCallback = Callable[[Any], None]
 """Receives a decoded message, or the payload bytes for a raw subscription."""
+
+MessageTap = Callable[[str, str, bytes, bool], None]
+"""Sees every message published or received: (topic, msg_type, payload, outgoing).
+Called on the publishing thread or the reader thread, so it must never block
+(a recorder queues the payload for its own writer thread)."""
 
 
 class Publisher:
@@ -26,6 +31,7 @@ class Publisher:
         "_fifo",
         "_last",
         "_out",
+        "_taps",
         "closed",
         "latch",
         "msg_type",
@@ -45,8 +51,10 @@ class Publisher:
         fifo: BoundedFifo[OutTopic, bytes],
         codec: PayloadCodec,
         counters: StatsCounters,
+        taps: list[MessageTap] | None = None,
     ) -> None:
         self._out = out
+        self._taps = taps if taps is not None else []
         self.msg_type = msg_type
         self.queue_size = queue_size
         """The ROS-side queue size announced to the endpoint."""
@@ -98,6 +106,8 @@ class Publisher:
         payload = self._codec.encode(msg, self.msg_type)
         if self.latch:
             self._last = payload
+        for tap in self._taps:
+            tap(self._out.topic, self.msg_type, payload, True)
         out = self._out
         if self._fifo.put(out, payload, out.bound, len(payload)):
             self._counters.publish_dropped(out.topic)

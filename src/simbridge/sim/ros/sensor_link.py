@@ -40,6 +40,8 @@ class SensorPublisher:
         self._callback: int | None = None
         self._lazy: dict[str, Publisher] = {}
         self._translator: Translator | None = None
+        self.always_on = False
+        """Measure every output even without subscribers (set while recording)."""
 
     def start(self) -> None:
         """Advertise the sensor topics and poll after every step; restart on world reset."""
@@ -60,7 +62,7 @@ class SensorPublisher:
     def poll(self) -> None:
         """Publish every message due at the current sim time, for outputs someone reads."""
         for topic, publisher in self._lazy.items():
-            self.suite.set_wanted(topic, publisher.has_subscribers)
+            self.suite.set_wanted(topic, self.always_on or publisher.has_subscribers)
         publications = self.suite.poll(self.world.model, self.world.data, self.world.refresh)
         if not publications:
             return

@@ -7,6 +7,7 @@ from pathlib import Path
 
 from simbridge.connector import Connector, ConnectorOptions
 from simbridge.errors import SimError
+from simbridge.sim.record import Recorder, RecordOptions
 from simbridge.sim.ros.bridge import SimRosBridge
 from simbridge.sim.ros.sensor_link import SensorPublisher
 from simbridge.sim.scene.loader import load_scene
@@ -42,12 +43,22 @@ class SimulationSession:
         endpoint: str | None = None,
         connector_options: ConnectorOptions | None = None,
         connect_timeout: float | None = None,
+        record: RecordOptions | None = None,
     ) -> None:
+        """`record`: write every message the session publishes or receives to a bag
+        (needs an endpoint)."""
+        if record is not None and not endpoint:
+            raise SimError(
+                f"recording to '{record.path}' needs an endpoint: the simulation publishes "
+                "nothing without one (give --endpoint HOST:PORT)"
+            )
         self.scene = scene if isinstance(scene, Scene) else load_scene(scene)
         self.world = World.from_scene(self.scene)
         self.connector: Connector | None = None
         self.bridge: SimRosBridge | None = None
         self.sensors: SensorPublisher | None = None
+        self.recorder: Recorder | None = None
+        self._record = record
         self._endpoint = parse_endpoint(endpoint) if endpoint else None
         self._options = connector_options
         self._connect_timeout = connect_timeout
@@ -59,11 +70,16 @@ class SimulationSession:
             return self
         host, port = self._endpoint
         self.connector = Connector(host, port, self._options).connect(wait=self._connect_timeout)
+        if self._record is not None:
+            world = self.world
+            self.recorder = Recorder(self._record, clock=lambda: world.time)
+            self.recorder.attach(self.connector)
         self.bridge = SimRosBridge(self.world, self.connector, self.scene.ros)
         if self.scene.sensors:
             suite = SensorSuite.from_config(self.world.model, self.scene.sensors)
             shared = {"/tf"} if self.scene.ros.tf else set()
             self.sensors = SensorPublisher(self.world, self.connector, suite, shared)
+            self.sensors.always_on = self.recorder is not None  # the bag listens to all
             self.bridge.state.extra_static.extend(suite.static_transforms(self.world.model))
             # Odometry that broadcasts odom -> base owns the base's parent (REP 105).
             self.bridge.state.parented_elsewhere.update(
@@ -109,6 +125,9 @@ class SimulationSession:
             self.bridge.close()
         if self.connector is not None:
             self.connector.close()
+        if self.recorder is not None:
+            _log.info("%s", self.recorder.close().summary())
+            self.recorder = None
 
     def __enter__(self) -> SimulationSession:
         return self.start()
@@ -124,12 +143,13 @@ def run_scene(
     duration: float | None = None,
     realtime_factor: float | None = None,
     viewer: bool = False,
+    record: RecordOptions | None = None,
 ) -> RunStats:
     """Load and run a scene headless (or in the viewer) until `duration` sim seconds pass
     or the process is interrupted, serving ROS through `endpoint` ("host:port") if given.
     `realtime_factor` None: real time with an endpoint, else the scene's
-    (`SimulationSession.pacing`)."""
-    with SimulationSession(scene, endpoint) as session:
+    (`SimulationSession.pacing`). `record`: a bag of every message in and out."""
+    with SimulationSession(scene, endpoint, record=record) as session:
         try:
             return session.run(duration, realtime_factor, viewer)
         except KeyboardInterrupt:
