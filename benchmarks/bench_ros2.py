@@ -27,7 +27,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from simbridge.endpoint.backends.ros2_env import ros2_python
+
 __all__ = ["run"]
+
+if ros2_python() is None:  # benchmarks/run.py reports the suite as skipped
+    raise ModuleNotFoundError("the ROS 2 venv (.venv-ros2) is missing: run `make ros2`")
 
 SCALE = float(os.environ.get("SIMBRIDGE_BENCH_SCALE", "1"))
 """Multiplies the message counts (smaller for a quick look)."""
@@ -336,7 +341,10 @@ def run() -> dict[str, list[dict[str, Any]]]:
             latency = _latency(env, script, port)
         finally:
             endpoint.stop()
-    return {"throughput": rows, "latency sim -> ROS 2 -> sim (Twist, 200 Hz)": [latency]}
+    return {
+        "ROS 2 backend against the rclpy ceiling, same run (target: >= 90%, zero loss)": rows,
+        "ROS 2 round trip sim -> ROS 2 -> sim (Twist, one at a time at 200 Hz)": [latency],
+    }
 
 
 if __name__ == "__main__":
