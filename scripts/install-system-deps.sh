@@ -17,6 +17,9 @@ PACKAGES=(
   ros-robot-state-publisher python3-tf2-ros
   # `rosbag info` of the sim's ROS 1 recordings (tests/sim/test_record.py)
   python3-rosbag
+  # ROS 2 interface packages are compiled into .venv-ros2 (`simbridge msg build`); the
+  # localhost-only test runs DDS in a private network namespace (unshare, ip)
+  gcc g++ util-linux iproute2
 )
 
 missing=()
