@@ -3,8 +3,8 @@
 Every adapter turns one action (a point of its `space`, in the units documented on each
 class) into drive targets, exactly as the ROS command interfaces do: position targets on
 the joint drives (`/joint_group_position_controller/command`) and a differential-drive
-controller for twists (`/cmd_vel`). `controls` returns the MuJoCo `ctrl` vector for the
-coming physics steps: one row (constant) or one row per step.
+controller for twists (`/cmd_vel`). `controls` returns None when the drives' `ctrl`
+(already in the world's data) holds for every coming physics step, or one row per step.
 """
 
 from __future__ import annotations
@@ -67,12 +67,13 @@ class ActionAdapter(ABC):
     def apply(self, world: World, action: NDArray[np.float32]) -> None:
         """Set the drive targets for `action` (clipped to `space` by the caller)."""
 
-    def controls(self, world: World, action: NDArray[np.float32], steps: int) -> FloatArray:
-        """Apply `action` and return `ctrl` for the next `steps` physics steps: shape (nu,)
-        when constant, else (steps, nu)."""
+    def controls(
+        self, world: World, action: NDArray[np.float32], steps: int
+    ) -> FloatArray | None:
+        """Apply `action`; None when the drives' `ctrl` now in `world.data` holds for the
+        next `steps` physics steps (the default), else one `ctrl` row per step."""
         self.apply(world, action)
-        ctrl: FloatArray = world.data.ctrl.copy()
-        return ctrl
+        return None
 
 
 class JointDelta(ActionAdapter):
@@ -285,7 +286,9 @@ class TwistCommand(WheelVelocity):
         assert self.controller is not None, "bind() first"
         self.controller.command(float(action[0]), float(action[1]), world.time)
 
-    def controls(self, world: World, action: NDArray[np.float32], steps: int) -> FloatArray:
+    def controls(
+        self, world: World, action: NDArray[np.float32], steps: int
+    ) -> FloatArray | None:
         """One row per physics step: the controller ramps the wheel speeds every step."""
         assert self.controller is not None, "bind() first"
         self.apply(world, action)

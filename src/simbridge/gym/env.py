@@ -169,13 +169,12 @@ class SceneEnv(Env[Observation, NDArray[np.float32]]):
             )
         return np.minimum(np.maximum(array, self._action_low), self._action_high)
 
-    def simulate(self, ctrl: NDArray[np.float64]) -> None:
-        """Run `frame_skip` physics steps with `ctrl` (one row, or one row per step), then
-        bring poses, Jacobians and body velocities up to date (`mj_kinematics`, `mj_comPos`,
-        `mj_comVel`) for observing; contacts stay those of the last physics step."""
+    def simulate(self, ctrl: NDArray[np.float64] | None) -> None:
+        """Run `frame_skip` physics steps with `ctrl` (None: the data's own, or one row per
+        step), then bring poses, Jacobians and body velocities up to date (`mj_kinematics`,
+        `mj_comPos`, `mj_comVel`) for observing; contacts stay those of the last step."""
         model, data = self.world.model, self.world.data
-        if ctrl.ndim == 1:
-            data.ctrl[:] = ctrl
+        if ctrl is None:
             mujoco.mj_step(model, data, nstep=self.frame_skip)
         else:
             for row in ctrl:
