@@ -166,8 +166,10 @@ def test_group_position_and_velocity_commands(rig_factory: Callable[..., Rig]) -
     vel.publish(REG.new("std_msgs/Float64MultiArray", data=np.array([0.0, 0.0, 1.5])))
     assert _wait(lambda: abs(rig.world.joint_velocities()["wrist"] - 1.5) < 1e-2)
     pos.publish(REG.new("std_msgs/Float64MultiArray", data=np.array([1.0, 2.0])))  # wrong length
-    assert _wait(lambda: bool(rig.bridge.commands.errors))
-    assert "2 values for 3 joints" in rig.bridge.commands.errors[0]
+    commands = rig.bridge.commands
+    assert commands is not None
+    assert _wait(lambda: bool(commands.errors))
+    assert "2 values for 3 joints" in commands.errors[0]
 
 
 def test_follower_mode_mirrors_joint_states(rig_factory: Callable[..., Rig]) -> None:

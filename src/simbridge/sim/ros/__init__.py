@@ -12,7 +12,9 @@ from simbridge.sim.ros.convert import (
     trajectory_from_message,
 )
 from simbridge.sim.ros.diff_drive_link import DiffDriveLink, measure_wheels
+from simbridge.sim.ros.names import RobotNames, resolve_name
 from simbridge.sim.ros.publishers import StatePublisher
+from simbridge.sim.ros.robot_link import RobotRosLink
 from simbridge.sim.ros.sensor_link import SensorPublisher
 from simbridge.sim.ros.services import STEP_SRV, ControlServices
 from simbridge.sim.ros.session import SimulationSession, parse_endpoint, run_scene
@@ -22,6 +24,8 @@ __all__ = [
     "CommandSubscriber",
     "ControlServices",
     "DiffDriveLink",
+    "RobotNames",
+    "RobotRosLink",
     "SensorPublisher",
     "SimRosBridge",
     "SimulationSession",
@@ -31,6 +35,7 @@ __all__ = [
     "joint_state_message",
     "measure_wheels",
     "parse_endpoint",
+    "resolve_name",
     "run_scene",
     "tf_message",
     "trajectory_from_message",

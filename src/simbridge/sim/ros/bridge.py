@@ -7,6 +7,7 @@ from simbridge.messages import MessageRegistry
 from simbridge.sim.ros.commands import CommandSubscriber
 from simbridge.sim.ros.diff_drive_link import DiffDriveLink
 from simbridge.sim.ros.publishers import StatePublisher
+from simbridge.sim.ros.robot_link import RobotRosLink
 from simbridge.sim.ros.services import ControlServices
 from simbridge.sim.scene.model import RosSettings
 from simbridge.sim.world.world import World
@@ -33,7 +34,25 @@ class SimRosBridge:
         self.settings = settings or world.scene.ros
         self.registry = registry
         self.state = StatePublisher(world, connector, self.settings, self.registry)
-        self.commands = CommandSubscriber(world, connector, self.settings)
+        self.robots = {
+            name: RobotRosLink(world, connector, robot, self.settings, self.registry)
+            for name, robot in world.robots.items()
+            if robot.built.spec.ros is not None
+        }
+        """Robots with their own `ros:` block (namespace, frame prefix, topics)."""
+        shared = [
+            j
+            for name, robot in world.robots.items()
+            if name not in self.robots
+            for j in robot.driven_joints
+        ]
+        self.commands = (
+            CommandSubscriber(world, connector, self.settings, joints=shared)
+            if shared or not self.robots
+            else None
+        )
+        """The scene-wide command topics, for robots without a `ros:` block (None when
+        every robot has its own)."""
         drive = self.settings.diff_drive
         self.diff_drive = DiffDriveLink(world, connector, drive) if drive is not None else None
         self.services = ControlServices(
@@ -43,7 +62,10 @@ class SimRosBridge:
     def start(self) -> SimRosBridge:
         """Register every topic and service; state is published as the world steps."""
         self.services.start()
-        self.commands.start()
+        if self.commands is not None:
+            self.commands.start()
+        for robot in self.robots.values():
+            robot.start()
         if self.diff_drive is not None:
             self.diff_drive.start()
         self.state.start()
@@ -54,7 +76,10 @@ class SimRosBridge:
         self.state.close()
         if self.diff_drive is not None:
             self.diff_drive.close()
-        self.commands.close()
+        for robot in self.robots.values():
+            robot.close()
+        if self.commands is not None:
+            self.commands.close()
         self.services.close()
 
     def __enter__(self) -> SimRosBridge:

@@ -3,13 +3,16 @@
 from __future__ import annotations
 
 import logging
+from dataclasses import replace
 from typing import Any
 
 from simbridge.connector import Connector
 from simbridge.errors import SimError
 from simbridge.sim.control.drive import DriveMode, DriveSpec
+from simbridge.sim.control.follower import TrajectoryFollower
 from simbridge.sim.ros.convert import trajectory_from_message
-from simbridge.sim.scene.model import RosSettings
+from simbridge.sim.ros.names import RobotNames, resolve_name
+from simbridge.sim.scene.model import CommandTopics, RosSettings
 from simbridge.sim.world.world import World
 
 __all__ = ["CommandSubscriber"]
@@ -18,11 +21,38 @@ _log = logging.getLogger("simbridge.sim.ros")
 
 
 class CommandSubscriber:
-    """Subscribes to the command topics; each message is applied on the simulation thread."""
+    """Subscribes to the command topics; each message is applied on the simulation thread.
 
-    def __init__(self, world: World, connector: Connector, settings: RosSettings) -> None:
+    Scene-wide (`settings`), or for one namespaced robot (`robot`: its names, namespace and
+    topics; it then drives only that robot's joints, with a trajectory follower of its own
+    so robots do not cancel each other's trajectories).
+    """
+
+    def __init__(
+        self,
+        world: World,
+        connector: Connector,
+        settings: RosSettings,
+        robot: RobotNames | None = None,
+        joints: list[str] | None = None,
+    ) -> None:
+        """`joints`: the scene-wide group's default (every driven joint when None)."""
         self.world, self.connector, self.settings = world, connector, settings
-        self.group = list(settings.command_joints) or world.drives.joints
+        self.robot = robot
+        self.topics: CommandTopics = settings.commands
+        self.namespace = "/"
+        self.follower = world.follower
+        self._follower_callback: int | None = None
+        if robot is not None:
+            ros = robot.robot.built.spec.ros
+            assert ros is not None
+            self.topics, self.namespace = ros.commands, ros.namespace
+            driven = robot.robot.driven_joints
+            self.group = [robot.world_joint(j) for j in ros.command_joints] or driven
+            self.follower = TrajectoryFollower(world.drives)
+        else:
+            default = world.drives.joints if joints is None else joints
+            self.group = list(settings.command_joints) or default
         for joint in self.group:
             world.drives.spec(joint)  # SimError for joints without drives
         self._configured = {j: world.drives.spec(j) for j in world.drives.joints}
@@ -32,7 +62,15 @@ class CommandSubscriber:
 
     def start(self) -> None:
         """Subscribe to every configured command topic."""
-        topics = self.settings.commands
+        topics = self.topics
+        if self.follower is not self.world.follower:
+            follower, world = self.follower, self.world
+
+            def follow(w: World) -> None:
+                follower.update(w.time)
+
+            self._follower_callback = world.add_step_callback(follow)
+            world.add_reset_callback(lambda _w: follower.cancel())
         wanted = [
             (topics.trajectory, "trajectory_msgs/JointTrajectory", self._on_trajectory),
             (topics.position, "std_msgs/Float64MultiArray", self._on_position),
@@ -41,11 +79,15 @@ class CommandSubscriber:
         ]
         for topic, msg_type, handler in wanted:
             if topic is not None:
-                self.connector.subscribe(topic, msg_type, self._posting(handler))
-                self._topics.append(topic)
+                name = resolve_name(self.namespace, topic)
+                self.connector.subscribe(name, msg_type, self._posting(handler))
+                self._topics.append(name)
 
     def close(self) -> None:
         """Unsubscribe."""
+        if self._follower_callback is not None:
+            self.world.remove_step_callback(self._follower_callback)
+            self._follower_callback = None
         for topic in self._topics:
             self.connector.unsubscribe(topic)
         self._topics.clear()
@@ -72,12 +114,15 @@ class CommandSubscriber:
     def _on_trajectory(self, msg: Any) -> None:
         trajectory = trajectory_from_message(msg)
         if trajectory is None:
-            self.world.follower.cancel()
+            self.follower.cancel()
             return
+        if self.robot is not None:
+            joints = tuple(self.robot.world_joint(j) for j in trajectory.joints)
+            trajectory = replace(trajectory, joints=joints)
         for joint in trajectory.joints:
             self.world.drives.spec(joint)
             self._mode(joint, DriveMode.POSITION)
-        self.world.follower.start(trajectory, self.world.time)
+        self.follower.start(trajectory, self.world.time)
 
     def _group_values(self, msg: Any, what: str) -> list[float]:
         values = [float(v) for v in msg.data]
@@ -90,24 +135,27 @@ class CommandSubscriber:
 
     def _on_position(self, msg: Any) -> None:
         values = self._group_values(msg, "position")
-        self.world.follower.cancel()
+        self.follower.cancel()
         for joint, value in zip(self.group, values, strict=True):
             self._mode(joint, DriveMode.POSITION)
             self.world.drives.set_position(joint, value)
 
     def _on_velocity(self, msg: Any) -> None:
         values = self._group_values(msg, "velocity")
-        self.world.follower.cancel()
+        self.follower.cancel()
         for joint, value in zip(self.group, values, strict=True):
             self._mode(joint, DriveMode.VELOCITY)
             self.world.drives.set_velocity(joint, value)
 
     def _on_joint_state(self, msg: Any) -> None:
-        known = set(self.world.joint_names())
+        if self.robot is not None:
+            known = self.robot.to_world
+        else:
+            known = {n: n for n in self.world.joint_names()}
         values = {
-            str(name): float(pos)
+            known[str(name)]: float(pos)
             for name, pos in zip(msg.name, msg.position, strict=False)
             if str(name) in known
         }
-        self.world.follower.cancel()
+        self.follower.cancel()
         self.world.set_joint_positions(values)

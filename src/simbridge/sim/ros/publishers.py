@@ -12,6 +12,7 @@ from typing import Any
 from simbridge.connector import Connector
 from simbridge.messages import MessageRegistry, Translator, default_registry
 from simbridge.sim.ros.convert import StampMaker, joint_state_message, tf_message
+from simbridge.sim.ros.names import RobotNames
 from simbridge.sim.scene.model import RosSettings
 from simbridge.sim.urdf.transforms import Transform
 from simbridge.sim.world.world import World
@@ -45,11 +46,22 @@ class StatePublisher:
         self.parented_elsewhere: set[str] = set()
         """Floating-base frames whose parent transform another publisher broadcasts
         (odometry's odom -> base_link): no world -> base edge for them, so TF stays a tree."""
+        self.names = {
+            name: RobotNames(robot, robot.built.spec.ros.frame_prefix)
+            for name, robot in world.robots.items()
+            if robot.built.spec.ros is not None
+        }
+        """Robots with their own `ros:` block: TF frames get their frame prefix, and their
+        joints are on their own <ns>/joint_states, not on the scene-wide topic."""
+        self.shared_joints = [
+            j for name, r in world.robots.items() if name not in self.names for j in r.joint_names
+        ]
+        """Joints on the scene-wide joint-states topic (robots without a `ros:` block)."""
 
     def start(self) -> None:
         """Advertise the topics, publish /tf_static once (latched), schedule the rest."""
         s = self.settings
-        if s.joint_states_rate > 0:
+        if s.joint_states_rate > 0 and (self.shared_joints or not self.names):
             self._advertise(s.joint_states_topic, "sensor_msgs/JointState")
             self._every(1.0 / s.joint_states_rate, self.publish_joint_states)
         if s.tf:
@@ -87,26 +99,32 @@ class StatePublisher:
 
     def publish_joint_states(self) -> None:
         """Positions, velocities and efforts of every 1-DoF joint."""
-        w = self.world
+        w, joints = self.world, self.shared_joints if self.names else None
         msg = joint_state_message(
-            self.stamps, w.time, w.joint_positions(), w.joint_velocities(), w.joint_efforts()
+            self.stamps,
+            w.time,
+            w.joint_positions(joints),
+            w.joint_velocities(joints),
+            w.joint_efforts(joints),
         )
         self.connector.publish(self.settings.joint_states_topic, msg)
 
     def _edges(self, fixed: bool) -> list[tuple[str, str, Transform]]:
         edges = []
-        for robot in self.world.robots.values():
+        for name, robot in self.world.robots.items():
+            names = self.names.get(name)
+            frame = names.frame if names is not None else str
             root = robot.prefix + robot.robot.root
             if (
-                root != WORLD_FRAME
+                frame(root) != WORLD_FRAME
                 and robot.built.spec.fixed_base == fixed
-                and root not in self.parented_elsewhere
+                and frame(root) not in self.parented_elsewhere
             ):
-                edges.append((WORLD_FRAME, root, self.world.link_pose(root)))
+                edges.append((WORLD_FRAME, frame(root), self.world.link_pose(root)))
             for parent, child, is_fixed in robot.tree_edges():
                 if is_fixed == fixed:
                     relative = self.world.link_pose(parent).inverse() @ self.world.link_pose(child)
-                    edges.append((parent, child, relative))
+                    edges.append((frame(parent), frame(child), relative))
         return edges
 
     def publish_tf(self) -> None:

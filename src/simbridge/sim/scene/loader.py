@@ -21,6 +21,7 @@ from simbridge.sim.scene.model import (
     ObjectSpec,
     PhysicsSettings,
     Pose,
+    RobotRos,
     RobotSpec,
     RosSettings,
     Scene,
@@ -194,10 +195,18 @@ def _robot(section: _Section, base_dir: Path) -> RobotSpec:
     drives.done(("default", "joints"))
     initial = section.sub("initial_positions")
     xacro_args = section.sub("xacro_args")
+    ros = _robot_ros(section.sub("ros")) if "ros" in section.data else None
+    # A namespaced robot's MuJoCo names default to its frame prefix (or namespace), so two
+    # copies of one URDF need nothing but their `ros:` blocks.
+    default_name = (ros.namespace.strip("/") or None) if ros is not None else None
+    default_prefix = ""
+    if ros is not None:
+        default_prefix = ros.frame_prefix or (f"{default_name}/" if default_name else "")
     spec = RobotSpec(
         urdf=section.get("urdf", _path(base_dir), Path()),
-        name=section.optional("name", _str),
-        prefix=section.get("prefix", lambda v, w: str(v), ""),
+        name=section.optional("name", _str) or default_name,
+        prefix=section.get("prefix", lambda v, w: str(v), default_prefix),
+        ros=ros,
         base=_pose(section.sub("base")),
         fixed_base=section.get("fixed_base", _bool, True),
         self_collision=section.get("self_collision", _bool, False),
@@ -230,9 +239,52 @@ def _robot(section: _Section, base_dir: Path) -> RobotSpec:
             "armature",
             "effort_limits",
             "collada_up_axis",
+            "ros",
         )
     )
     return spec
+
+
+def _namespace(value: Any, where: str) -> str:
+    text = _str(value, where)
+    parts = [p for p in text.split("/") if p]
+    if any(not p.replace("_", "a").isalnum() or p[0].isdigit() for p in parts):
+        raise SimError(
+            f"scene {where}: {text!r} is not a ROS namespace (names of letters, digits and _, "
+            "not starting with a digit, separated by /, e.g. /arm_left)"
+        )
+    return "/" + "/".join(parts) if parts else "/"
+
+
+def _robot_ros(section: _Section) -> RobotRos:
+    base = RobotRos()
+    commands = section.sub("commands")
+    topics = CommandTopics(
+        trajectory=commands.get("trajectory", _topic, base.commands.trajectory),
+        position=commands.get("position", _topic, base.commands.position),
+        velocity=commands.get("velocity", _topic, base.commands.velocity),
+        follow_joint_states=commands.get("follow_joint_states", _topic, None),
+    )
+    commands.done(("trajectory", "position", "velocity", "follow_joint_states"))
+    settings = RobotRos(
+        namespace=section.get("namespace", _namespace, base.namespace),
+        frame_prefix=section.get("frame_prefix", lambda v, w: str(v), base.frame_prefix),
+        joint_states_topic=section.get("joint_states_topic", _str, base.joint_states_topic),
+        joint_states_rate=section.get("joint_states_rate", _positive, base.joint_states_rate),
+        commands=topics,
+        command_joints=tuple(str(j) for j in section.data.get("command_joints") or ()),
+    )
+    section.done(
+        (
+            "namespace",
+            "frame_prefix",
+            "joint_states_topic",
+            "joint_states_rate",
+            "commands",
+            "command_joints",
+        )
+    )
+    return settings
 
 
 def _object(section: _Section, base_dir: Path) -> ObjectSpec:

@@ -16,6 +16,7 @@ __all__ = [
     "ObjectSpec",
     "PhysicsSettings",
     "Pose",
+    "RobotRos",
     "RobotSpec",
     "RosSettings",
     "Scene",
@@ -73,6 +74,9 @@ class RobotSpec:
     effort_limits: str = "urdf"
     """What URDF `effort` values become: "urdf" (force limits, with a warning where one
     cannot hold the robot against gravity), "ignore" (unlimited) or "scale"."""
+    ros: RobotRos | None = None
+    """The robot's own ROS interface (namespace, frame prefix, topics); None: the robot is
+    served by the scene-wide `ros:` section as before."""
 
 
 @dataclass(frozen=True)
@@ -115,6 +119,27 @@ class CommandTopics:
     position: str | None = "/joint_group_position_controller/command"
     velocity: str | None = "/joint_group_velocity_controller/command"
     follow_joint_states: str | None = None
+
+
+@dataclass(frozen=True)
+class RobotRos:
+    """A robot's own ROS interface: its topics live under `namespace`, its TF frames are its
+    URDF link names with `frame_prefix`, its joint names are the URDF's. Relative topic
+    names are resolved in the namespace (as rospy does); /tf, /tf_static and /clock stay
+    shared and scene-wide."""
+
+    namespace: str = "/"
+    frame_prefix: str = ""
+    joint_states_topic: str = "joint_states"
+    joint_states_rate: float = 50.0
+    commands: CommandTopics = CommandTopics(
+        trajectory="joint_trajectory",
+        position="joint_group_position_controller/command",
+        velocity="joint_group_velocity_controller/command",
+    )
+    command_joints: tuple[str, ...] = ()
+    """URDF joint names the group position/velocity commands address (default: every
+    driven joint of the robot)."""
 
 
 @dataclass(frozen=True)

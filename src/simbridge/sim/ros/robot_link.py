@@ -1,0 +1,76 @@
+"""One namespaced robot's own ROS interface: <ns>/joint_states (URDF joint names) and its
+command topics in its namespace. TF for its frames goes out on the shared /tf with the
+scene's other robots (`StatePublisher`)."""
+
+from __future__ import annotations
+
+from simbridge.connector import Connector
+from simbridge.messages import MessageRegistry
+from simbridge.sim.ros.commands import CommandSubscriber
+from simbridge.sim.ros.convert import StampMaker, joint_state_message
+from simbridge.sim.ros.names import RobotNames, resolve_name
+from simbridge.sim.scene.model import RosSettings
+from simbridge.sim.world.robot import RobotHandle
+from simbridge.sim.world.world import World
+
+__all__ = ["RobotRosLink"]
+
+
+class RobotRosLink:
+    """Joint states and commands of one robot with a `ros:` block."""
+
+    def __init__(
+        self,
+        world: World,
+        connector: Connector,
+        robot: RobotHandle,
+        settings: RosSettings,
+        registry: MessageRegistry | None = None,
+    ) -> None:
+        ros = robot.built.spec.ros
+        assert ros is not None, f"robot {robot.name!r} has no ros: block"
+        self.world, self.connector, self.ros = world, connector, ros
+        self.names = RobotNames(robot, ros.frame_prefix)
+        self._registry = registry
+        self._stamps = StampMaker(registry or connector.registry)
+        self.joints = robot.joint_names
+        self.joint_states_topic = resolve_name(ros.namespace, ros.joint_states_topic)
+        self.commands = CommandSubscriber(world, connector, settings, robot=self.names)
+        self._callback: int | None = None
+
+    def start(self) -> RobotRosLink:
+        """Subscribe to the commands and publish joint states at the robot's rate."""
+        self.commands.start()
+        self.connector.register_publisher(
+            self.joint_states_topic, "sensor_msgs/JointState", queue_size=10
+        )
+        self._callback = self.world.add_step_callback(
+            lambda _w: self.publish_joint_states(), 1.0 / self.ros.joint_states_rate
+        )
+        return self
+
+    def close(self) -> None:
+        """Stop publishing and unsubscribe (the connector stays open)."""
+        if self._callback is not None:
+            self.world.remove_step_callback(self._callback)
+            self.connector.unregister_publisher(self.joint_states_topic)
+            self._callback = None
+        self.commands.close()
+
+    def publish_joint_states(self) -> None:
+        """The robot's 1-DoF joints under their URDF names."""
+        registry = self._registry or self.connector.registry
+        if self._stamps.registry is not registry:
+            self._stamps = StampMaker(registry)
+        w, ros_name = self.world, self.names.to_ros
+        positions = w.joint_positions(self.joints)
+        velocities = w.joint_velocities(self.joints)
+        efforts = w.joint_efforts(self.joints)
+        msg = joint_state_message(
+            self._stamps,
+            w.time,
+            {ros_name[j]: v for j, v in positions.items()},
+            {ros_name[j]: v for j, v in velocities.items()},
+            {ros_name[j]: v for j, v in efforts.items()},
+        )
+        self.connector.publish(self.joint_states_topic, msg)
