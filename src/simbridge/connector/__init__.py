@@ -7,6 +7,7 @@ and re-registers on its own.
 
 from __future__ import annotations
 
+from simbridge.connector.actions import ActionClient, ActionServer
 from simbridge.connector.calls import ServiceHandler
 from simbridge.connector.connector import Connector
 from simbridge.connector.handles import MessageCallback, MessageTap, Publisher, Subscription
@@ -14,6 +15,8 @@ from simbridge.connector.options import ConnectorOptions
 from simbridge.connector.stats import ConnectorStats
 
 __all__ = [
+    "ActionClient",
+    "ActionServer",
     "Connector",
     "ConnectorOptions",
     "ConnectorStats",

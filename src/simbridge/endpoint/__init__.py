@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from simbridge.endpoint.actions import NodeActionClient, NodeActionServer
 from simbridge.endpoint.backends.base import Backend, TopicInfo
 from simbridge.endpoint.backends.local import LocalBus
 from simbridge.endpoint.node import Node, NodePublisher
@@ -21,6 +22,8 @@ __all__ = [
     "EndpointThread",
     "LocalBus",
     "Node",
+    "NodeActionClient",
+    "NodeActionServer",
     "NodePublisher",
     "RegistryTypeCheck",
     "TopicInfo",
