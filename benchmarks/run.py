@@ -25,6 +25,7 @@ SUITES = {
     "gym": "benchmarks.bench_gym",
     "attacks": "benchmarks.bench_attacks",
     "urdf": "benchmarks.bench_urdf",
+    "view": "benchmarks.bench_view",
 }
 
 TITLES = {
@@ -37,6 +38,7 @@ TITLES = {
     "gym": "Gym environments",
     "attacks": "Endpoint under attack: peak resident memory beside the memory budget",
     "urdf": "URDF import: example-robot-data load time per robot, cold and warm mesh cache",
+    "view": "Live view (`--view`): real-time factor flat out, without and with the view",
 }
 """README heading of each suite that returns a single table."""
 

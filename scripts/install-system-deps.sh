@@ -20,6 +20,8 @@ PACKAGES=(
   # ROS 2 interface packages are compiled into .venv-ros2 (`simbridge msg build`); the
   # localhost-only test runs DDS in a private network namespace (unshare, ip)
   gcc g++ util-linux iproute2
+  # headless Chromium opens the live view (`simbridge sim --view`) in tests/sim/test_view.py
+  chromium
 )
 
 missing=()

@@ -77,6 +77,7 @@ def run_sim(args: argparse.Namespace) -> int:
     from simbridge.sim.record import RecordOptions
     from simbridge.sim.ros import run_scene
     from simbridge.sim.scene import load_scene, with_overrides
+    from simbridge.sim.view import ViewOptions
 
     scene = with_overrides(load_scene(args.scene), _xacro_args(args), strict=args.strict)
     endpoint = f"{args.endpoint[0]}:{args.endpoint[1]}" if args.endpoint else None
@@ -88,6 +89,7 @@ def run_sim(args: argparse.Namespace) -> int:
             realtime_factor=args.realtime,
             viewer=args.viewer,
             record=RecordOptions(Path(args.record), args.record_buffer) if args.record else None,
+            view=ViewOptions(args.view_host, args.view_port, args.view_rate) if args.view else None,
         )
     print(
         f"simulated {stats.sim_time:.3f} s in {stats.wall_time:.3f} s wall "
@@ -172,6 +174,20 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         default=10000,
         metavar="N",
         help="messages waiting to be written before new ones are dropped (default 10000)",
+    )
+    sim.add_argument(
+        "--view",
+        action="store_true",
+        help="serve a live 3D view in the browser (viser) at http://127.0.0.1:8080",
+    )
+    sim.add_argument("--view-port", type=int, default=8080, help="live view port (0: any free)")
+    sim.add_argument(
+        "--view-host",
+        default="127.0.0.1",
+        help="live view address (default loopback; 0.0.0.0 serves the network)",
+    )
+    sim.add_argument(
+        "--view-rate", type=float, default=30.0, help="pose updates per second (default 30)"
     )
     _load_options(sim)
     sim.set_defaults(func=run_sim)

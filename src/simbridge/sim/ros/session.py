@@ -14,6 +14,7 @@ from simbridge.sim.scene.loader import load_scene
 from simbridge.sim.scene.model import Scene
 from simbridge.sim.sensors import SensorSuite
 from simbridge.sim.sensors.odometry import Odometry
+from simbridge.sim.view import LiveView, ViewOptions
 from simbridge.sim.world.world import RunStats, World
 
 __all__ = ["SimulationSession", "parse_endpoint", "run_scene"]
@@ -144,13 +145,19 @@ def run_scene(
     realtime_factor: float | None = None,
     viewer: bool = False,
     record: RecordOptions | None = None,
+    view: ViewOptions | None = None,
 ) -> RunStats:
     """Load and run a scene headless (or in the viewer) until `duration` sim seconds pass
     or the process is interrupted, serving ROS through `endpoint` ("host:port") if given.
     `realtime_factor` None: real time with an endpoint, else the scene's
-    (`SimulationSession.pacing`). `record`: a bag of every message in and out."""
+    (`SimulationSession.pacing`). `record`: a bag of every message in and out; `view`:
+    serve a live 3D view in the browser while it runs."""
     with SimulationSession(scene, endpoint, record=record) as session:
+        live = LiveView(session.world, view) if view is not None else None
         try:
             return session.run(duration, realtime_factor, viewer)
         except KeyboardInterrupt:
             return RunStats(0, session.world.time, 0.0)
+        finally:
+            if live is not None:
+                live.close()

@@ -1,0 +1,148 @@
+"""The live browser view (`simbridge sim --view`): shapes from the model, a real headless
+Chromium drawing the robot, and the page's pause control stopping the sim clock."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import threading
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from PIL import Image
+
+from simbridge.sim.scene import load_scene
+from simbridge.sim.view import LiveView, ViewOptions, visual_shapes
+from simbridge.sim.world import World
+
+pytest.importorskip("viser")
+
+RED = (0.9, 0.05, 0.05, 1.0)
+ARM = f"""<?xml version="1.0"?>
+<robot name="red_arm">
+  <material name="red"><color rgba="{" ".join(map(str, RED))}"/></material>
+  <link name="base">
+    <inertial><mass value="5"/>
+      <inertia ixx="0.05" iyy="0.05" izz="0.05" ixy="0" ixz="0" iyz="0"/></inertial>
+    <visual><geometry><cylinder radius="0.08" length="0.1"/></geometry>
+      <material name="red"/></visual>
+  </link>
+  <link name="upper">
+    <inertial><origin xyz="0 0 0.2"/><mass value="1"/>
+      <inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>
+    <visual><origin xyz="0 0 0.2"/><geometry><box size="0.08 0.08 0.4"/></geometry>
+      <material name="red"/></visual>
+  </link>
+  <joint name="shoulder" type="revolute"><parent link="base"/><child link="upper"/>
+    <origin xyz="0 0 0.05"/><axis xyz="0 1 0"/>
+    <limit lower="-1.5" upper="1.5" effort="50" velocity="2"/></joint>
+</robot>
+"""
+
+
+def _world(tmp_path: Path) -> World:
+    (tmp_path / "arm.urdf").write_text(ARM)
+    scene = {
+        "physics": {"timestep": 0.002, "realtime_factor": 1},
+        "robots": [{"urdf": "arm.urdf", "fixed_base": True}],
+        "ros": {"enabled": False},
+    }
+    (tmp_path / "scene.yaml").write_text(yaml.safe_dump(scene))
+    return World.from_scene(load_scene(tmp_path / "scene.yaml"))
+
+
+@pytest.fixture
+def running(tmp_path: Path) -> Iterator[tuple[World, LiveView]]:
+    world = _world(tmp_path)
+    view = LiveView(world, ViewOptions(port=0, rate=30))
+    runner = threading.Thread(target=world.run, kwargs={"realtime_factor": 1.0})
+    runner.start()
+    yield world, view
+    world.stop()
+    runner.join(10)
+    view.close()
+
+
+def test_shapes_are_the_urdf_visuals(tmp_path: Path) -> None:
+    world = _world(tmp_path)
+    shapes = [s for s in visual_shapes(world.model) if s.rgba == pytest.approx(RED)]
+    kinds = sorted((s.kind, tuple(round(v, 6) for v in s.size)) for s in shapes)
+    assert kinds == [("box", (0.08, 0.08, 0.4)), ("cylinder", (0.08, 0.1))]
+    box = next(s for s in shapes if s.kind == "box")
+    assert box.position == pytest.approx((0, 0, 0.2))
+    assert np.abs(np.subtract(box.rgb255, (230, 13, 13))).max() <= 1  # float32 colours
+
+
+def test_pause_in_the_page_stops_the_sim_clock(running: tuple[World, LiveView]) -> None:
+    world, view = running
+    time.sleep(0.3)
+    view.toggle_pause()  # what the page's Pause button runs
+    time.sleep(0.1)
+    held = world.time
+    time.sleep(0.4)
+    assert world.paused
+    assert world.time == held
+    view.step(25)
+    deadline = time.monotonic() + 5
+    while world.time < held + 25 * world.timestep - 1e-9 and time.monotonic() < deadline:
+        time.sleep(0.01)
+    assert world.time == pytest.approx(held + 25 * world.timestep)
+    view.toggle_pause()
+    time.sleep(0.3)
+    assert world.time > held + 0.1, "resume lets the clock run again"
+    assert view.frames_sent > 10, "poses keep streaming"
+
+
+CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+
+
+@pytest.mark.skipif(CHROMIUM is None, reason="Debian's chromium is not installed")
+def test_headless_chromium_draws_the_robot(running: tuple[World, LiveView], tmp_path: Path) -> None:
+    _, view = running
+    assert CHROMIUM is not None
+    shot = tmp_path / "view.png"
+    red = np.zeros((1, 1), dtype=bool)
+    for attempt in range(3):  # the page may be shot before its websocket delivered the scene
+        shot.unlink(missing_ok=True)
+        subprocess.run(
+            [
+                CHROMIUM,
+                "--headless",
+                "--no-sandbox",
+                "--disable-gpu",
+                "--disable-background-networking",
+                "--disable-component-update",
+                "--disable-sync",
+                "--no-first-run",
+                f"--user-data-dir={tmp_path / f'chrome{attempt}'}",
+                "--enable-unsafe-swiftshader",  # WebGL in software (no GPU in CI)
+                "--use-angle=swiftshader",
+                "--window-size=900,700",
+                "--virtual-time-budget=8000",
+                f"--screenshot={shot}",
+                view.url,
+            ],
+            capture_output=True,
+            timeout=150,
+            check=False,
+        )
+        assert shot.is_file(), "chromium wrote no screenshot"
+        pixels = np.asarray(Image.open(shot).convert("RGB")).astype(int)
+        r, g, b = pixels[..., 0], pixels[..., 1], pixels[..., 2]
+        # the robot's own red, not the pale red of the page still loading
+        red = (r > 120) & (g < 0.45 * r) & (b < 0.45 * r)
+        if red.sum() > 500:
+            break
+    assert red.sum() > 500, f"only {red.sum()} red pixels: the robot is not drawn"
+    rows, cols = np.nonzero(red)
+    # the camera looks at the robot: it is drawn around the middle of the page
+    assert 0.2 * pixels.shape[1] < cols.mean() < 0.8 * pixels.shape[1]
+    assert 0.15 * pixels.shape[0] < rows.mean() < 0.85 * pixels.shape[0]
+    keep = os.environ.get("SIMBRIDGE_SCREENSHOT_DIR")
+    if keep:
+        shutil.copy(shot, Path(keep) / "view.png")
