@@ -21,7 +21,7 @@ from rosbags.highlevel import AnyReader
 from simbridge.connector import Connector, ConnectorOptions
 from simbridge.endpoint import EndpointOptions, EndpointThread, LocalBus, Node
 from simbridge.errors import SimError
-from simbridge.messages import default_registry
+from simbridge.messages import default_registry, registry_for
 from simbridge.sim.record import PlayOptions, Recorder, RecordOptions, play
 from simbridge.sim.ros import SimulationSession
 from tests.sim.urdf_samples import GRAVITY_ARM
@@ -31,9 +31,11 @@ DURATION = 0.5
 """Sim seconds recorded: /joint_states and /tf at 50 Hz, /clock at 100 Hz (see `_scene`)."""
 
 
-@pytest.fixture
-def endpoint() -> Iterator[EndpointThread]:
-    server = EndpointThread(EndpointOptions(port=0)).start()
+@pytest.fixture(params=["ROS1", "ROS2"])
+def endpoint(request: pytest.FixtureRequest) -> Iterator[EndpointThread]:
+    """A local endpoint speaking ROS 1 binary or CDR (ROS 2 layouts): the recorder
+    converts to the file's format either way."""
+    server = EndpointThread(EndpointOptions(port=0), LocalBus(request.param)).start()
     yield server
     server.stop()
 
@@ -61,10 +63,13 @@ def _record(tmp_path: Path, endpoint: EndpointThread, out: Path) -> None:
     with session:
         assert session.connector is not None
         assert session.connector.flush(5)
-        assert isinstance(endpoint.backend, LocalBus)
-        node = Node(endpoint.backend, "/tester")
+        node_bus = endpoint.backend
+        assert isinstance(node_bus, LocalBus)
+        node = Node(node_bus, "/tester")
         try:
-            cmd = REG.new("std_msgs/Float64MultiArray", data=[0.1, 0.2])
+            cmd = registry_for(node_bus.protocol).new(
+                "std_msgs/Float64MultiArray", data=[0.1, 0.2]
+            )
             topic = "/joint_group_position_controller/command"
             pub = node.advertise(topic, "std_msgs/Float64MultiArray")
             deadline = time.monotonic() + 5
