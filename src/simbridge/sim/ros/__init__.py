@@ -18,12 +18,14 @@ from simbridge.sim.ros.robot_link import RobotRosLink
 from simbridge.sim.ros.sensor_link import SensorPublisher
 from simbridge.sim.ros.services import STEP_SRV, ControlServices
 from simbridge.sim.ros.session import SimulationSession, parse_endpoint, run_scene
+from simbridge.sim.ros.trajectory_controller import JointTrajectoryController
 
 __all__ = [
     "STEP_SRV",
     "CommandSubscriber",
     "ControlServices",
     "DiffDriveLink",
+    "JointTrajectoryController",
     "RobotNames",
     "RobotRosLink",
     "SensorPublisher",

@@ -9,6 +9,7 @@ from simbridge.messages import MessageRegistry
 from simbridge.sim.ros.commands import CommandSubscriber
 from simbridge.sim.ros.convert import StampMaker, joint_state_message
 from simbridge.sim.ros.names import RobotNames, resolve_name
+from simbridge.sim.ros.trajectory_controller import JointTrajectoryController
 from simbridge.sim.scene.model import RosSettings
 from simbridge.sim.world.robot import RobotHandle
 from simbridge.sim.world.world import World
@@ -36,11 +37,17 @@ class RobotRosLink:
         self.joints = robot.joint_names
         self.joint_states_topic = resolve_name(ros.namespace, ros.joint_states_topic)
         self.commands = CommandSubscriber(world, connector, settings, robot=self.names)
+        self.controllers = {
+            spec.name: JointTrajectoryController(world, connector, self.names, ros.namespace, spec)
+            for spec in ros.controllers
+        }
         self._callback: int | None = None
 
     def start(self) -> RobotRosLink:
         """Subscribe to the commands and publish joint states at the robot's rate."""
         self.commands.start()
+        for controller in self.controllers.values():
+            controller.start()
         self.connector.register_publisher(
             self.joint_states_topic, "sensor_msgs/JointState", queue_size=10
         )
@@ -55,6 +62,8 @@ class RobotRosLink:
             self.world.remove_step_callback(self._callback)
             self.connector.unregister_publisher(self.joint_states_topic)
             self._callback = None
+        for controller in self.controllers.values():
+            controller.close()
         self.commands.close()
 
     def publish_joint_states(self) -> None:

@@ -6,6 +6,7 @@ from simbridge.sim.scene.builder import BuiltRobot, BuiltScene, build_scene
 from simbridge.sim.scene.loader import SHAPES, load_scene, parse_scene, with_overrides
 from simbridge.sim.scene.model import (
     CommandTopics,
+    JointConstraint,
     LightSpec,
     ObjectSpec,
     PhysicsSettings,
@@ -14,6 +15,7 @@ from simbridge.sim.scene.model import (
     RobotSpec,
     RosSettings,
     Scene,
+    TrajectoryControllerSpec,
 )
 
 __all__ = [
@@ -21,6 +23,7 @@ __all__ = [
     "BuiltRobot",
     "BuiltScene",
     "CommandTopics",
+    "JointConstraint",
     "LightSpec",
     "ObjectSpec",
     "PhysicsSettings",
@@ -29,6 +32,7 @@ __all__ = [
     "RobotSpec",
     "RosSettings",
     "Scene",
+    "TrajectoryControllerSpec",
     "build_scene",
     "load_scene",
     "parse_scene",

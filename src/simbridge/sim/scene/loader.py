@@ -17,6 +17,7 @@ from simbridge.sim.scene.efforts import EFFORT_POLICIES
 from simbridge.sim.scene.model import (
     INTEGRATORS,
     CommandTopics,
+    JointConstraint,
     LightSpec,
     ObjectSpec,
     PhysicsSettings,
@@ -25,6 +26,7 @@ from simbridge.sim.scene.model import (
     RobotSpec,
     RosSettings,
     Scene,
+    TrajectoryControllerSpec,
 )
 from simbridge.sim.urdf.loader import is_xacro
 from simbridge.sim.urdf.transforms import Vec3
@@ -256,6 +258,54 @@ def _namespace(value: Any, where: str) -> str:
     return "/" + "/".join(parts) if parts else "/"
 
 
+CONTROLLER_TYPES = ("joint_trajectory_controller",)
+
+
+def _controllers(section: _Section) -> tuple[TrajectoryControllerSpec, ...]:
+    found = []
+    for name in section.data:
+        entry = section.sub(str(name))
+        kind = entry.get("type", _str, "")
+        if kind not in CONTROLLER_TYPES:
+            raise SimError(
+                f"scene {entry.key('type')}: expected one of {', '.join(CONTROLLER_TYPES)}, "
+                f"got {kind!r}"
+            )
+        joints = entry.data.get("joints")
+        if not isinstance(joints, list) or not joints:
+            raise SimError(f"scene {entry.key('joints')}: expected a list of joint names")
+        limits = entry.sub("constraints")
+        constraints = {}
+        for joint in limits.data:
+            if joint in ("goal_time", "stopped_velocity_tolerance"):
+                continue
+            tol = limits.sub(str(joint))
+            constraints[str(joint)] = JointConstraint(
+                tol.get("trajectory", _non_negative, 0.0), tol.get("goal", _non_negative, 0.0)
+            )
+            tol.done(("trajectory", "goal"))
+        base = TrajectoryControllerSpec("", ())
+        found.append(
+            TrajectoryControllerSpec(
+                name=str(name),
+                joints=tuple(str(j) for j in joints),
+                state_publish_rate=entry.get(
+                    "state_publish_rate", _positive, base.state_publish_rate
+                ),
+                action_monitor_rate=entry.get(
+                    "action_monitor_rate", _positive, base.action_monitor_rate
+                ),
+                goal_time=limits.get("goal_time", _non_negative, base.goal_time),
+                stopped_velocity_tolerance=limits.get(
+                    "stopped_velocity_tolerance", _non_negative, base.stopped_velocity_tolerance
+                ),
+                constraints=constraints,
+            )
+        )
+        entry.done(("type", "joints", "state_publish_rate", "action_monitor_rate", "constraints"))
+    return tuple(found)
+
+
 def _robot_ros(section: _Section) -> RobotRos:
     base = RobotRos()
     commands = section.sub("commands")
@@ -273,9 +323,11 @@ def _robot_ros(section: _Section) -> RobotRos:
         joint_states_rate=section.get("joint_states_rate", _positive, base.joint_states_rate),
         commands=topics,
         command_joints=tuple(str(j) for j in section.data.get("command_joints") or ()),
+        controllers=_controllers(section.sub("controllers")),
     )
     section.done(
         (
+            "controllers",
             "namespace",
             "frame_prefix",
             "joint_states_topic",

@@ -12,6 +12,7 @@ from simbridge.sim.urdf.transforms import Transform, Vec3
 
 __all__ = [
     "CommandTopics",
+    "JointConstraint",
     "LightSpec",
     "ObjectSpec",
     "PhysicsSettings",
@@ -20,6 +21,7 @@ __all__ = [
     "RobotSpec",
     "RosSettings",
     "Scene",
+    "TrajectoryControllerSpec",
 ]
 
 INTEGRATORS = ("euler", "implicit", "implicitfast", "rk4")
@@ -122,6 +124,30 @@ class CommandTopics:
 
 
 @dataclass(frozen=True)
+class JointConstraint:
+    """ros_control's per-joint `constraints/<joint>/{trajectory, goal}` (rad or m; 0: none)."""
+
+    trajectory: float = 0.0
+    goal: float = 0.0
+
+
+@dataclass(frozen=True)
+class TrajectoryControllerSpec:
+    """A `joint_trajectory_controller` with ros_control's parameters (rates in Hz of sim
+    time): the follow_joint_trajectory action, `command` and `state` topics."""
+
+    name: str
+    joints: tuple[str, ...]
+    state_publish_rate: float = 25.0
+    action_monitor_rate: float = 20.0
+    goal_time: float = 0.0
+    """Default goal_time_tolerance (s) after the trajectory's end to meet goal tolerances."""
+    stopped_velocity_tolerance: float = 0.01
+    constraints: dict[str, JointConstraint] = field(default_factory=dict)
+    """URDF joint name -> tolerances (joints not listed: no tolerance)."""
+
+
+@dataclass(frozen=True)
 class RobotRos:
     """A robot's own ROS interface: its topics live under `namespace`, its TF frames are its
     URDF link names with `frame_prefix`, its joint names are the URDF's. Relative topic
@@ -140,6 +166,7 @@ class RobotRos:
     command_joints: tuple[str, ...] = ()
     """URDF joint names the group position/velocity commands address (default: every
     driven joint of the robot)."""
+    controllers: tuple[TrajectoryControllerSpec, ...] = ()
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,354 @@
+"""ros_control's joint_trajectory_controller for one robot: the
+`<ns>/<name>/follow_joint_trajectory` action (control_msgs/FollowJointTrajectory), the
+`<ns>/<name>/command` topic (trajectory_msgs/JointTrajectory) and `<ns>/<name>/state`
+(control_msgs/JointTrajectoryControllerState), with the real controller's semantics:
+path and goal tolerances, goal_time_tolerance, preemption by a new goal or command,
+cancel (hold position), feedback at `action_monitor_rate`, result error codes."""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+
+from simbridge.connector import ActionServer, Connector
+from simbridge.errors import SimError
+from simbridge.messages.actionlib import ServerGoal
+from simbridge.sim.control.drive import DriveMode
+from simbridge.sim.control.follower import TrajectoryFollower
+from simbridge.sim.control.trajectory import Trajectory
+from simbridge.sim.ros.convert import StampMaker, duration_seconds, trajectory_from_message
+from simbridge.sim.ros.names import RobotNames, resolve_name
+from simbridge.sim.scene.model import TrajectoryControllerSpec
+from simbridge.sim.world.world import World
+
+__all__ = ["JointTrajectoryController"]
+
+_log = logging.getLogger("simbridge.sim.ros")
+
+ACTION = "control_msgs/FollowJointTrajectory"
+SUCCESSFUL, INVALID_GOAL, INVALID_JOINTS = 0, -1, -2
+PATH_TOLERANCE_VIOLATED, GOAL_TOLERANCE_VIOLATED = -4, -5
+
+
+class JointTrajectoryController:
+    """One joint_trajectory_controller; all its work runs on the simulation thread."""
+
+    def __init__(
+        self,
+        world: World,
+        connector: Connector,
+        names: RobotNames,
+        namespace: str,
+        spec: TrajectoryControllerSpec,
+    ) -> None:
+        self.world, self.connector, self.names, self.spec = world, connector, names, spec
+        self.joints = [names.world_joint(j) for j in spec.joints]
+        """World names of the controller's joints, in the spec's order."""
+        self.ros_joints = list(spec.joints)
+        for joint in self.joints:
+            world.drives.spec(joint)  # SimError for joints without drives
+        for joint in spec.constraints:
+            if joint not in spec.joints:
+                raise SimError(
+                    f"controller {spec.name!r}: constraint for {joint!r}, which is not one of "
+                    f"its joints ({', '.join(spec.joints)})"
+                )
+        self.prefix = resolve_name(namespace, spec.name)
+        self.follower = TrajectoryFollower(world.drives)
+        self._trajectory: Trajectory | None = None
+        self._start = 0.0
+        self._goal: ServerGoal | None = None
+        self._path_tol: dict[str, float] = {}
+        self._goal_tol: dict[str, float] = {}
+        self._goal_time = spec.goal_time
+        self._stamps = StampMaker(connector.registry)
+        self._server: ActionServer | None = None
+        self._callbacks: list[int] = []
+        self.state_topic = f"{self.prefix}/state"
+        self.command_topic = f"{self.prefix}/command"
+
+    # ---- lifecycle ------------------------------------------------------------------------
+
+    def start(self) -> JointTrajectoryController:
+        """Register the action, command and state topics; follow from every step."""
+        world = self.world
+        self.connector.register_publisher(
+            self.state_topic, "control_msgs/JointTrajectoryControllerState", queue_size=10
+        )
+        self.connector.subscribe(
+            self.command_topic,
+            "trajectory_msgs/JointTrajectory",
+            lambda msg: world.post(lambda: self._on_command(msg)),
+        )
+        self._server = ActionServer(
+            self.connector,
+            f"{self.prefix}/follow_joint_trajectory",
+            ACTION,
+            lambda goal: world.post(lambda: self._on_goal(goal)),
+            lambda goal: world.post(lambda: self._on_cancel(goal)),
+            clock=lambda: world.time,
+        )
+        self._callbacks = [
+            world.add_step_callback(lambda _w: self._update()),
+            world.add_step_callback(
+                lambda _w: self._publish_feedback(), 1.0 / self.spec.action_monitor_rate
+            ),
+            world.add_step_callback(
+                lambda _w: self._publish_state(), 1.0 / self.spec.state_publish_rate
+            ),
+        ]
+        world.add_reset_callback(lambda _w: self._stop())
+        return self
+
+    def close(self) -> None:
+        """Unregister everything (the connector stays open)."""
+        for callback in self._callbacks:
+            self.world.remove_step_callback(callback)
+        self._callbacks.clear()
+        if self._server is not None:
+            self._server.close()
+            self._server = None
+            self.connector.unsubscribe(self.command_topic)
+            self.connector.unregister_publisher(self.state_topic)
+
+    # ---- commands -------------------------------------------------------------------------
+
+    def _result(self, code: int, text: str = "") -> Any:
+        return self.connector.registry.new(f"{ACTION}Result", error_code=code, error_string=text)
+
+    def _trajectory_of(self, msg: Any) -> Trajectory | None:
+        """The message's trajectory in world joint names, starting at its header stamp."""
+        unknown = [str(j) for j in msg.joint_names if str(j) not in self.ros_joints]
+        if unknown:
+            raise _InvalidGoalError(
+                INVALID_JOINTS,
+                f"joints {unknown} are not controlled by {self.spec.name} "
+                f"({', '.join(self.ros_joints)})",
+            )
+        trajectory = trajectory_from_message(msg)
+        if trajectory is None:
+            return None
+        joints = tuple(self.names.world_joint(j) for j in trajectory.joints)
+        trajectory = replace(trajectory, joints=joints)
+        stamp = duration_seconds(msg.header.stamp)
+        delay = stamp - self.world.time if stamp > 0 else 0.0
+        if delay + trajectory.duration < 0:
+            raise _InvalidGoalError(INVALID_GOAL, "the trajectory ends in the past")
+        if delay > 0:  # starts later: shift every point
+            points = tuple(replace(p, time=p.time + delay) for p in trajectory.points)
+            trajectory = Trajectory(trajectory.joints, points)
+        return trajectory
+
+    def _follow(self, trajectory: Trajectory) -> None:
+        for joint in trajectory.joints:
+            spec = self.world.drives.spec(joint)
+            if spec.mode is not DriveMode.POSITION:
+                self.world.drives.set_spec(joint, spec.with_changes(mode=DriveMode.POSITION))
+        self.follower.start(trajectory, self.world.time)
+        self._trajectory, self._start = self.follower.active, self.world.time
+
+    def _hold(self) -> None:
+        """Stop where the joints are (as the real controller's hold position)."""
+        self.follower.cancel()
+        self._trajectory = None
+        actual = self.world.joint_positions(self.joints)
+        for joint in self.joints:
+            self.world.drives.set_position(joint, actual[joint], 0.0)
+
+    def _stop(self) -> None:
+        self.follower.cancel()
+        self._trajectory = None
+        if self._goal is not None:
+            self._goal.abort(self._result(INVALID_GOAL, "simulation reset"))
+            self._goal = None
+
+    def _preempt(self, why: str) -> None:
+        if self._goal is not None:
+            self._goal.canceled(self._result(SUCCESSFUL, why), text=why)
+            self._goal = None
+
+    def _on_command(self, msg: Any) -> None:
+        try:
+            trajectory = self._trajectory_of(msg)
+        except SimError as exc:
+            _log.warning("%s: command rejected: %s", self.command_topic, exc)
+            return
+        self._preempt("preempted by a command on the topic")
+        if trajectory is None:
+            self._hold()
+        else:
+            self._follow(trajectory)
+
+    def _on_goal(self, goal: ServerGoal) -> None:
+        msg = goal.goal
+        try:
+            trajectory = self._trajectory_of(msg.trajectory)
+            if trajectory is None:
+                raise _InvalidGoalError(INVALID_GOAL, "the trajectory has no points")
+        except _InvalidGoalError as exc:
+            goal.reject(self._result(exc.code, str(exc)), text=str(exc))
+            return
+        except SimError as exc:
+            goal.reject(self._result(INVALID_GOAL, str(exc)), text=str(exc))
+            return
+        self._preempt("preempted by a new goal")
+        self._path_tol = self._tolerances(msg.path_tolerance, "trajectory")
+        self._goal_tol = self._tolerances(msg.goal_tolerance, "goal")
+        requested = duration_seconds(msg.goal_time_tolerance)
+        self._goal_time = requested if requested > 0 else self.spec.goal_time
+        goal.accept()
+        self._goal = goal
+        self._follow(trajectory)
+
+    def _tolerances(self, given: Any, kind: str) -> dict[str, float]:
+        """World joint -> position tolerance: the scene's constraints, overridden by the
+        goal's (0 keeps the default, -1 removes it)."""
+        tolerances: dict[str, float] = {}
+        for joint in self.ros_joints:
+            limit = self.spec.constraints.get(joint)
+            value = (limit.trajectory if kind == "trajectory" else limit.goal) if limit else 0.0
+            if value > 0:
+                tolerances[self.names.world_joint(joint)] = value
+        for tol in given:
+            name = str(tol.name)
+            if name not in self.ros_joints:
+                continue
+            world_name = self.names.world_joint(name)
+            if tol.position < 0:
+                tolerances.pop(world_name, None)
+            elif tol.position > 0:
+                tolerances[world_name] = float(tol.position)
+        return tolerances
+
+    def _on_cancel(self, goal: ServerGoal) -> None:
+        if goal is self._goal:
+            self._goal = None
+            self._hold()
+        goal.canceled(self._result(SUCCESSFUL, "canceled"))
+
+    # ---- every step ------------------------------------------------------------------------
+
+    def _sample(self) -> tuple[list[str], Any, Any, float]:
+        """(joints, desired positions, desired velocities, t) of the active trajectory."""
+        trajectory = self._trajectory
+        assert trajectory is not None
+        t = self.world.time - self._start
+        positions, velocities = trajectory.sample(min(t, trajectory.duration))
+        return list(trajectory.joints), positions, velocities, t
+
+    def _update(self) -> None:
+        if self._trajectory is None:
+            return
+        joints, desired, _vel, t = self._sample()
+        duration = self._trajectory.duration
+        self.follower.update(self.world.time)
+        goal = self._goal
+        if goal is None:
+            if t >= duration:
+                self._trajectory = None
+            return
+        actual = self.world.joint_positions(joints)
+        errors = {j: float(desired[i] - actual[j]) for i, j in enumerate(joints)}
+        if t < duration:
+            for joint, tol in self._path_tol.items():
+                if joint in errors and abs(errors[joint]) > tol:
+                    text = (
+                        f"path tolerance violated: joint {self.names.to_ros[joint]} error "
+                        f"{errors[joint]:.4g} exceeds {tol:g}"
+                    )
+                    self._goal = None
+                    self._hold()
+                    goal.abort(self._result(PATH_TOLERANCE_VIOLATED, text), text=text)
+                    return
+            return
+        velocities = self.world.joint_velocities(joints)
+        within = all(abs(errors[j]) <= tol for j, tol in self._goal_tol.items() if j in errors)
+        stopped = all(abs(v) <= self.spec.stopped_velocity_tolerance for v in velocities.values())
+        if within and (stopped or not self._goal_tol):
+            self._goal, self._trajectory = None, None
+            goal.succeed(self._result(SUCCESSFUL))
+        elif t > duration + self._goal_time:
+            worst = max(self._goal_tol, key=lambda j: abs(errors.get(j, 0.0)) - self._goal_tol[j])
+            text = (
+                f"goal tolerance violated: joint {self.names.to_ros[worst]} error "
+                f"{errors[worst]:.4g} exceeds {self._goal_tol[worst]:g} "
+                f"{t - duration:.3g} s after the trajectory's end"
+            )
+            self._goal, self._trajectory = None, None
+            goal.abort(self._result(GOAL_TOLERANCE_VIOLATED, text), text=text)
+
+    def _points(self) -> tuple[Any, Any, Any, float]:
+        """(desired, actual, error) JointTrajectoryPoints over the controller's joints."""
+        reg = self.connector.registry
+        actual_q = self.world.joint_positions(self.joints)
+        actual_v = self.world.joint_velocities(self.joints)
+        desired_q = dict(actual_q)
+        desired_v = dict.fromkeys(self.joints, 0.0)
+        t = 0.0
+        if self._trajectory is not None:
+            joints, positions, velocities, t = self._sample()
+            for i, joint in enumerate(joints):
+                desired_q[joint], desired_v[joint] = float(positions[i]), float(velocities[i])
+        else:
+            for joint in self.joints:
+                desired_q[joint] = self.world.drives.target(joint).position
+        stamp = self._stamps.time(max(t, 0.0))
+        duration = reg.msg_class("builtin_interfaces/Duration")(sec=stamp.sec, nanosec=stamp.nanosec)
+
+        def point(q: dict[str, float], v: dict[str, float]) -> Any:
+            return reg.new(
+                "trajectory_msgs/JointTrajectoryPoint",
+                positions=np.array([q[j] for j in self.joints]),
+                velocities=np.array([v[j] for j in self.joints]),
+                time_from_start=duration,
+            )
+
+        error_q = {j: desired_q[j] - actual_q[j] for j in self.joints}
+        error_v = {j: desired_v[j] - actual_v[j] for j in self.joints}
+        return (
+            point(desired_q, desired_v),
+            point(actual_q, actual_v),
+            point(error_q, error_v),
+            t,
+        )
+
+    def _publish_feedback(self) -> None:
+        goal = self._goal
+        if goal is None:
+            return
+        desired, actual, error, _t = self._points()
+        goal.publish_feedback(
+            self.connector.registry.new(
+                f"{ACTION}Feedback",
+                header=self._stamps.header(self.world.time),
+                joint_names=self.ros_joints,
+                desired=desired,
+                actual=actual,
+                error=error,
+            )
+        )
+
+    def _publish_state(self) -> None:
+        desired, actual, error, _t = self._points()
+        self.connector.publish(
+            self.state_topic,
+            self.connector.registry.new(
+                "control_msgs/JointTrajectoryControllerState",
+                header=self._stamps.header(self.world.time),
+                joint_names=self.ros_joints,
+                desired=desired,
+                actual=actual,
+                error=error,
+            ),
+        )
+
+
+class _InvalidGoalError(SimError):
+    """A goal the controller refuses, with the result's error code."""
+
+    def __init__(self, code: int, text: str) -> None:
+        super().__init__(text)
+        self.code = code
