@@ -296,7 +296,9 @@ class JointTrajectoryController:
             for joint in self.joints:
                 desired_q[joint] = self.world.drives.target(joint).position
         stamp = self._stamps.time(max(t, 0.0))
-        duration = reg.msg_class("builtin_interfaces/Duration")(sec=stamp.sec, nanosec=stamp.nanosec)
+        duration = reg.msg_class("builtin_interfaces/Duration")(
+            sec=stamp.sec, nanosec=stamp.nanosec
+        )
 
         def point(q: dict[str, float], v: dict[str, float]) -> Any:
             return reg.new(
