@@ -78,6 +78,8 @@ class JointStateWriter:
         self, fmt: WireFormat, names: Sequence[str], frame_id: str = "", seq: bool = True
     ) -> None:
         """`seq`: the Header has ROS 1's seq field (the registry's layouts say)."""
+        self.wire = (fmt, seq)
+        self.names = list(names)
         out = _Layout(fmt)
         self._stamp_at = out.header(frame_id, seq)
         out.u32(len(names))
@@ -116,6 +118,8 @@ class TFWriter:
     def __init__(
         self, fmt: WireFormat, frames: Sequence[tuple[str, str]], seq: bool = True
     ) -> None:
+        self.wire = (fmt, seq)
+        self.frames = tuple(frames)
         out = _Layout(fmt)
         out.u32(len(frames))
         self._stamps: list[int] = []
@@ -126,7 +130,6 @@ class TFWriter:
             self._poses.append(out.reserve(56, 8))
         self._buf = out.buf
         self._stamp = _stamp_struct(fmt)
-        self.frames = tuple(frames)
 
     def encode(self, sec: int, nanosec: int, poses: Sequence[Sequence[float]]) -> bytes:
         """The payload; `poses[i]` is (x, y, z, qx, qy, qz, qw) of `frames[i]`."""
@@ -143,6 +146,7 @@ class ClockWriter:
     """rosgraph_msgs/Clock."""
 
     def __init__(self, fmt: WireFormat) -> None:
+        self.fmt = fmt
         out = _Layout(fmt)
         self._at = out.reserve(8, 4)
         self._buf = out.buf

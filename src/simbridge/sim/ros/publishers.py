@@ -1,16 +1,20 @@
 """Publish the simulation's state: /joint_states, /tf, /tf_static and /clock, in sim time.
 
 Messages take the layouts of the connector's registry unless a registry is given, so
-the same scene publishes ROS 1 or ROS 2 messages, whichever the endpoint speaks.
+the same scene publishes ROS 1 or ROS 2 messages, whichever the endpoint speaks. With
+the connector's layouts, the periodic topics skip message objects: precompiled writers
+(`simbridge.messages.fastwire`) lay out each payload once and only stamp it and write
+the numbers (read straight from MuJoCo's arrays) on every publish.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any
 
 from simbridge.connector import Connector
-from simbridge.messages import MessageRegistry, Translator, default_registry
+from simbridge.messages import MessageRegistry, Translator, WireFormat, default_registry
+from simbridge.messages.fastwire import ClockWriter, JointStateWriter, TFWriter
 from simbridge.sim.ros.convert import StampMaker, joint_state_message, tf_message
 from simbridge.sim.ros.names import RobotNames
 from simbridge.sim.scene.model import RosSettings
@@ -57,6 +61,11 @@ class StatePublisher:
             j for name, r in world.robots.items() if name not in self.names for j in r.joint_names
         ]
         """Joints on the scene-wide joint-states topic (robots without a `ros:` block)."""
+        self._js_writer: JointStateWriter | None = None
+        self._tf_writer: TFWriter | None = None
+        self._tf_bodies: list[tuple[int, int]] = []
+        """MuJoCo body ids of the moving edges' parents and children (for `_tf_writer`)."""
+        self._clock_writer: ClockWriter | None = None
 
     def start(self) -> None:
         """Advertise the topics, publish /tf_static once (latched), schedule the rest."""
@@ -100,14 +109,32 @@ class StatePublisher:
     def publish_joint_states(self) -> None:
         """Positions, velocities and efforts of every 1-DoF joint."""
         w, joints = self.world, self.shared_joints if self.names else None
-        msg = joint_state_message(
-            self.stamps,
-            w.time,
-            w.joint_positions(joints),
-            w.joint_velocities(joints),
-            w.joint_efforts(joints),
-        )
+        positions = w.joint_positions(joints)
+        velocities, efforts = w.joint_velocities(joints), w.joint_efforts(joints)
+        wire = self._wire()
+        if wire is None:
+            msg: Any = joint_state_message(self.stamps, w.time, positions, velocities, efforts)
+        else:
+            writer = self._js_writer
+            names = list(positions)
+            if writer is None or writer.wire != wire or writer.names != names:
+                writer = self._js_writer = JointStateWriter(wire[0], names, seq=wire[1])
+            msg = writer.encode(
+                *_stamp(w.time),
+                list(positions.values()),
+                [velocities[n] for n in names],
+                [efforts[n] for n in names],
+            )
         self.connector.publish(self.settings.joint_states_topic, msg)
+
+    def _wire(self) -> tuple[WireFormat, bool] | None:
+        """(wire format, Header has seq) for the precompiled writers; None when messages
+        must be built as objects (a registry was given, whose layouts the writers do not
+        follow)."""
+        if self._registry is not None:
+            return None
+        seq = self.stamps.registry.protocol == "ROS1"
+        return ("cdr" if self.connector.wire_format == "cdr" else "ros1", seq)
 
     def _edges(self, fixed: bool) -> list[tuple[str, str, Transform]]:
         edges = []
@@ -132,9 +159,46 @@ class StatePublisher:
         stamps = self.stamps
         if stamps.registry is not self._static_registry:
             self.publish_tf_static()  # the endpoint's protocol changed: latch it anew
-        edges = self._edges(fixed=False)
-        if edges:
-            self.connector.publish("/tf", tf_message(stamps, self.world.time, edges))
+        wire = self._wire()
+        if wire is None:
+            edges = self._edges(fixed=False)
+            if edges:
+                self.connector.publish("/tf", tf_message(stamps, self.world.time, edges))
+            return
+        frames = self._edge_frames(fixed=False)
+        pairs = tuple((parent, child) for parent, child, _, _ in frames)
+        writer, bodies = self._tf_writer, self._tf_bodies
+        if writer is None or writer.wire != wire or writer.frames != pairs:
+            body = self._body_id
+            self._tf_bodies = bodies = [
+                (body(parent), body(child)) for _, _, parent, child in frames
+            ]
+            writer = self._tf_writer = TFWriter(wire[0], pairs, seq=wire[1])
+        if frames:
+            self.world.refresh()
+            poses = relative_poses(self.world.data, bodies)
+            self.connector.publish("/tf", writer.encode(*_stamp(self.world.time), poses))
+
+    def _body_id(self, link: str) -> int:
+        return 0 if link == WORLD_FRAME else int(self.world.model.body(link).id)
+
+    def _edge_frames(self, fixed: bool) -> list[tuple[str, str, str, str]]:
+        """(parent frame, child frame, parent link, child link) of the TF edges."""
+        edges = []
+        for name, robot in self.world.robots.items():
+            names = self.names.get(name)
+            frame = names.frame if names is not None else str
+            root = robot.prefix + robot.robot.root
+            if (
+                frame(root) != WORLD_FRAME
+                and robot.built.spec.fixed_base == fixed
+                and frame(root) not in self.parented_elsewhere
+            ):
+                edges.append((WORLD_FRAME, frame(root), WORLD_FRAME, root))
+            for parent, child, is_fixed in robot.tree_edges():
+                if is_fixed == fixed:
+                    edges.append((frame(parent), frame(child), parent, child))
+        return edges
 
     def publish_tf_static(self) -> None:
         """Transforms across fixed joints and to fixed robot bases (latched)."""
@@ -147,5 +211,51 @@ class StatePublisher:
 
     def publish_clock(self) -> None:
         """The sim time, so ROS nodes with use_sim_time follow the simulation."""
-        msg = self.stamps.cls("rosgraph_msgs/Clock")(clock=self.stamps.time(self.world.time))
-        self.connector.publish("/clock", msg)
+        wire = self._wire()
+        if wire is None:
+            msg = self.stamps.cls("rosgraph_msgs/Clock")(clock=self.stamps.time(self.world.time))
+            self.connector.publish("/clock", msg)
+            return
+        writer = self._clock_writer
+        if writer is None or writer.fmt != wire[0]:
+            writer = self._clock_writer = ClockWriter(wire[0])
+        self.connector.publish("/clock", writer.encode(*_stamp(self.world.time)))
+
+
+def _stamp(seconds: float) -> tuple[int, int]:
+    """(sec, nanosec) of `seconds`, rounded to the nanosecond as `StampMaker.time` does."""
+    return divmod(round(seconds * 1e9), 10**9)
+
+
+def relative_poses(data: Any, edges: Sequence[tuple[int, int]]) -> list[tuple[float, ...]]:
+    """(x, y, z, qx, qy, qz, qw) of each (parent, child) body pair's child in the parent's
+    frame, from MuJoCo's world poses (`data.xpos`, `xmat`, `xquat`; body 0 is the world),
+    with the quaternion's w >= 0 as `Transform.quat_xyzw` gives it. Plain floats: for a
+    handful of edges this beats numpy's per-call overhead several times over."""
+    xpos, xmat, xquat = data.xpos.tolist(), data.xmat.tolist(), data.xquat.tolist()
+    out: list[tuple[float, ...]] = []
+    for parent, child in edges:
+        (px, py, pz), (cx, cy, cz) = xpos[parent], xpos[child]
+        dx, dy, dz = cx - px, cy - py, cz - pz
+        m0, m1, m2, m3, m4, m5, m6, m7, m8 = xmat[parent]
+        aw, ax, ay, az = xquat[parent]
+        bw, bx, by, bz = xquat[child]
+        # conj(parent) * child, Hamilton product
+        qw = aw * bw + ax * bx + ay * by + az * bz
+        qx = aw * bx - ax * bw - ay * bz + az * by
+        qy = aw * by + ax * bz - ay * bw - az * bx
+        qz = aw * bz - ax * by + ay * bx - az * bw
+        if qw < 0:
+            qx, qy, qz, qw = -qx, -qy, -qz, -qw
+        out.append(
+            (
+                m0 * dx + m3 * dy + m6 * dz,  # the parent's rotation transposed, applied
+                m1 * dx + m4 * dy + m7 * dz,
+                m2 * dx + m5 * dy + m8 * dz,
+                qx,
+                qy,
+                qz,
+                qw,
+            )
+        )
+    return out
