@@ -20,6 +20,8 @@ PACKAGES=(
   # ROS 2 interface packages are compiled into .venv-ros2 (`simbridge msg build`); the
   # localhost-only test runs DDS in a private network namespace (unshare, ip)
   gcc g++ util-linux iproute2
+  # real actionlib clients against the sim's controllers (tests/e2e/test_ros1_actionlib.py)
+  python3-actionlib python3-actionlib-msgs
   # headless Chromium opens the live view (`simbridge sim --view`) in tests/sim/test_view.py
   chromium
 )
