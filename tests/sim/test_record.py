@@ -214,3 +214,16 @@ def test_bad_file_names_are_refused(tmp_path: Path) -> None:
         Recorder(RecordOptions(tmp_path / "there.bag"), clock=lambda: 0.0)
     with pytest.raises(SimError, match="needs an endpoint"):
         SimulationSession(_scene(tmp_path), None, record=RecordOptions(tmp_path / "a.mcap"))
+
+
+def test_mobile_robot_demo_records_sensors_and_commands(tmp_path: Path) -> None:
+    from simbridge.apps.mobile_robot.runner import run_mobile_robot
+
+    out = tmp_path / "demo.bag"
+    result = run_mobile_robot(0.2, record=RecordOptions(out), progress=None)
+    assert result.completed
+    counts, stamps, _ = _read(out)
+    # what the sim publishes (sensors included) and the /cmd_vel it receives
+    assert {"/scan", "/odom", "/imu", "/camera/image_raw", "/tf", "/cmd_vel"} <= set(counts)
+    assert counts["/cmd_vel"] > 10
+    assert all(seq == sorted(seq) for seq in stamps.values())

@@ -21,6 +21,10 @@ def run_demo(args: argparse.Namespace) -> int:
 
         forwarded = ["--side", str(args.side), "--realtime", str(args.realtime or 0.0)]
         forwarded += ["--backend", args.backend]
+        if args.record:
+            forwarded += ["--record", args.record]
+        if args.view:
+            forwarded += ["--view", "--view-port", str(args.view_port)]
         return mobile_robot_main([*forwarded, "--json"] if args.json else forwarded)
     from simbridge.apps import pick_and_place_main
 
@@ -68,4 +72,11 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         default=0.0,
         help="mobile-robot: pace at this real-time factor (0 = flat out)",
     )
+    demo.add_argument(
+        "--record", metavar="FILE", help="mobile-robot: record every sim topic (.mcap or .bag)"
+    )
+    demo.add_argument(
+        "--view", action="store_true", help="mobile-robot: live 3D view in the browser (viser)"
+    )
+    demo.add_argument("--view-port", type=int, default=8080, help="live view port (default 8080)")
     demo.set_defaults(func=run_demo)

@@ -22,8 +22,10 @@ from simbridge.endpoint import Backend, EndpointOptions, EndpointThread, LocalBu
 from simbridge.endpoint.backends.ros1_master import unique_node_name
 from simbridge.errors import AppError, SimbridgeError
 from simbridge.sim.control import Pose2D
+from simbridge.sim.record import RecordOptions
 from simbridge.sim.ros import SimulationSession
 from simbridge.sim.urdf.transforms import Matrix, Transform
+from simbridge.sim.view import LiveView, ViewOptions
 from simbridge.sim.world import World
 
 __all__ = ["BACKENDS", "BASE_LINK", "SCENE_PATH", "main", "run_mobile_robot"]
@@ -83,6 +85,8 @@ def run_mobile_robot(
     max_sim_s: float = 120.0,
     backend: str = "local",
     progress: Callable[[str], None] | None = print,
+    record: RecordOptions | None = None,
+    view: ViewOptions | None = None,
 ) -> MobileRobotResult:
     """Drive diffbot around a square of `side_m` metres in the walled room and measure.
 
@@ -95,6 +99,7 @@ def run_mobile_robot(
     topics, and the sim speaks ROS 2 (CDR, ROS 2 layouts). `realtime_factor` 0 runs as
     fast as possible; `subscribe_sensors` False leaves lidar, camera and IMU without
     subscribers (so they are never computed). `json` prints the summary as the last line.
+    `record` writes a bag of every sim topic; `view` serves the live browser view.
     """
     if backend not in BACKENDS:
         raise AppError(f"unknown backend {backend!r}; choose one of {', '.join(BACKENDS)}")
@@ -117,9 +122,12 @@ def run_mobile_robot(
             f"127.0.0.1:{endpoint.port}",
             ConnectorOptions(reconnect_initial=0.2),
             connect_timeout=5.0,
+            record=record,
         )
         stack.enter_context(session)
         world = session.world
+        if view is not None:
+            say(f"[mobile-robot] live view at {stack.enter_context(LiveView(world, view)).url}")
         bridge, sensors = session.bridge, session.sensors
         if bridge is None or bridge.diff_drive is None or sensors is None:
             raise AppError(f"scene {scene} needs ros.diff_drive and sensors (odometry at least)")
@@ -231,12 +239,22 @@ def main(argv: Sequence[str] | None = None) -> int:
         help="local (default): the embedded bus; ros1: real ROS topics on a ROS 1 master",
     )
     parser.add_argument("--json", action="store_true", help="print a JSON summary last")
+    parser.add_argument("--record", metavar="FILE", help="record the run (.mcap or .bag)")
+    parser.add_argument("--view", action="store_true", help="live browser view (viser)")
+    parser.add_argument("--view-port", type=int, default=8080, help="live view port")
     args = parser.parse_args(argv)
     if not 0.2 <= args.side <= 1.2:
         print("simbridge demo mobile-robot: --side must be in [0.2, 1.2] m", file=sys.stderr)
         return 2
     try:
-        result = run_mobile_robot(args.side, args.realtime, args.json, backend=args.backend)
+        result = run_mobile_robot(
+            args.side,
+            args.realtime,
+            args.json,
+            backend=args.backend,
+            record=RecordOptions(Path(args.record)) if args.record else None,
+            view=ViewOptions(port=args.view_port) if args.view else None,
+        )
     except SimbridgeError as exc:
         print(f"simbridge demo mobile-robot: {exc}", file=sys.stderr)
         return 2
