@@ -16,7 +16,14 @@ import sys
 import time
 from pathlib import Path
 
-from simbridge.protocol import MessageReceived, ProtocolConnection, Publish, Subscribe
+from simbridge.protocol import (
+    CommandReceived,
+    MessageReceived,
+    ProtocolConnection,
+    Publish,
+    Subscribe,
+    SubscriberCount,
+)
 from tests.endpoint.rawclient import RawClient
 from tests.ros2support import Ros2Process, child_env, start_endpoint
 
@@ -53,14 +60,20 @@ def run_endpoint() -> dict[str, object]:
                                  "20", "60"):
             echo.expect_json("ready")
             client = RawClient(port)
-            client.send(Publish("/net_out", "geometry_msgs/Twist").encode())
+            publish = Publish("/net_out", "geometry_msgs/Twist", report_subscribers=True)
+            client.send(publish.encode())
             client.send(Subscribe("/net_in", "std_msgs/String").encode())
-            time.sleep(1.5)
+            client.expect(
+                lambda e: isinstance(e, CommandReceived)
+                and isinstance(e.command, SubscriberCount)
+                and e.command.count >= 1,
+                timeout=30,
+            )
             for _ in range(5):
                 client.send(ProtocolConnection.message("/net_out", twist))
             for _ in range(5):
                 echo.expect_json("msg")
-            client.expect(lambda e: isinstance(e, MessageReceived), timeout=20)
+            client.expect(lambda e: isinstance(e, MessageReceived), timeout=40)
             received = 6
             client.close()
     finally:

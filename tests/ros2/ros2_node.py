@@ -4,7 +4,8 @@ pytest, which runs beside rospy). One JSON object per line on stdout.
     ros2_node.py echo TOPIC pkg/msg/Type COUNT [--latched]
         print {"ready": true}, then each message as {"msg": {...}} (decoded with rclpy)
     ros2_node.py pub TOPIC pkg/msg/Type JSON RATE COUNT
-        publish JSON (field values) COUNT times at RATE Hz; {"sent": n} at the end
+        once a subscription matched (30 s at most), publish JSON (field values) COUNT times
+        at RATE Hz; {"sent": n} at the end
     ros2_node.py serve SERVICE pkg/srv/Type JSON
         answer every request with JSON; print {"request": {...}} per call
     ros2_node.py call SERVICE pkg/srv/Type JSON TIMEOUT
@@ -93,6 +94,9 @@ def run(node: Any, argv: list[str]) -> None:
         publisher = node.create_publisher(cls, topic, 10)
         msg = cls()
         set_message_fields(msg, values)
+        deadline = time.monotonic() + 30  # discovery can be slow on a busy machine
+        while publisher.get_subscription_count() == 0 and time.monotonic() < deadline:
+            rclpy.spin_once(node, timeout_sec=0.05)
         for _ in range(count):
             publisher.publish(msg)
             rclpy.spin_once(node, timeout_sec=1.0 / rate)
