@@ -78,7 +78,7 @@ def _run(world: World, seconds: float, move: bool) -> dict[str, float]:
 def test_every_documented_example_loads_and_runs_stably(tmp_path: Path) -> None:
     docs = _docs_tree(tmp_path)
     blocks = re.findall(r"```yaml\n(.*?)```", DOCS.read_text(), flags=re.DOTALL)
-    assert len(blocks) == 6
+    assert len(blocks) == 7
     for index, block in enumerate(blocks):
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")

@@ -12,6 +12,7 @@ from simbridge.sim.ros.convert import (
     trajectory_from_message,
 )
 from simbridge.sim.ros.diff_drive_link import DiffDriveLink, measure_wheels
+from simbridge.sim.ros.gripper_controller import GripperActionController
 from simbridge.sim.ros.names import RobotNames, resolve_name
 from simbridge.sim.ros.publishers import StatePublisher
 from simbridge.sim.ros.robot_link import RobotRosLink
@@ -25,6 +26,7 @@ __all__ = [
     "CommandSubscriber",
     "ControlServices",
     "DiffDriveLink",
+    "GripperActionController",
     "JointTrajectoryController",
     "RobotNames",
     "RobotRosLink",

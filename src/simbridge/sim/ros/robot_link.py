@@ -8,9 +8,10 @@ from simbridge.connector import Connector
 from simbridge.messages import MessageRegistry
 from simbridge.sim.ros.commands import CommandSubscriber
 from simbridge.sim.ros.convert import StampMaker, joint_state_message
+from simbridge.sim.ros.gripper_controller import GripperActionController
 from simbridge.sim.ros.names import RobotNames, resolve_name
 from simbridge.sim.ros.trajectory_controller import JointTrajectoryController
-from simbridge.sim.scene.model import RosSettings
+from simbridge.sim.scene.model import GripperControllerSpec, RosSettings
 from simbridge.sim.world.robot import RobotHandle
 from simbridge.sim.world.world import World
 
@@ -37,10 +38,13 @@ class RobotRosLink:
         self.joints = robot.joint_names
         self.joint_states_topic = resolve_name(ros.namespace, ros.joint_states_topic)
         self.commands = CommandSubscriber(world, connector, settings, robot=self.names)
-        self.controllers = {
-            spec.name: JointTrajectoryController(world, connector, self.names, ros.namespace, spec)
-            for spec in ros.controllers
-        }
+        self.controllers: dict[str, JointTrajectoryController | GripperActionController] = {}
+        for spec in ros.controllers:
+            self.controllers[spec.name] = (
+                GripperActionController(world, connector, self.names, ros.namespace, spec)
+                if isinstance(spec, GripperControllerSpec)
+                else JointTrajectoryController(world, connector, self.names, ros.namespace, spec)
+            )
         self._callback: int | None = None
 
     def start(self) -> RobotRosLink:

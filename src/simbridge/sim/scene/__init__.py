@@ -6,6 +6,7 @@ from simbridge.sim.scene.builder import BuiltRobot, BuiltScene, build_scene
 from simbridge.sim.scene.loader import SHAPES, load_scene, parse_scene, with_overrides
 from simbridge.sim.scene.model import (
     CommandTopics,
+    GripperControllerSpec,
     JointConstraint,
     LightSpec,
     ObjectSpec,
@@ -23,6 +24,7 @@ __all__ = [
     "BuiltRobot",
     "BuiltScene",
     "CommandTopics",
+    "GripperControllerSpec",
     "JointConstraint",
     "LightSpec",
     "ObjectSpec",

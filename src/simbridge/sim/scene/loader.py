@@ -17,6 +17,7 @@ from simbridge.sim.scene.efforts import EFFORT_POLICIES
 from simbridge.sim.scene.model import (
     INTEGRATORS,
     CommandTopics,
+    GripperControllerSpec,
     JointConstraint,
     LightSpec,
     ObjectSpec,
@@ -258,11 +259,42 @@ def _namespace(value: Any, where: str) -> str:
     return "/" + "/".join(parts) if parts else "/"
 
 
-CONTROLLER_TYPES = ("joint_trajectory_controller",)
+CONTROLLER_TYPES = ("joint_trajectory_controller", "gripper_action_controller")
 
 
-def _controllers(section: _Section) -> tuple[TrajectoryControllerSpec, ...]:
-    found = []
+def _gripper(name: str, entry: _Section) -> GripperControllerSpec:
+    base = GripperControllerSpec("", "")
+    if "joint" not in entry.data:
+        raise SimError(f"scene {entry.where}: missing key 'joint' (the gripper's driven joint)")
+    spec = GripperControllerSpec(
+        name=name,
+        joint=entry.get("joint", _str, ""),
+        goal_tolerance=entry.get("goal_tolerance", _positive, base.goal_tolerance),
+        stall_velocity_threshold=entry.get(
+            "stall_velocity_threshold", _positive, base.stall_velocity_threshold
+        ),
+        stall_timeout=entry.get("stall_timeout", _positive, base.stall_timeout),
+        allow_stalling=entry.get("allow_stalling", _bool, base.allow_stalling),
+        action_monitor_rate=entry.get("action_monitor_rate", _positive, base.action_monitor_rate),
+    )
+    entry.done(
+        (
+            "type",
+            "joint",
+            "goal_tolerance",
+            "stall_velocity_threshold",
+            "stall_timeout",
+            "allow_stalling",
+            "action_monitor_rate",
+        )
+    )
+    return spec
+
+
+def _controllers(
+    section: _Section,
+) -> tuple[TrajectoryControllerSpec | GripperControllerSpec, ...]:
+    found: list[TrajectoryControllerSpec | GripperControllerSpec] = []
     for name in section.data:
         entry = section.sub(str(name))
         kind = entry.get("type", _str, "")
@@ -271,6 +303,9 @@ def _controllers(section: _Section) -> tuple[TrajectoryControllerSpec, ...]:
                 f"scene {entry.key('type')}: expected one of {', '.join(CONTROLLER_TYPES)}, "
                 f"got {kind!r}"
             )
+        if kind == "gripper_action_controller":
+            found.append(_gripper(str(name), entry))
+            continue
         joints = entry.data.get("joints")
         if not isinstance(joints, list) or not joints:
             raise SimError(f"scene {entry.key('joints')}: expected a list of joint names")

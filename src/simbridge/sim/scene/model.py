@@ -12,6 +12,7 @@ from simbridge.sim.urdf.transforms import Transform, Vec3
 
 __all__ = [
     "CommandTopics",
+    "GripperControllerSpec",
     "JointConstraint",
     "LightSpec",
     "ObjectSpec",
@@ -148,6 +149,21 @@ class TrajectoryControllerSpec:
 
 
 @dataclass(frozen=True)
+class GripperControllerSpec:
+    """A `gripper_action_controller` (ros_control's parameters) on one driven joint: the
+    `gripper_cmd` action (control_msgs/GripperCommand)."""
+
+    name: str
+    joint: str
+    goal_tolerance: float = 0.01
+    stall_velocity_threshold: float = 0.001
+    stall_timeout: float = 1.0
+    allow_stalling: bool = False
+    """A stalled gripper (holding an object) succeeds instead of aborting."""
+    action_monitor_rate: float = 20.0
+
+
+@dataclass(frozen=True)
 class RobotRos:
     """A robot's own ROS interface: its topics live under `namespace`, its TF frames are its
     URDF link names with `frame_prefix`, its joint names are the URDF's. Relative topic
@@ -166,7 +182,7 @@ class RobotRos:
     command_joints: tuple[str, ...] = ()
     """URDF joint names the group position/velocity commands address (default: every
     driven joint of the robot)."""
-    controllers: tuple[TrajectoryControllerSpec, ...] = ()
+    controllers: tuple[TrajectoryControllerSpec | GripperControllerSpec, ...] = ()
 
 
 @dataclass(frozen=True)
