@@ -65,6 +65,8 @@ class StatePublisher:
         self._tf_writer: TFWriter | None = None
         self._tf_bodies: list[tuple[int, int]] = []
         """MuJoCo body ids of the moving edges' parents and children (for `_tf_writer`)."""
+        self._tf_elsewhere: tuple[str, ...] = ()
+        """`parented_elsewhere` when `_tf_writer` was laid out (its edges depend on it)."""
         self._clock_writer: ClockWriter | None = None
 
     def start(self) -> None:
@@ -165,16 +167,18 @@ class StatePublisher:
             if edges:
                 self.connector.publish("/tf", tf_message(stamps, self.world.time, edges))
             return
-        frames = self._edge_frames(fixed=False)
-        pairs = tuple((parent, child) for parent, child, _, _ in frames)
         writer, bodies = self._tf_writer, self._tf_bodies
-        if writer is None or writer.wire != wire or writer.frames != pairs:
+        elsewhere = tuple(sorted(self.parented_elsewhere))
+        if writer is None or writer.wire != wire or self._tf_elsewhere != elsewhere:
+            frames = self._edge_frames(fixed=False)
+            pairs = tuple((parent, child) for parent, child, _, _ in frames)
             body = self._body_id
             self._tf_bodies = bodies = [
                 (body(parent), body(child)) for _, _, parent, child in frames
             ]
             writer = self._tf_writer = TFWriter(wire[0], pairs, seq=wire[1])
-        if frames:
+            self._tf_elsewhere = elsewhere
+        if bodies:
             self.world.refresh()
             poses = relative_poses(self.world.data, bodies)
             self.connector.publish("/tf", writer.encode(*_stamp(self.world.time), poses))
