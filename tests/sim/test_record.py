@@ -227,3 +227,18 @@ def test_mobile_robot_demo_records_sensors_and_commands(tmp_path: Path) -> None:
     assert {"/scan", "/odom", "/imu", "/camera/image_raw", "/tf", "/cmd_vel"} <= set(counts)
     assert counts["/cmd_vel"] > 10
     assert all(seq == sorted(seq) for seq in stamps.values())
+
+
+def test_play_command_line(
+    tmp_path: Path, endpoint: EndpointThread, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from simbridge.cli import main
+
+    out = tmp_path / "run.bag"
+    _record(tmp_path, endpoint, out)
+    counts, _, _ = _read(out)
+    assert main(["play", str(out), "--endpoint", f"127.0.0.1:{endpoint.port}", "--rate", "0"]) == 0
+    sent = sum(n for topic, n in counts.items() if topic != "/clock")
+    assert f"played {sent} messages on {len(counts) - 1} topics" in capsys.readouterr().out
+    assert main(["play", str(tmp_path / "none.mcap"), "--endpoint", "127.0.0.1:1"]) == 2
+    assert "none.mcap' does not exist" in capsys.readouterr().err

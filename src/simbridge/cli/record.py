@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 from .common import add_endpoint_arg
 
@@ -12,8 +13,11 @@ __all__ = ["add_parser"]
 def run_play(args: argparse.Namespace) -> int:
     from simbridge.connector import Connector
     from simbridge.errors import SimError
-    from simbridge.sim.record import PlayOptions, play
+    from simbridge.sim.record import PlayOptions, bag_kind, play
 
+    bag_kind(args.file)
+    if not Path(args.file).is_file():
+        raise SimError(f"recording '{args.file}' does not exist")
     host, port = args.endpoint
     connector = Connector(host, port)
     try:
