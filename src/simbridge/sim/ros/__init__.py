@@ -13,6 +13,7 @@ from simbridge.sim.ros.convert import (
 )
 from simbridge.sim.ros.diff_drive_link import DiffDriveLink, measure_wheels
 from simbridge.sim.ros.gripper_controller import GripperActionController
+from simbridge.sim.ros.group_controller import GroupCommandController
 from simbridge.sim.ros.names import RobotNames, resolve_name
 from simbridge.sim.ros.publishers import StatePublisher
 from simbridge.sim.ros.robot_link import RobotRosLink
@@ -27,6 +28,7 @@ __all__ = [
     "ControlServices",
     "DiffDriveLink",
     "GripperActionController",
+    "GroupCommandController",
     "JointTrajectoryController",
     "RobotNames",
     "RobotRosLink",

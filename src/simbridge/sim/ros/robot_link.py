@@ -5,17 +5,40 @@ scene's other robots (`StatePublisher`)."""
 from __future__ import annotations
 
 from simbridge.connector import Connector
+from simbridge.errors import SimError
 from simbridge.messages import MessageRegistry
 from simbridge.sim.ros.commands import CommandSubscriber
 from simbridge.sim.ros.convert import StampMaker, joint_state_message
 from simbridge.sim.ros.gripper_controller import GripperActionController
+from simbridge.sim.ros.group_controller import GroupCommandController
 from simbridge.sim.ros.names import RobotNames, resolve_name
 from simbridge.sim.ros.trajectory_controller import JointTrajectoryController
-from simbridge.sim.scene.model import GripperControllerSpec, RosSettings
+from simbridge.sim.scene.model import (
+    GripperControllerSpec,
+    GroupControllerSpec,
+    RosSettings,
+    TrajectoryControllerSpec,
+)
 from simbridge.sim.world.robot import RobotHandle
 from simbridge.sim.world.world import World
 
 __all__ = ["RobotRosLink"]
+
+Controller = JointTrajectoryController | GripperActionController | GroupCommandController
+
+
+def _controller(
+    world: World,
+    connector: Connector,
+    names: RobotNames,
+    namespace: str,
+    spec: TrajectoryControllerSpec | GripperControllerSpec | GroupControllerSpec,
+) -> Controller:
+    if isinstance(spec, GripperControllerSpec):
+        return GripperActionController(world, connector, names, namespace, spec)
+    if isinstance(spec, GroupControllerSpec):
+        return GroupCommandController(world, connector, names, namespace, spec)
+    return JointTrajectoryController(world, connector, names, namespace, spec)
 
 
 class RobotRosLink:
@@ -38,12 +61,19 @@ class RobotRosLink:
         self.joints = robot.joint_names
         self.joint_states_topic = resolve_name(ros.namespace, ros.joint_states_topic)
         self.commands = CommandSubscriber(world, connector, settings, robot=self.names)
-        self.controllers: dict[str, JointTrajectoryController | GripperActionController] = {}
+        self.controllers: dict[str, Controller] = {}
+        claimed: dict[str, str] = {}
         for spec in ros.controllers:
-            self.controllers[spec.name] = (
-                GripperActionController(world, connector, self.names, ros.namespace, spec)
-                if isinstance(spec, GripperControllerSpec)
-                else JointTrajectoryController(world, connector, self.names, ros.namespace, spec)
+            joints = [spec.joint] if isinstance(spec, GripperControllerSpec) else spec.joints
+            for joint in joints:
+                if joint in claimed:
+                    raise SimError(
+                        f"robot {robot.name!r}: joint {joint!r} is claimed by controllers "
+                        f"{claimed[joint]!r} and {spec.name!r} (as in ros_control, one each)"
+                    )
+                claimed[joint] = spec.name
+            self.controllers[spec.name] = _controller(
+                world, connector, self.names, ros.namespace, spec
             )
         self._callback: int | None = None
 

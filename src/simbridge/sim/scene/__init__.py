@@ -6,7 +6,9 @@ from simbridge.sim.scene.builder import BuiltRobot, BuiltScene, build_scene
 from simbridge.sim.scene.loader import SHAPES, load_scene, parse_scene, with_overrides
 from simbridge.sim.scene.model import (
     CommandTopics,
+    ControllerSpec,
     GripperControllerSpec,
+    GroupControllerSpec,
     JointConstraint,
     LightSpec,
     ObjectSpec,
@@ -24,7 +26,9 @@ __all__ = [
     "BuiltRobot",
     "BuiltScene",
     "CommandTopics",
+    "ControllerSpec",
     "GripperControllerSpec",
+    "GroupControllerSpec",
     "JointConstraint",
     "LightSpec",
     "ObjectSpec",

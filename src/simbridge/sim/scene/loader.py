@@ -17,7 +17,9 @@ from simbridge.sim.scene.efforts import EFFORT_POLICIES
 from simbridge.sim.scene.model import (
     INTEGRATORS,
     CommandTopics,
+    ControllerSpec,
     GripperControllerSpec,
+    GroupControllerSpec,
     JointConstraint,
     LightSpec,
     ObjectSpec,
@@ -259,7 +261,12 @@ def _namespace(value: Any, where: str) -> str:
     return "/" + "/".join(parts) if parts else "/"
 
 
-CONTROLLER_TYPES = ("joint_trajectory_controller", "gripper_action_controller")
+GROUP_TYPES = {
+    "joint_group_position_controller": "position",
+    "joint_group_velocity_controller": "velocity",
+    "joint_group_effort_controller": "effort",
+}
+CONTROLLER_TYPES = ("joint_trajectory_controller", "gripper_action_controller", *GROUP_TYPES)
 
 
 def _gripper(name: str, entry: _Section) -> GripperControllerSpec:
@@ -291,10 +298,8 @@ def _gripper(name: str, entry: _Section) -> GripperControllerSpec:
     return spec
 
 
-def _controllers(
-    section: _Section,
-) -> tuple[TrajectoryControllerSpec | GripperControllerSpec, ...]:
-    found: list[TrajectoryControllerSpec | GripperControllerSpec] = []
+def _controllers(section: _Section) -> tuple[ControllerSpec, ...]:
+    found: list[ControllerSpec] = []
     for name in section.data:
         entry = section.sub(str(name))
         kind = entry.get("type", _str, "")
@@ -309,6 +314,10 @@ def _controllers(
         joints = entry.data.get("joints")
         if not isinstance(joints, list) or not joints:
             raise SimError(f"scene {entry.key('joints')}: expected a list of joint names")
+        if kind in GROUP_TYPES:
+            found.append(GroupControllerSpec(str(name), GROUP_TYPES[kind], tuple(map(str, joints))))
+            entry.done(("type", "joints"))
+            continue
         limits = entry.sub("constraints")
         constraints = {}
         for joint in limits.data:

@@ -12,7 +12,9 @@ from simbridge.sim.urdf.transforms import Transform, Vec3
 
 __all__ = [
     "CommandTopics",
+    "ControllerSpec",
     "GripperControllerSpec",
+    "GroupControllerSpec",
     "JointConstraint",
     "LightSpec",
     "ObjectSpec",
@@ -164,6 +166,20 @@ class GripperControllerSpec:
 
 
 @dataclass(frozen=True)
+class GroupControllerSpec:
+    """A `joint_group_{position,velocity,effort}_controller`: one std_msgs/Float64MultiArray
+    value per joint on `<ns>/<name>/command`; `mode` is "position", "velocity" or "effort"."""
+
+    name: str
+    mode: str
+    joints: tuple[str, ...]
+
+
+ControllerSpec = TrajectoryControllerSpec | GripperControllerSpec | GroupControllerSpec
+"""Any controller a robot's `ros: controllers:` may list."""
+
+
+@dataclass(frozen=True)
 class RobotRos:
     """A robot's own ROS interface: its topics live under `namespace`, its TF frames are its
     URDF link names with `frame_prefix`, its joint names are the URDF's. Relative topic
@@ -182,7 +198,7 @@ class RobotRos:
     command_joints: tuple[str, ...] = ()
     """URDF joint names the group position/velocity commands address (default: every
     driven joint of the robot)."""
-    controllers: tuple[TrajectoryControllerSpec | GripperControllerSpec, ...] = ()
+    controllers: tuple[ControllerSpec, ...] = ()
 
 
 @dataclass(frozen=True)
