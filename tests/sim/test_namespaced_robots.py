@@ -207,3 +207,32 @@ def test_one_robots_trajectory_does_not_cancel_the_others(rig: Rig) -> None:
     assert _wait(
         lambda: abs(q()["arm_left/elbow"] - 0.7) < 2e-3 and abs(q()["arm_right/elbow"] + 0.7) < 2e-3
     )
+
+
+def test_ros2_endpoint_gets_namespaced_joint_states_and_skips_controllers(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    from simbridge.messages import ros2_registry
+    from simbridge.sim.ros import SimulationSession
+
+    path = two_arm_scene(tmp_path)
+    scene = yaml.safe_load(path.read_text())
+    scene["robots"][0]["ros"]["controllers"] = {
+        "arm_controller": {"type": "joint_trajectory_controller", "joints": ["shoulder"]}
+    }
+    path.write_text(yaml.safe_dump(scene))
+    with EndpointThread(EndpointOptions(port=0), LocalBus("ROS2")) as endpoint:
+        bus = endpoint.backend
+        assert isinstance(bus, LocalBus)
+        got: queue.Queue[Any] = queue.Queue()
+        with Node(bus, "/ros2_tester") as node:
+            node.subscribe("/arm_left/joint_states", "sensor_msgs/JointState", got.put)
+            address = f"127.0.0.1:{endpoint.port}"
+            with SimulationSession(path, address, connect_timeout=5) as session:
+                assert session.bridge is not None
+                assert session.bridge.robots["arm_left"].controllers == {}
+                session.run(duration=0.2)
+                msg = got.get(timeout=5)
+    assert type(msg) is ros2_registry().msg_class("sensor_msgs/JointState")
+    assert list(msg.name) == ARM_JOINTS
+    assert "not started on a ROS 2 endpoint" in caplog.text

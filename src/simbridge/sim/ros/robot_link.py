@@ -4,6 +4,8 @@ scene's other robots (`StatePublisher`)."""
 
 from __future__ import annotations
 
+import logging
+
 from simbridge.connector import Connector
 from simbridge.errors import SimError
 from simbridge.messages import MessageRegistry
@@ -23,6 +25,8 @@ from simbridge.sim.world.robot import RobotHandle
 from simbridge.sim.world.world import World
 
 __all__ = ["RobotRosLink"]
+
+_log = logging.getLogger("simbridge.sim.ros")
 
 Controller = JointTrajectoryController | GripperActionController | GroupCommandController
 
@@ -80,6 +84,14 @@ class RobotRosLink:
     def start(self) -> RobotRosLink:
         """Subscribe to the commands and publish joint states at the robot's rate."""
         self.commands.start()
+        if self.controllers and (self._registry or self.connector.registry).protocol != "ROS1":
+            _log.warning(
+                "robot %r: controllers %s use ROS 1 actionlib and control_msgs layouts; not "
+                "started on a ROS 2 endpoint",
+                self.names.robot.name,
+                ", ".join(self.controllers),
+            )
+            self.controllers.clear()
         for controller in self.controllers.values():
             controller.start()
         self.connector.register_publisher(
