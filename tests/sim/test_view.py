@@ -3,8 +3,10 @@ Chromium drawing the robot, and the page's pause control stopping the sim clock.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import shutil
+import signal
 import subprocess
 import threading
 import time
@@ -101,6 +103,22 @@ def test_pause_in_the_page_stops_the_sim_clock(running: tuple[World, LiveView]) 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 
 
+def _screenshot(command: list[str]) -> None:
+    """Run headless Chromium in its own process group, killed whole if it hangs (its
+    helper processes included)."""
+    proc = subprocess.Popen(
+        command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True
+    )
+    try:
+        proc.wait(timeout=150)
+    except subprocess.TimeoutExpired:
+        pass
+    finally:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(proc.pid, signal.SIGKILL)  # helpers left behind, or a hung browser
+        proc.wait()
+
+
 @pytest.mark.skipif(CHROMIUM is None, reason="Debian's chromium is not installed")
 def test_headless_chromium_draws_the_robot(running: tuple[World, LiveView], tmp_path: Path) -> None:
     _, view = running
@@ -109,7 +127,7 @@ def test_headless_chromium_draws_the_robot(running: tuple[World, LiveView], tmp_
     red = np.zeros((1, 1), dtype=bool)
     for attempt in range(3):  # the page may be shot before its websocket delivered the scene
         shot.unlink(missing_ok=True)
-        subprocess.run(
+        _screenshot(
             [
                 CHROMIUM,
                 "--headless",
@@ -126,10 +144,7 @@ def test_headless_chromium_draws_the_robot(running: tuple[World, LiveView], tmp_
                 "--virtual-time-budget=8000",
                 f"--screenshot={shot}",
                 view.url,
-            ],
-            capture_output=True,
-            timeout=150,
-            check=False,
+            ]
         )
         assert shot.is_file(), "chromium wrote no screenshot"
         pixels = np.asarray(Image.open(shot).convert("RGB")).astype(int)
