@@ -236,3 +236,50 @@ def test_ros2_endpoint_gets_namespaced_joint_states_and_skips_controllers(
     assert type(msg) is ros2_registry().msg_class("sensor_msgs/JointState")
     assert list(msg.name) == ARM_JOINTS
     assert "not started on a ROS 2 endpoint" in caplog.text
+
+
+def test_own_connection_keeps_one_robot_going_when_the_others_connection_drops(
+    tmp_path: Path,
+) -> None:
+    from simbridge.sim.ros import SimulationSession
+
+    path = two_arm_scene(tmp_path)
+    scene = yaml.safe_load(path.read_text())
+    scene["robots"][1]["ros"]["own_connection"] = True
+    path.write_text(yaml.safe_dump(scene))
+    with EndpointThread(EndpointOptions(port=0)) as endpoint:
+        bus = endpoint.backend
+        assert isinstance(bus, LocalBus)
+        with Node(bus, "/tester") as node:
+            left = _collect(node, "/arm_left/joint_states", "sensor_msgs/JointState")
+            right = _collect(node, "/arm_right/joint_states", "sensor_msgs/JointState")
+            address = f"127.0.0.1:{endpoint.port}"
+            with SimulationSession(path, address, connect_timeout=5) as session:
+                assert session.bridge is not None
+                assert set(session.bridge.robots) == {"arm_left"}
+                link = session.robot_links["arm_right"]
+                assert link.connector is not session.connector
+                runner = threading.Thread(target=session.run, kwargs={"realtime_factor": 1.0})
+                runner.start()
+                try:
+                    assert left.get(timeout=5).name[0] == "shoulder"
+                    assert right.get(timeout=5).name[0] == "shoulder"
+                    pub = node.advertise(
+                        "/arm_right/joint_group_position_controller/command",
+                        "std_msgs/Float64MultiArray",
+                    )
+                    pub.publish(
+                        REG.new("std_msgs/Float64MultiArray", data=np.array([0.4, 0, 0, 0]))
+                    )
+                    q = session.world.joint_positions
+                    assert _wait(lambda: abs(q()["arm_right/shoulder"] - 0.4) < 2e-3)
+                    # The shared connection fails; the right arm's own one keeps publishing.
+                    assert session.connector is not None
+                    session.connector.close()
+                    time.sleep(0.3)
+                    while not right.empty():
+                        right.get_nowait()
+                    assert right.get(timeout=5).name[0] == "shoulder"
+                finally:
+                    session.world.stop()
+                    runner.join(5)

@@ -28,7 +28,10 @@ class SimRosBridge:
         connector: Connector,
         settings: RosSettings | None = None,
         registry: MessageRegistry | None = None,
+        elsewhere: frozenset[str] = frozenset(),
     ) -> None:
+        """`elsewhere`: names of namespaced robots served by links of their own (on their
+        own connections); this bridge leaves their joint states and commands alone."""
         self.world = world
         self.connector = connector
         self.settings = settings or world.scene.ros
@@ -37,18 +40,18 @@ class SimRosBridge:
         self.robots = {
             name: RobotRosLink(world, connector, robot, self.settings, self.registry)
             for name, robot in world.robots.items()
-            if robot.built.spec.ros is not None
+            if robot.built.spec.ros is not None and name not in elsewhere
         }
         """Robots with their own `ros:` block (namespace, frame prefix, topics)."""
         shared = [
             j
             for name, robot in world.robots.items()
-            if name not in self.robots
+            if robot.built.spec.ros is None
             for j in robot.driven_joints
         ]
         self.commands = (
             CommandSubscriber(world, connector, self.settings, joints=shared)
-            if shared or not self.robots
+            if shared or all(r.built.spec.ros is None for r in world.robots.values())
             else None
         )
         """The scene-wide command topics, for robots without a `ros:` block (None when

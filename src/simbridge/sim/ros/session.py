@@ -9,6 +9,7 @@ from simbridge.connector import Connector, ConnectorOptions
 from simbridge.errors import SimError
 from simbridge.sim.record import Recorder, RecordOptions
 from simbridge.sim.ros.bridge import SimRosBridge
+from simbridge.sim.ros.robot_link import RobotRosLink
 from simbridge.sim.ros.sensor_link import SensorPublisher
 from simbridge.sim.scene.loader import load_scene
 from simbridge.sim.scene.model import Scene
@@ -59,6 +60,8 @@ class SimulationSession:
         self.bridge: SimRosBridge | None = None
         self.sensors: SensorPublisher | None = None
         self.recorder: Recorder | None = None
+        self.robot_links: dict[str, RobotRosLink] = {}
+        """Robots with `own_connection`: their links, each on a connector of its own."""
         self._record = record
         self._endpoint = parse_endpoint(endpoint) if endpoint else None
         self._options = connector_options
@@ -75,7 +78,19 @@ class SimulationSession:
             world = self.world
             self.recorder = Recorder(self._record, clock=lambda: world.time)
             self.recorder.attach(self.connector)
-        self.bridge = SimRosBridge(self.world, self.connector, self.scene.ros)
+        own = frozenset(
+            name
+            for name, robot in self.world.robots.items()
+            if robot.built.spec.ros is not None and robot.built.spec.ros.own_connection
+        )
+        self.bridge = SimRosBridge(self.world, self.connector, self.scene.ros, elsewhere=own)
+        for name in sorted(own):
+            connector = Connector(host, port, self._options).connect(wait=self._connect_timeout)
+            if self.recorder is not None:
+                self.recorder.attach(connector)
+            self.robot_links[name] = RobotRosLink(
+                self.world, connector, self.world.robots[name], self.scene.ros
+            ).start()
         if self.scene.sensors:
             suite = SensorSuite.from_config(self.world.model, self.scene.sensors)
             shared = {"/tf"} if self.scene.ros.tf else set()
@@ -124,6 +139,10 @@ class SimulationSession:
             self.sensors.close()
         if self.bridge is not None:
             self.bridge.close()
+        for link in self.robot_links.values():
+            link.close()
+            link.connector.close()
+        self.robot_links.clear()
         if self.connector is not None:
             self.connector.close()
         if self.recorder is not None:

@@ -368,10 +368,12 @@ def _robot_ros(section: _Section) -> RobotRos:
         commands=topics,
         command_joints=tuple(str(j) for j in section.data.get("command_joints") or ()),
         controllers=_controllers(section.sub("controllers")),
+        own_connection=section.get("own_connection", _bool, False),
     )
     section.done(
         (
             "controllers",
+            "own_connection",
             "namespace",
             "frame_prefix",
             "joint_states_topic",

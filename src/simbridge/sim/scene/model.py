@@ -199,6 +199,9 @@ class RobotRos:
     """URDF joint names the group position/velocity commands address (default: every
     driven joint of the robot)."""
     controllers: tuple[ControllerSpec, ...] = ()
+    own_connection: bool = False
+    """Serve this robot through a connection of its own to the endpoint (a
+    `SimulationSession` opens it), so its traffic or failure does not stall the others'."""
 
 
 @dataclass(frozen=True)
