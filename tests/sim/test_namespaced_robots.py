@@ -283,3 +283,57 @@ def test_own_connection_keeps_one_robot_going_when_the_others_connection_drops(
                 finally:
                     session.world.stop()
                     runner.join(5)
+
+
+def test_each_robot_has_its_own_diff_drive(tmp_path: Path) -> None:
+    diffbot = Path(__file__).resolve().parents[2] / "src/simbridge/assets/robots/diffbot.urdf"
+    wheels = {"mode": "velocity", "damping": 2, "force_limit": 2}
+    drives = {
+        "joints": {
+            "left_wheel_joint": wheels,
+            "right_wheel_joint": wheels,
+            "caster_swivel_joint": {"mode": "none"},
+            "caster_wheel_joint": {"mode": "none"},
+        }
+    }
+    robots = [
+        {
+            "urdf": str(diffbot), "fixed_base": False, "drives": drives,
+            "base": {"xyz": [0, y, 0.05]},
+            "ros": {"namespace": f"/{name}",
+                    "diff_drive": {"left": "left_wheel_joint", "right": "right_wheel_joint"}},
+        }
+        for name, y in (("bot_a", 1.0), ("bot_b", -1.0))
+    ]  # fmt: skip
+    scene = {"objects": [{"name": "floor", "type": "plane"}], "robots": robots}
+    (tmp_path / "bots.yaml").write_text(yaml.safe_dump(scene))
+    with EndpointThread(EndpointOptions(port=0)) as endpoint:
+        bus = endpoint.backend
+        assert isinstance(bus, LocalBus)
+        connector = Connector("127.0.0.1", endpoint.port, ConnectorOptions()).connect(wait=5)
+        world = World.from_scene(load_scene(tmp_path / "bots.yaml"))
+        bridge = SimRosBridge(world, connector).start()
+        try:
+            link = bridge.robots["bot_a"].diff_drive
+            assert link is not None
+            assert link.config.topic == "/bot_a/cmd_vel"
+            assert link.config.left_joint == "bot_a/left_wheel_joint"
+            with Node(bus, "/driver") as node:
+                pub = node.advertise("/bot_a/cmd_vel", "geometry_msgs/Twist")
+                assert connector.flush(5)
+                time.sleep(0.2)
+                root = world.robots["bot_a"].prefix + world.robots["bot_a"].robot.root
+                other = world.robots["bot_b"].prefix + world.robots["bot_b"].robot.root
+                start_a, start_b = world.link_pose(root).xyz, world.link_pose(other).xyz
+                twist = REG.new("geometry_msgs/Twist", linear={"x": 0.3})
+                for _ in range(10):
+                    pub.publish(twist)
+                    time.sleep(0.02)
+                    world.step(100)
+                moved_a = world.link_pose(root).xyz[0] - start_a[0]
+                moved_b = world.link_pose(other).xyz[0] - start_b[0]
+            assert moved_a > 0.2  # ~0.3 m/s for 2 s, less the ramp
+            assert abs(moved_b) < 0.01
+        finally:
+            bridge.close()
+            connector.close()

@@ -5,12 +5,14 @@ scene's other robots (`StatePublisher`)."""
 from __future__ import annotations
 
 import logging
+from dataclasses import replace
 
 from simbridge.connector import Connector
 from simbridge.errors import SimError
 from simbridge.messages import MessageRegistry
 from simbridge.sim.ros.commands import CommandSubscriber
 from simbridge.sim.ros.convert import StampMaker, joint_state_message
+from simbridge.sim.ros.diff_drive_link import DiffDriveLink
 from simbridge.sim.ros.gripper_controller import GripperActionController
 from simbridge.sim.ros.group_controller import GroupCommandController
 from simbridge.sim.ros.names import RobotNames, resolve_name
@@ -79,6 +81,19 @@ class RobotRosLink:
             self.controllers[spec.name] = _controller(
                 world, connector, self.names, ros.namespace, spec
             )
+        self.diff_drive: DiffDriveLink | None = None
+        if ros.diff_drive is not None:
+            drive = ros.diff_drive
+            self.diff_drive = DiffDriveLink(
+                world,
+                connector,
+                replace(
+                    drive,
+                    left_joint=self.names.world_joint(drive.left_joint),
+                    right_joint=self.names.world_joint(drive.right_joint),
+                    topic=resolve_name(ros.namespace, drive.topic),
+                ),
+            )
         self._callback: int | None = None
 
     def start(self) -> RobotRosLink:
@@ -94,6 +109,8 @@ class RobotRosLink:
             self.controllers.clear()
         for controller in self.controllers.values():
             controller.start()
+        if self.diff_drive is not None:
+            self.diff_drive.start()
         self.connector.register_publisher(
             self.joint_states_topic, "sensor_msgs/JointState", queue_size=10
         )
@@ -110,6 +127,8 @@ class RobotRosLink:
             self._callback = None
         for controller in self.controllers.values():
             controller.close()
+        if self.diff_drive is not None:
+            self.diff_drive.close()
         self.commands.close()
 
     def publish_joint_states(self) -> None:

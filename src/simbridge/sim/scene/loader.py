@@ -369,10 +369,15 @@ def _robot_ros(section: _Section) -> RobotRos:
         command_joints=tuple(str(j) for j in section.data.get("command_joints") or ()),
         controllers=_controllers(section.sub("controllers")),
         own_connection=section.get("own_connection", _bool, False),
+        diff_drive=_diff_drive(section.sub("diff_drive")),
     )
+    drive = section.sub("diff_drive")
+    if settings.diff_drive is not None and "topic" not in drive.data:
+        settings = replace(settings, diff_drive=replace(settings.diff_drive, topic="cmd_vel"))
     section.done(
         (
             "controllers",
+            "diff_drive",
             "own_connection",
             "namespace",
             "frame_prefix",

@@ -199,6 +199,9 @@ class RobotRos:
     """URDF joint names the group position/velocity commands address (default: every
     driven joint of the robot)."""
     controllers: tuple[ControllerSpec, ...] = ()
+    diff_drive: DiffDriveConfig | None = None
+    """The robot's differential-drive base (URDF wheel joint names; a relative `topic`,
+    by default `cmd_vel`, resolves in the namespace)."""
     own_connection: bool = False
     """Serve this robot through a connection of its own to the endpoint (a
     `SimulationSession` opens it), so its traffic or failure does not stall the others'."""
