@@ -235,3 +235,20 @@ def test_controller_config_errors_name_the_key(tmp_path: Path) -> None:
     connector = Connector("127.0.0.1", 9, ConnectorOptions())  # never connected
     with pytest.raises(SimError, match="has no joint 'knee'"):
         SimRosBridge(world, connector)
+
+
+def test_malformed_goals_are_rejected_not_fatal(rig: Rig) -> None:
+    bad = _goal(["shoulder", "elbow"], [(0.2, [0.1, 0.2])])
+    bad.trajectory.points[0].positions = np.array([0.1])  # one position for two joints
+    goal = rig.client.send_goal(bad)
+    assert goal.wait(5)
+    assert (goal.status, goal.result.error_code) == (REJECTED, -1)
+    assert "1 positions" in goal.result.error_string
+    backwards = _goal(["elbow"], [(0.5, [0.1]), (0.2, [0.2])])  # time goes back
+    goal = rig.client.send_goal(backwards)
+    assert goal.wait(5)
+    assert (goal.status, goal.result.error_code) == (REJECTED, -1)
+    # The controller still serves.
+    fine = rig.client.send_goal(_goal(["elbow"], [(0.2, [0.1])]))
+    assert fine.wait(5)
+    assert fine.status == SUCCEEDED
