@@ -17,13 +17,32 @@ pytestmark = [pytest.mark.ros2, pytest.mark.timeout(120)]
 SHM = Path("/dev/shm")
 
 
+def _locks_held_by(pid: int) -> set[str]:
+    """The Fast DDS `_el` lock files in /dev/shm whose flock `pid` holds (from /proc/locks),
+    so files of other processes running at the same time are never counted as this one's."""
+    inodes: set[int] = set()
+    for line in Path("/proc/locks").read_text().splitlines():
+        fields = line.split()
+        if len(fields) >= 6 and fields[1] == "FLOCK" and fields[4] == str(pid):
+            inodes.add(int(fields[5].rsplit(":", 1)[1]))
+    held = set()
+    for lock in SHM.glob("fastrtps_*_el"):
+        try:
+            if lock.stat().st_ino in inodes:
+                held.add(lock.name)
+        except FileNotFoundError:
+            continue
+    return held
+
+
 def test_files_of_a_killed_node_are_cleaned() -> None:
-    before = set(os.listdir(SHM))
     node = Ros2Process.node("serve", "/sb_shm", "std_srvs/srv/Trigger", "{}")
     try:
         node.expect_json("ready")
-        mine = {f for f in set(os.listdir(SHM)) - before if f.startswith("fastrtps_")}
-        assert any(f.endswith("_el") for f in mine)
+        locks = _locks_held_by(node.proc.pid)
+        assert locks, "the node holds no Fast DDS lock file"
+        bases = [name[: -len("_el")] for name in locks]
+        mine = {f for b in bases for f in (b, f"{b}_el", f"sem.{b}_mutex") if (SHM / f).exists()}
         assert not set(clean_stale_shm(min_age=0)) & mine, "a live node's files were removed"
         os.killpg(node.proc.pid, signal.SIGKILL)  # no chance to clean up
         node.proc.wait(10)
