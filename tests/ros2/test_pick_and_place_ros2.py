@@ -62,7 +62,10 @@ def test_an_rclpy_client_gets_four_trajectories(planner: Ros2Process) -> None:
 
 def test_unreachable_goal_empty_answer_and_reason_on_rosout(planner: Ros2Process) -> None:
     far = Pose([0.0, 0.95, 0.3], top_down_orientation())
-    with Ros2Process.node("echo", "/rosout", "rcl_interfaces/msg/Log", "1000") as rosout:
+    # /rosout is transient local (rcl keeps 1000): a late match still gets the error.
+    with Ros2Process.node(
+        "echo", "/rosout", "rcl_interfaces/msg/Log", "1000", "--latched"
+    ) as rosout:
         assert rosout.expect_json("ready", timeout=60) is True
         with Ros2Process.node("call", SERVICE, SRV_TYPE, _request(far), "60") as client:
             response = client.expect_json("response", timeout=90)
