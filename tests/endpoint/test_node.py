@@ -9,7 +9,7 @@ from typing import Any
 import pytest
 
 from simbridge.endpoint import EndpointOptions, EndpointThread, LocalBus, Node
-from simbridge.errors import ServiceError
+from simbridge.errors import EndpointError, ServiceError
 from simbridge.messages import default_registry
 from simbridge.protocol import (
     MessageReceived,
@@ -98,3 +98,41 @@ def test_failing_handler_gives_caller_an_error(endpoint: EndpointThread) -> None
         a.serve("/broken", "std_srvs/Trigger", broken)
         with pytest.raises(ServiceError, match="planner exploded"):
             b.call("/broken", "std_srvs/Trigger", REG.new("std_srvs/TriggerRequest"))
+
+
+def test_slow_callback_keeps_the_newest_queue_size_messages(endpoint: EndpointThread) -> None:
+    """A callback that falls behind holds at most queue_size messages: the oldest are
+    dropped and counted, the newest kept in order (as a ROS subscriber queue)."""
+    import threading
+    import time
+
+    release, started = threading.Event(), threading.Event()
+    got: list[int] = []
+
+    def slow(msg: Any) -> None:
+        started.set()
+        release.wait(10)
+        got.append(msg.data)
+
+    sent = 500
+    with node(endpoint, "/slow") as listener, node(endpoint, "/fast") as talker:
+        listener.subscribe("/counter", "std_msgs/Int32", slow, queue_size=10)
+        pub = talker.advertise("/counter", "std_msgs/Int32")
+        pub.publish(REG.new("std_msgs/Int32", data=0))
+        assert started.wait(5)  # the callback now blocks on message 0
+        for i in range(1, sent):
+            pub.publish(REG.new("std_msgs/Int32", data=i))
+        deadline = time.monotonic() + 10
+        while listener.dropped.get("/counter", 0) < sent - 11 and time.monotonic() < deadline:
+            time.sleep(0.01)
+        release.set()
+        while len(got) < 11 and time.monotonic() < deadline:
+            time.sleep(0.01)
+        time.sleep(0.1)
+        assert got == [0, *range(sent - 10, sent)]
+        assert listener.dropped == {"/counter": sent - 11}
+
+
+def test_queue_size_must_be_positive(endpoint: EndpointThread) -> None:
+    with node(endpoint, "/n") as listener, pytest.raises(EndpointError, match="queue_size 0"):
+        listener.subscribe("/x", "std_msgs/Int32", lambda _msg: None, queue_size=0)

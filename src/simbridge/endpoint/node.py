@@ -9,8 +9,10 @@ from __future__ import annotations
 
 import asyncio
 import concurrent.futures
+import functools
 import logging
 import threading
+from collections import deque
 from collections.abc import Callable
 from typing import Any
 
@@ -43,6 +45,37 @@ class NodePublisher:
         self._node._on_loop(self._backend.publish, payload)
 
 
+class _Inbox:
+    """Payloads waiting for one subscription's callback: at most `size`, the oldest dropped
+    (as a ROS subscriber queue does) and counted; one drain at a time on the worker."""
+
+    def __init__(self, size: int) -> None:
+        self._items: deque[bytes] = deque()
+        self._size = size
+        self._lock = threading.Lock()
+        self._draining = False
+        self.dropped = 0
+
+    def push(self, payload: bytes) -> tuple[bool, bool]:
+        """Queue `payload`; returns (a drain must be scheduled, the oldest was dropped)."""
+        with self._lock:
+            dropped = len(self._items) >= self._size
+            if dropped:
+                self._items.popleft()
+                self.dropped += 1
+            self._items.append(payload)
+            start, self._draining = not self._draining, True
+            return start, dropped
+
+    def pop(self) -> bytes | None:
+        """The next payload, or None (and the drain ends) when none is left."""
+        with self._lock:
+            if self._items:
+                return self._items.popleft()
+            self._draining = False
+            return None
+
+
 class Node:
     """A named participant in a LocalBus graph. Messages use the bus's protocol: ROS 1
     binary, or CDR with ROS 2 layouts (the shared registry of it unless one is given).
@@ -73,6 +106,7 @@ class Node:
         """The serialization on the bus."""
         self._worker = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix=f"node{name}")
         self._handles: list[BackendPublisher | BackendSubscription | BackendServiceServer] = []
+        self._inboxes: dict[str, _Inbox] = {}
         self._closed = False
 
     def _on_loop(self, fn: Callable[..., Any], *args: Any) -> None:
@@ -99,15 +133,48 @@ class Node:
         self._handles.append(backend)
         return NodePublisher(self, topic, canonical, backend)
 
-    def subscribe(self, topic: str, msg_type: str, callback: Callable[[Any], None]) -> None:
-        """Call `callback(msg)` on the node's worker thread for every message on `topic`."""
+    def subscribe(
+        self,
+        topic: str,
+        msg_type: str,
+        callback: Callable[[Any], None],
+        *,
+        queue_size: int = 100,
+    ) -> None:
+        """Call `callback(msg)` on the node's worker thread for every message on `topic`.
+
+        At most `queue_size` messages wait for a slow callback; past that the oldest are
+        dropped, counted in `dropped` and logged once per topic.
+        """
+        if queue_size < 1:
+            raise EndpointError(f"queue_size {queue_size} for {topic!r}: expected at least 1")
         codec = self.registry.codec(msg_type)
+        inbox = self._inboxes.setdefault(topic, _Inbox(queue_size))
+
+        def drain() -> None:
+            while (payload := inbox.pop()) is not None:
+                self._guard(callback, functools.partial(codec.decode, payload, self.fmt))
 
         def deliver(payload: bytes) -> None:
-            self._worker.submit(self._guard, callback, lambda: codec.decode(payload, self.fmt))
+            start, dropped = inbox.push(payload)
+            if dropped and inbox.dropped == 1:
+                log.warning(
+                    "node %s: callback on %s is slow; dropping the oldest messages "
+                    "(queue_size %d; see Node.dropped)",
+                    self.name,
+                    topic,
+                    queue_size,
+                )
+            if start and not self._closed:
+                self._worker.submit(drain)
 
         canonical = self.registry.resolve(msg_type)
         self._handles.append(self._sync(lambda: self.bus.subscribe(topic, canonical, deliver)))
+
+    @property
+    def dropped(self) -> dict[str, int]:
+        """Messages dropped per subscribed topic because the callback fell behind."""
+        return {topic: inbox.dropped for topic, inbox in self._inboxes.items()}
 
     @staticmethod
     def _guard(callback: Callable[[Any], None], make: Callable[[], Any]) -> None:
