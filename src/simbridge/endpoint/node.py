@@ -139,12 +139,13 @@ class Node:
         msg_type: str,
         callback: Callable[[Any], None],
         *,
-        queue_size: int = 100,
+        queue_size: int = 1000,
     ) -> None:
         """Call `callback(msg)` on the node's worker thread for every message on `topic`.
 
-        At most `queue_size` messages wait for a slow callback; past that the oldest are
-        dropped, counted in `dropped` and logged once per topic.
+        At most `queue_size` messages wait for a slow callback (bursts of a flat-out sim
+        fit the default); past that the oldest are dropped, counted in `dropped` and
+        logged once per topic.
         """
         if queue_size < 1:
             raise EndpointError(f"queue_size {queue_size} for {topic!r}: expected at least 1")
