@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 
 from .common import reexec_in_ros2_venv
 
@@ -26,6 +27,8 @@ def run_demo(args: argparse.Namespace) -> int:
         if args.view:
             forwarded += ["--view", "--view-port", str(args.view_port)]
         return mobile_robot_main([*forwarded, "--json"] if args.json else forwarded)
+    if args.name == "line":
+        return _run_line(args)
     from simbridge.apps import pick_and_place_main
 
     forwarded = ["--backend", args.backend]
@@ -38,16 +41,40 @@ def run_demo(args: argparse.Namespace) -> int:
     return pick_and_place_main(forwarded)
 
 
+def _run_line(args: argparse.Namespace) -> int:
+    from simbridge.apps.line import main as line_main
+
+    if args.backend != "local":
+        print(
+            f"simbridge demo line: --backend {args.backend} is not supported; the line runs "
+            "its nodes on the local bus (--backend local)",
+            file=sys.stderr,
+        )
+        return 2
+    forwarded = ["--parts", str(args.parts)]
+    if args.seed is not None:
+        forwarded += ["--seed", str(args.seed)]
+    if args.video:
+        forwarded += ["--video", args.video]
+    if args.record:
+        forwarded += ["--record", args.record]
+    if args.view:
+        forwarded += ["--view", "--view-port", str(args.view_port)]
+    return line_main([*forwarded, "--json"] if args.json else forwarded)
+
+
 def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     demo = sub.add_parser("demo", help="run a demo end to end (embedded bus or ROS 1)")
     demo.add_argument(
         "name",
         nargs="?",
         default="pick-and-place",
-        choices=["pick-and-place", "mobile-robot", "bridge"],
+        choices=["pick-and-place", "mobile-robot", "bridge", "line"],
         help="pick-and-place (default): a Niryo One arm planned by a MoverService; "
         "mobile-robot: a diff-drive robot with lidar, camera, IMU and odometry drives a square; "
-        "bridge: two connectors exchange Twist messages and a service call",
+        "bridge: two connectors exchange Twist messages and a service call; "
+        "line: two arms and a conveyor, each in its own namespace, move parts through "
+        "their controllers' actions",
     )
     demo.add_argument(
         "--backend",
@@ -61,10 +88,16 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     demo.add_argument(
         "--json",
         action="store_true",
-        help='pick-and-place: print {"success", "cube_error_m", "phases"} last',
+        help='pick-and-place: print {"success", "cube_error_m", "phases"} last; line: '
+        '{"success", "parts", "delivered", "placement_error_m", "cycle_s", ...}',
     )
-    demo.add_argument("--video", metavar="PATH", help="pick-and-place: write a .gif (or .mp4)")
-    demo.add_argument("--seed", type=int, help="pick-and-place: random cube and target")
+    demo.add_argument(
+        "--video", metavar="PATH", help="pick-and-place, line: write a .gif (or .mp4)"
+    )
+    demo.add_argument(
+        "--seed", type=int, help="pick-and-place: random cube and target; line: part poses"
+    )
+    demo.add_argument("--parts", type=int, default=3, help="line: parts to move (1 to 4)")
     demo.add_argument("--side", type=float, default=1.0, help="mobile-robot: square side (m)")
     demo.add_argument(
         "--realtime",
@@ -73,10 +106,14 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         help="mobile-robot: pace at this real-time factor (0 = flat out)",
     )
     demo.add_argument(
-        "--record", metavar="FILE", help="mobile-robot: record every sim topic (.mcap or .bag)"
+        "--record",
+        metavar="FILE",
+        help="mobile-robot, line: record every sim topic (.mcap or .bag)",
     )
     demo.add_argument(
-        "--view", action="store_true", help="mobile-robot: live 3D view in the browser (viser)"
+        "--view",
+        action="store_true",
+        help="mobile-robot, line: live 3D view in the browser (viser)",
     )
     demo.add_argument("--view-port", type=int, default=8080, help="live view port (default 8080)")
     demo.set_defaults(func=run_demo)

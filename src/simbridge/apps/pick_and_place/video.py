@@ -82,14 +82,19 @@ class VideoRecorder:
         fps: float = 15.0,
         width: int = 480,
         height: int = 360,
+        *,
+        eye: tuple[float, float, float] = (0.8, 0.45, 0.42),
+        target: tuple[float, float, float] = (0.12, 0.0, 0.06),
     ) -> None:
+        """``eye`` and ``target`` (world, m) place the camera (default: the pick-and-place
+        table seen from the front right)."""
         self.path = check_video_path(path)
         if fps <= 0:
             raise AppError(f"video fps must be > 0, got {fps}")
         self.world = world
         self.fps = fps
         self._renderer = OffscreenRenderer(world.model, width, height)
-        self._view = _look_at(eye=(0.8, 0.45, 0.42), target=(0.12, 0.0, 0.06))
+        self._view = _look_at(eye=eye, target=target)
         self._frames: list[npt.NDArray[np.uint8]] = []
         self._next = 0.0
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+from collections.abc import Sequence
 from pathlib import Path
 
 from simbridge.connector import Connector, ConnectorOptions
@@ -16,7 +17,7 @@ from simbridge.sim.scene.model import Scene
 from simbridge.sim.sensors import SensorSuite
 from simbridge.sim.sensors.odometry import Odometry
 from simbridge.sim.view import LiveView, ViewOptions
-from simbridge.sim.world.world import RunStats, World
+from simbridge.sim.world.world import ModelExtension, RunStats, World
 
 __all__ = ["SimulationSession", "parse_endpoint", "run_scene"]
 
@@ -46,16 +47,19 @@ class SimulationSession:
         connector_options: ConnectorOptions | None = None,
         connect_timeout: float | None = None,
         record: RecordOptions | None = None,
+        *,
+        extensions: Sequence[ModelExtension] = (),
     ) -> None:
         """`record`: write every message the session publishes or receives to a bag
-        (needs an endpoint)."""
+        (needs an endpoint). `extensions`: MJCF edits for `World.from_scene` (contacts
+        tuned for grasping, markers)."""
         if record is not None and not endpoint:
             raise SimError(
                 f"recording to '{record.path}' needs an endpoint: the simulation publishes "
                 "nothing without one (give --endpoint HOST:PORT)"
             )
         self.scene = scene if isinstance(scene, Scene) else load_scene(scene)
-        self.world = World.from_scene(self.scene)
+        self.world = World.from_scene(self.scene, extensions)
         self.connector: Connector | None = None
         self.bridge: SimRosBridge | None = None
         self.sensors: SensorPublisher | None = None

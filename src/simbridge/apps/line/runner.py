@@ -1,0 +1,245 @@
+"""Run the line headless: endpoint on the local bus, the scene with every robot on its own
+connection, one in-process node per robot and the supervisor; and its command line.
+
+`main(argv)` is `simbridge demo line [--seed N] [--parts N] [--json] [--video PATH]
+[--record FILE] [--view]`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json as json_text
+import math
+import sys
+import threading
+import time
+from collections.abc import Callable, Sequence
+from contextlib import ExitStack
+from pathlib import Path
+
+from simbridge.apps.line.cells import ArmCell, ConveyorCell, RobotNode
+from simbridge.apps.line.result import DELIVERY_TOLERANCE_M, LineResult
+from simbridge.apps.line.scene import (
+    ARMS,
+    CONVEYOR,
+    SCENE_PATH,
+    grasp_contacts,
+    line_scene,
+    part_name,
+)
+from simbridge.apps.line.supervisor import LineSupervisor
+from simbridge.apps.line.task import MAX_PARTS, LineTask
+from simbridge.apps.pick_and_place.video import VideoRecorder, check_video_path
+from simbridge.connector import ConnectorOptions
+from simbridge.endpoint import EndpointOptions, EndpointThread, LocalBus, Node
+from simbridge.errors import AppError, SimbridgeError
+from simbridge.sim.record import RecordOptions
+from simbridge.sim.ros import SimulationSession
+from simbridge.sim.view import LiveView, ViewOptions
+from simbridge.sim.world import World
+
+__all__ = ["main", "run_line"]
+
+SETTLE_S = 0.5
+"""Simulated seconds the parts rest after the last one is set down, before measuring."""
+_CAMERA_EYE = (1.25, 0.0, 0.75)
+_CAMERA_TARGET = (0.12, 0.0, 0.0)
+
+
+class _SimThread:
+    """Runs the world flat out on a thread of its own until stopped or ``max_sim_s``;
+    video frames are rendered and written there, on the thread that owns the GL context."""
+
+    def __init__(self, world: World, max_sim_s: float, video: Path | None) -> None:
+        self.world, self.max_sim_s, self.video = world, max_sim_s, video
+        self.frames = 0
+        self.error: BaseException | None = None
+        self.started = time.perf_counter()
+        self.wall_s = 0.0
+        self._thread = threading.Thread(target=self._run, name="line-sim", daemon=True)
+
+    def _run(self) -> None:
+        recorder: VideoRecorder | None = None
+        try:
+            if self.video is not None:
+                recorder = VideoRecorder(
+                    self.world, self.video, eye=_CAMERA_EYE, target=_CAMERA_TARGET
+                )
+                capture = recorder.maybe_capture
+                self.world.add_step_callback(lambda _w: capture())
+            self.started = time.perf_counter()
+            self.world.run(self.max_sim_s, 0.0)
+            self.wall_s = time.perf_counter() - self.started
+            if recorder is not None:
+                self.frames = recorder.frame_count
+                recorder.save()
+        except Exception as exc:  # reported by run_line
+            self.error = exc
+
+    def start(self) -> _SimThread:
+        self._thread.start()
+        return self
+
+    @property
+    def alive(self) -> bool:
+        """Whether the world is still running."""
+        return self._thread.is_alive()
+
+    def wait_sim(self, seconds: float, timeout: float = 30.0) -> None:
+        """Block until ``seconds`` more of sim time have passed (or the run ended)."""
+        end = self.world.time + seconds
+        deadline = time.monotonic() + timeout
+        while self.world.time < end and self.alive and time.monotonic() < deadline:
+            time.sleep(0.002)
+
+    def stop(self) -> None:
+        """Stop the world and wait for the thread (and the video) to finish."""
+        self.world.stop()
+        self._thread.join(120)
+
+
+def _measure(world: World, task: LineTask) -> tuple[list[float], list[tuple[float, float, float]]]:
+    errors, finals = [], []
+    for index in range(len(task.parts)):
+        x, y, z = (float(v) for v in world.data.xpos[world.model.body(part_name(index)).id])
+        finals.append((x, y, z))
+        errors.append(math.dist((x, y, z), task.target(index)))
+    return errors, finals
+
+
+def run_line(
+    seed: int | None = None,
+    parts: int = 3,
+    video: str | Path | None = None,
+    json: bool = False,
+    *,
+    scene: Path = SCENE_PATH,
+    record: RecordOptions | None = None,
+    view: ViewOptions | None = None,
+    max_sim_s: float = 600.0,
+    progress: Callable[[str], None] | None = print,
+) -> LineResult:
+    """Move ``parts`` parts (poses drawn from ``seed``, else seed 0) from the input area to
+    the output slots with two arms and the conveyor, and measure where they ended up.
+
+    The endpoint runs on the local bus; every robot is served on its own connection; one
+    in-process node per robot drives it through its controllers' actions. ``video`` writes
+    a .gif (or .mp4), ``record`` a bag of every sim topic, ``view`` a live browser view;
+    ``json`` prints the summary as the last line. A failed step ends the run with ``error``
+    set; setup problems (bad options, video path) raise AppError.
+    """
+    task = LineTask.random(seed if seed is not None else 0, parts)
+    video_path = check_video_path(video) if video is not None else None
+    say = progress or (lambda _text: None)
+    began = time.perf_counter()
+    error: str | None = None
+    with ExitStack() as stack:
+        bus = LocalBus()
+        endpoint = stack.enter_context(EndpointThread(EndpointOptions(port=0), bus))
+        session = SimulationSession(
+            line_scene(task, scene),
+            f"127.0.0.1:{endpoint.port}",
+            ConnectorOptions(reconnect_initial=0.2),
+            connect_timeout=5.0,
+            record=record,
+            extensions=grasp_contacts(task),
+        )
+        stack.enter_context(session)
+        world = session.world
+        if view is not None:
+            say(f"[line] live view at {stack.enter_context(LiveView(world, view)).url}")
+        sim = _SimThread(world, max_sim_s, video_path)
+        alive = lambda: sim.alive  # noqa: E731
+        arm_in = ArmCell(bus, f"/{ARMS[0]}", alive=alive)
+        arm_out = ArmCell(bus, f"/{ARMS[1]}", alive=alive)
+        conveyor = ConveyorCell(bus, f"/{CONVEYOR}", alive=alive)
+        cells: dict[str, RobotNode] = {ARMS[0]: arm_in, ARMS[1]: arm_out, CONVEYOR: conveyor}
+        for cell in cells.values():
+            stack.callback(cell.close)
+        node = Node(bus, "/line_supervisor")
+        stack.callback(node.close)
+        stack.callback(sim.stop)
+        sim.start()
+        for cell in cells.values():
+            cell.wait_ready(10.0)
+        say(
+            f"[line] endpoint on port {endpoint.port} (local bus); {len(task.parts)} parts; "
+            f"robots {', '.join(cells)}, each on its own connection"
+        )
+        supervisor = LineSupervisor(
+            task, arm_in, arm_out, conveyor, node,
+            pause_service=f"{session.scene.ros.services_prefix.rstrip('/')}/pause",
+            sim_time=lambda: world.time, progress=say, seed=seed or 0,
+        )  # fmt: skip
+        try:
+            supervisor.run()
+        except SimbridgeError as exc:
+            error = str(exc)
+            say(f"[line] failed: {error}")
+        sim.wait_sim(SETTLE_S)
+        sim.stop()
+        if sim.error is not None:
+            raise AppError(f"the simulation failed: {sim.error}") from sim.error
+        errors, finals = _measure(world, task)
+        sim_s = world.time
+        wall_s = sim.wall_s or time.perf_counter() - began
+        robots = {name: cell.tally().to_dict() for name, cell in cells.items()}
+    delivered = sum(e <= DELIVERY_TOLERANCE_M for e in errors)
+    first = supervisor.first_goal_at or 0.0
+    last = supervisor.last_delivery_at
+    result = LineResult(
+        parts=len(task.parts),
+        delivered=delivered,
+        placement_error_m=tuple(errors),
+        cycle_s=(last - first) / len(task.parts) if last is not None else 0.0,
+        sim_s=sim_s,
+        wall_s=wall_s,
+        robots=robots,
+        seed=seed,
+        error=error,
+        planning_wall_s=supervisor.planning_wall_s,
+        final_positions=tuple(finals),
+        video=str(video_path) if video_path is not None and sim.frames else None,
+    )
+    if result.video is not None:
+        say(f"[line] wrote {result.video} ({sim.frames} frames)")
+    say(
+        f"[line] {'success' if result.success else 'FAILED'}: {delivered}/{result.parts} parts "
+        f"delivered, errors {', '.join(f'{e * 100:.2f}' for e in errors)} cm; "
+        f"{result.cycle_s:.2f} s per part; {sim_s:.1f} s simulated in {wall_s:.1f} s "
+        f"(x{result.realtime_factor:.1f})"
+    )
+    if json:
+        print(json_text.dumps(result.to_dict()), flush=True)
+    return result
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """`simbridge demo line`: 0 when every part was delivered, 1 if not, 2 on errors."""
+    parser = argparse.ArgumentParser(
+        prog="simbridge demo line",
+        description="A small production line: two Niryo One arms and a conveyor, each in its "
+        "own namespace, move parts from an input area to an output area through their "
+        "controllers' actions.",
+    )
+    parser.add_argument("--seed", type=int, help="draw the part poses from this seed (default 0)")
+    parser.add_argument("--parts", type=int, default=3, help=f"parts to move, 1 to {MAX_PARTS}")
+    parser.add_argument("--json", action="store_true", help="print a JSON summary last")
+    parser.add_argument("--video", metavar="PATH", help="write a .gif (or .mp4 with ffmpeg)")
+    parser.add_argument("--record", metavar="FILE", help="record the run (.mcap or .bag)")
+    parser.add_argument("--view", action="store_true", help="live browser view (viser)")
+    parser.add_argument("--view-port", type=int, default=8080, help="live view port")
+    args = parser.parse_args(argv)
+    try:
+        result = run_line(
+            args.seed,
+            args.parts,
+            args.video,
+            args.json,
+            record=RecordOptions(Path(args.record)) if args.record else None,
+            view=ViewOptions(port=args.view_port) if args.view else None,
+        )
+    except SimbridgeError as exc:
+        print(f"simbridge demo line: {exc}", file=sys.stderr)
+        return 2
+    return 0 if result.success else 1
