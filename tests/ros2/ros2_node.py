@@ -12,6 +12,11 @@ pytest, which runs beside rospy). One JSON object per line on stdout.
         wait for the server, call once, print {"response": {...}} or {"error": "..."}
     ros2_node.py graph SECONDS
         print {"topics": [[name, [types]], ...]} of the graph after SECONDS
+    ros2_node.py fibonacci ACTION PERIOD [--reject]
+        a test_msgs/action/Fibonacci action server: each goal gets one feedback per term
+        every PERIOD s, then the sequence as result; it honours cancel requests, and with
+        --reject refuses every goal. Prints {"ready": true}, then {"goal": order},
+        {"canceled": order}, {"rejected": order} and {"finished": order}
 """
 
 from __future__ import annotations
@@ -131,8 +136,60 @@ def run(node: Any, argv: list[str]) -> None:
         while time.monotonic() < deadline:
             rclpy.spin_once(node, timeout_sec=0.05)
         emit({"topics": node.get_topic_names_and_types()})
+    elif mode == "fibonacci":
+        fibonacci_server(node, argv[1], float(argv[2]), reject="--reject" in argv)
     else:
         raise SystemExit(f"unknown mode {mode!r}")
+
+
+def fibonacci_server(node: Any, action: str, period: float, *, reject: bool) -> None:
+    from rclpy.action import ActionServer, CancelResponse, GoalResponse
+    from rclpy.callback_groups import ReentrantCallbackGroup
+    from rclpy.executors import MultiThreadedExecutor
+
+    Fibonacci = load("test_msgs/action/Fibonacci")
+
+    def on_goal(request: Any) -> Any:
+        if reject:
+            emit({"rejected": request.order})
+            return GoalResponse.REJECT
+        emit({"goal": request.order})
+        return GoalResponse.ACCEPT
+
+    def execute(handle: Any) -> Any:
+        order = handle.request.order
+        sequence = [0, 1]
+        feedback = Fibonacci.Feedback()
+        for i in range(1, order):
+            if handle.is_cancel_requested:
+                handle.canceled()
+                emit({"canceled": order})
+                result = Fibonacci.Result()
+                result.sequence = sequence
+                return result
+            sequence.append(sequence[i] + sequence[i - 1])
+            feedback.sequence = sequence
+            handle.publish_feedback(feedback)
+            time.sleep(period)
+        handle.succeed()
+        emit({"finished": order})
+        result = Fibonacci.Result()
+        result.sequence = sequence
+        return result
+
+    ActionServer(
+        node,
+        Fibonacci,
+        action,
+        execute_callback=execute,
+        goal_callback=on_goal,
+        cancel_callback=lambda _request: CancelResponse.ACCEPT,
+        callback_group=ReentrantCallbackGroup(),
+    )
+    emit({"ready": True})
+    executor = MultiThreadedExecutor(num_threads=4)
+    executor.add_node(node)
+    executor.spin()
 
 
 if __name__ == "__main__":

@@ -16,9 +16,9 @@ class EndpointOptions:
     Every buffer is bounded: frames by `max_frame_size`, a slow client's kernel-side
     backlog by `write_high_water`, queued messages by each registration's queue_size,
     control frames (service replies, errors) by `max_control_backlog`, and what one
-    client may hold by `max_registrations` and `max_inflight_calls`. In bytes, all
-    partly received large frames, queued messages and queued control frames together
-    stay within `max_memory`, each client within its share (`client_memory`).
+    client may hold by `max_registrations`, `max_inflight_calls` and `max_action_goals`.
+    In bytes, all partly received large frames, queued messages and queued control frames
+    together stay within `max_memory`, each client within its share (`client_memory`).
     """
 
     host: str = "127.0.0.1"
@@ -42,6 +42,8 @@ class EndpointOptions:
     """Publishers + subscriptions + services one client may hold at once."""
     max_inflight_calls: int = 1_000
     """Service calls one client may have waiting for an answer at once."""
+    max_action_goals: int = 100
+    """Action goals one client may have in flight at once (the `actions` extension)."""
     max_memory: int = 1024 * 1024 * 1024
     """Bytes all clients together may make the endpoint buffer (--max-memory-mb)."""
     client_memory: int = 0

@@ -18,11 +18,15 @@ from simbridge.endpoint.backends.base import (
     BackendServiceServer,
     BackendSubscription,
 )
+from simbridge.endpoint.session_actions import SessionActions
 from simbridge.endpoint.stats import SessionStats
 from simbridge.errors import EndpointError, ServiceError, SimbridgeError
 from simbridge.protocol import (
     EXTENSIONS,
     KEEPALIVE,
+    ActionCancel,
+    ActionGoal,
+    ActionServerQuery,
     CommandReceived,
     ErrorMessage,
     Handshake,
@@ -117,6 +121,7 @@ class ClientSession(asyncio.BufferedProtocol):
         self._pending: dict[int, asyncio.Future[bytes]] = {}
         self._srv_ids = itertools.count(FIRST_SRV_ID)
         self._tasks: set[asyncio.Task[None]] = set()
+        self.actions = SessionActions(self)
         self._out: list[bytes] = []
         self._discard = bytearray(4096)
         self._out_size = 0
@@ -172,7 +177,7 @@ class ClientSession(asyncio.BufferedProtocol):
         meta = {
             "protocol": self.server.backend.protocol,
             "keepalive": self.options.keepalive_interval,
-            "extensions": list(EXTENSIONS),
+            "extensions": [*EXTENSIONS, *self.server.backend.extensions],
         }
         self._send_control(Handshake(metadata=meta).encode())
 
@@ -381,13 +386,16 @@ class ClientSession(asyncio.BufferedProtocol):
             ).encode()
         )
 
-    def send_error(self, text: str, srv_id: int | None = None) -> None:
-        """Report a bad request to the client and the log (cut to `_MAX_ERROR_TEXT`)."""
+    def send_error(
+        self, text: str, srv_id: int | None = None, *, goal_id: int | None = None
+    ) -> None:
+        """Report a bad request to the client and the log (cut to `_MAX_ERROR_TEXT`); with
+        `srv_id` it fails that service call, with `goal_id` that action goal."""
         if len(text) > _MAX_ERROR_TEXT:
             text = f"{text[:_MAX_ERROR_TEXT]}... ({len(text):,} characters, truncated)"
         self.stats.errors_sent += 1
         log.warning("client %s: %s", self.peer, text)
-        self._send_control(ErrorMessage(text, srv_id).encode())
+        self._send_control(ErrorMessage(text, srv_id, goal_id).encode())
 
     def send_keepalive_if_idle(self, now: float) -> None:
         """Called by the server's timer."""
@@ -544,6 +552,8 @@ class ClientSession(asyncio.BufferedProtocol):
                         f"the service handler in client {self.peer} failed: {command.text}"
                     )
                 )
+        elif isinstance(command, ActionGoal | ActionCancel | ActionServerQuery):
+            self.actions.handle(command)
         elif isinstance(command, StatsRequest):
             stats = {"session": self.stats.as_dict(), "server": self.server.stats()}
             self._send_control(StatsReply(stats).encode())
@@ -629,6 +639,7 @@ class ClientSession(asyncio.BufferedProtocol):
             entry[1].close()
 
     def _release_all(self) -> None:
+        self.actions.close()
         for topic in list(self.publishers):
             self._drop_publisher(topic)
         for topic in list(self.subscriptions):

@@ -18,6 +18,11 @@ class SessionStats:
     frames_out: int = 0
     bytes_out: int = 0
     errors_sent: int = 0
+    goals_sent: int = 0
+    """Action goals the client sent (the `actions` extension)."""
+    goals_refused: int = 0
+    """Of those, goals that ended without a result: refused by the endpoint (limit, unknown
+    type, no server) or rejected by the action server."""
     dropped: Counter[str] = field(default_factory=Counter)
     """Messages dropped per topic because the client fell behind its queue_size."""
 
@@ -29,6 +34,8 @@ class SessionStats:
             "frames_out": self.frames_out,
             "bytes_out": self.bytes_out,
             "errors_sent": self.errors_sent,
+            "goals_sent": self.goals_sent,
+            "goals_refused": self.goals_refused,
             "dropped": dict(self.dropped),
             "dropped_total": sum(self.dropped.values()),
         }

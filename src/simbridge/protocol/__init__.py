@@ -6,6 +6,22 @@ build outgoing frames with its static methods or a command's `encode()`.
 
 from __future__ import annotations
 
+from simbridge.protocol.actions import (
+    ACTIONS_EXTENSION,
+    STATUS_ABORTED,
+    STATUS_ACCEPTED,
+    STATUS_CANCELED,
+    STATUS_CANCELING,
+    STATUS_EXECUTING,
+    STATUS_SUCCEEDED,
+    ActionCancel,
+    ActionFeedback,
+    ActionGoal,
+    ActionResult,
+    ActionServerQuery,
+    ActionServerReply,
+    ActionStatus,
+)
 from simbridge.protocol.commands import (
     EXTENSIONS,
     MAX_COMMAND_SIZE,
@@ -62,6 +78,7 @@ from simbridge.protocol.framing import (
 )
 
 __all__ = [
+    "ACTIONS_EXTENSION",
     "DEFAULT_MAX_FRAME_SIZE",
     "EXTENSIONS",
     "KEEPALIVE",
@@ -70,6 +87,19 @@ __all__ = [
     "MAX_NAME_LENGTH",
     "MAX_QUEUE_SIZE",
     "PROTOCOL_VERSION",
+    "STATUS_ABORTED",
+    "STATUS_ACCEPTED",
+    "STATUS_CANCELED",
+    "STATUS_CANCELING",
+    "STATUS_EXECUTING",
+    "STATUS_SUCCEEDED",
+    "ActionCancel",
+    "ActionFeedback",
+    "ActionGoal",
+    "ActionResult",
+    "ActionServerQuery",
+    "ActionServerReply",
+    "ActionStatus",
     "ClientCommand",
     "Command",
     "CommandReceived",

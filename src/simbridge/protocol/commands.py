@@ -8,8 +8,9 @@ from __future__ import annotations
 
 import json
 import re
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, ClassVar, Literal, get_args
+from typing import Any, ClassVar, Literal, TypeVar, get_args
 
 from simbridge.errors import ProtocolError
 from simbridge.protocol.framing import encode_frame
@@ -45,6 +46,7 @@ __all__ = [
     "UnityService",
     "WarnMessage",
     "decode_command",
+    "register_command",
     "shorten",
 ]
 
@@ -435,11 +437,15 @@ class _Text(Command):
     text: str
     srv_id: int | None = None
     """simbridge extension on `__error`: the failed service call it answers."""
+    goal_id: int | None = None
+    """simbridge extension `actions` on `__error`: the client's action goal that failed."""
 
     def to_json(self) -> dict[str, Any]:
         obj: dict[str, Any] = {"text": self.text}
         if self.srv_id is not None:
             obj["srv_id"] = self.srv_id
+        if self.goal_id is not None:
+            obj["goal_id"] = self.goal_id
         return obj
 
     @classmethod
@@ -447,7 +453,10 @@ class _Text(Command):
         srv_id = obj.get("srv_id")
         if srv_id is not None:
             srv_id = _get_int(cls.NAME, obj, "srv_id", low=-(2**31), high=2**32 - 1)
-        return cls(_get_str(cls.NAME, obj, "text"), srv_id)
+        goal_id = obj.get("goal_id")
+        if goal_id is not None:
+            goal_id = _get_int(cls.NAME, obj, "goal_id", low=0)
+        return cls(_get_str(cls.NAME, obj, "text"), srv_id, goal_id)
 
 
 @dataclass(frozen=True, slots=True)
@@ -565,6 +574,21 @@ EndpointCommand = (
 
 _FROM_CLIENT: dict[str, type[Command]] = {c.NAME: c for c in get_args(ClientCommand)}
 _FROM_ENDPOINT: dict[str, type[Command]] = {c.NAME: c for c in get_args(EndpointCommand)}
+
+
+_C = TypeVar("_C", bound=type[Command])
+
+
+def register_command(*senders: Sender) -> Callable[[_C], _C]:
+    """Class decorator: let `decode_command` parse an extension command defined in another
+    module when one of `senders` sends it."""
+
+    def register(cls: _C) -> _C:
+        for sender in senders:
+            (_FROM_CLIENT if sender == "client" else _FROM_ENDPOINT)[cls.NAME] = cls
+        return cls
+
+    return register
 
 
 def decode_command(name: str, payload: bytes, *, sender: Sender) -> Command:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from simbridge.endpoint.backends.base import (
     Backend,
+    BackendActionGoal,
     BackendPublisher,
     BackendServiceServer,
     BackendSubscription,
@@ -15,6 +16,7 @@ from simbridge.endpoint.backends.local import LocalBus
 
 __all__ = [
     "Backend",
+    "BackendActionGoal",
     "BackendPublisher",
     "BackendServiceServer",
     "BackendSubscription",

@@ -1,4 +1,4 @@
-"""The interface between the endpoint and a ROS graph (embedded bus, ROS 1, later ROS 2).
+"""The interface between the endpoint and a ROS graph (embedded bus, ROS 1, ROS 2).
 
 Payloads cross this boundary as serialized bytes (ROS 1 binary for ROS 1 graphs,
 CDR for ROS 2): the endpoint never decodes a message just to route it.
@@ -13,11 +13,14 @@ from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Literal
 
+from simbridge.errors import EndpointError
+
 if TYPE_CHECKING:
     from simbridge.endpoint.typecheck import TypeCheck
 
 __all__ = [
     "Backend",
+    "BackendActionGoal",
     "BackendPublisher",
     "BackendServiceServer",
     "BackendSubscription",
@@ -76,12 +79,30 @@ class BackendServiceServer(abc.ABC):
         """Unadvertise the service."""
 
 
+class BackendActionGoal(abc.ABC):
+    """A goal an action server accepted (ROS 2 actions, the `actions` extension)."""
+
+    @abc.abstractmethod
+    async def result(self) -> tuple[int, bytes]:
+        """Wait for the end: the terminal action_msgs/GoalStatus and the serialized result."""
+
+    @abc.abstractmethod
+    async def cancel(self) -> bool:
+        """Ask the server to cancel the goal; True when it agreed."""
+
+    @abc.abstractmethod
+    def abandon(self) -> None:
+        """The client is gone: cancel the goal without waiting and stop every callback."""
+
+
 class Backend(abc.ABC):
     """A ROS graph the endpoint bridges its TCP clients into."""
 
     name: str = "abstract"
     protocol: Literal["ROS1", "ROS2"] = "ROS1"
     """Serialization its payloads use: "ROS1" (binary) or "ROS2" (CDR, ROS 2 layouts)."""
+    extensions: tuple[str, ...] = ()
+    """Protocol extensions it adds to the handshake's (e.g. "actions")."""
 
     async def start(self) -> None:  # noqa: B027 - optional hook
         """Connect to the graph; called once on the event loop before any other call."""
@@ -124,6 +145,28 @@ class Backend(abc.ABC):
         self, service: str, srv_type: str, handler: ServiceHandler
     ) -> BackendServiceServer:
         """Offer a service to the graph, implemented by `handler`."""
+
+    async def action_server_ready(self, action: str, action_type: str) -> bool:
+        """Whether a server for `action` is reachable now (backends with "actions")."""
+        raise EndpointError(f"the {self.name} backend has no ROS 2 actions (try --backend ros2)")
+
+    async def send_goal(
+        self,
+        action: str,
+        action_type: str,
+        goal: bytes,
+        *,
+        on_feedback: MessageCallback,
+        on_status: Callable[[int], None],
+        timeout: float,
+    ) -> BackendActionGoal:
+        """Send a serialized goal to action `action` (`pkg/Action`) and wait until the server
+        accepts it (a server found within `timeout`). Status changes go to `on_status` on the
+        event loop, STATUS_ACCEPTED first (before any feedback), then feedback to
+        `on_feedback`. Raises SimbridgeError when no server answers, the type
+        is unknown or the server rejects the goal. Cancelling the waiting coroutine cancels
+        the goal once accepted."""
+        raise EndpointError(f"the {self.name} backend has no ROS 2 actions (try --backend ros2)")
 
     @abc.abstractmethod
     def topics(self) -> list[TopicInfo]:

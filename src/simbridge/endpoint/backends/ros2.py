@@ -3,7 +3,8 @@
 Topics are relayed as raw CDR in both directions: `publisher.publish(bytes)` and
 `create_subscription(..., raw=True)`, nothing decoded on the hot path. Services
 have no raw mode in rclpy, so their requests and responses are decoded and
-encoded with the installed interface classes.
+encoded with the installed interface classes; so are action goals, feedback and
+results (the `actions` extension, in ros2_actions).
 
 rclpy runs one SingleThreadedExecutor on a thread of its own. Publishers,
 subscriptions and clients are created from the endpoint's event loop (rclpy
@@ -33,6 +34,7 @@ from rclpy.task import Future as RclpyFuture
 
 from simbridge.endpoint.backends.base import (
     Backend,
+    BackendActionGoal,
     BackendPublisher,
     BackendServiceServer,
     BackendSubscription,
@@ -40,10 +42,12 @@ from simbridge.endpoint.backends.base import (
     ServiceHandler,
     TopicInfo,
 )
+from simbridge.endpoint.backends.ros2_actions import Ros2Actions
 from simbridge.endpoint.backends.ros2_env import apply_ros2_env
 from simbridge.endpoint.backends.ros2_types import Ros2Types, tcp_type_name
 from simbridge.endpoint.typecheck import TypeCheck
 from simbridge.errors import EndpointError, ServiceError
+from simbridge.protocol import ACTIONS_EXTENSION
 
 __all__ = ["Ros2Backend", "Ros2Options", "Ros2TypeCheck", "ros2_cli_args"]
 
@@ -120,6 +124,7 @@ class Ros2Backend(Backend):
 
     name = "ros2"
     protocol = "ROS2"
+    extensions = (ACTIONS_EXTENSION,)
 
     def __init__(self, options: Ros2Options | None = None) -> None:
         self._options = options or Ros2Options()
@@ -135,6 +140,7 @@ class Ros2Backend(Backend):
         self._inbox_scheduled = False
         self.settings: dict[str, str] = {}
         self.counters: dict[str, int] = {"publish_errors": 0, "service_failures": 0}
+        self._actions = Ros2Actions(self)
 
     def type_check(self) -> TypeCheck:
         return Ros2TypeCheck(self._types)
@@ -193,6 +199,7 @@ class Ros2Backend(Backend):
         for entity in list(self._live):
             entity.close()
         self._clients.clear()
+        await self._actions.close()
         context = self._context
         with_thread = self._thread
         try:
@@ -357,6 +364,33 @@ class Ros2Backend(Backend):
         )
         _log.info("serving %s [%s] for the sim", service, srv_type)
         return server
+
+    # ---- actions (the `actions` extension) -------------------------------------------
+
+    async def action_server_ready(self, action: str, action_type: str) -> bool:
+        self._started()
+        return await self._actions.server_ready(action, action_type)
+
+    async def send_goal(
+        self,
+        action: str,
+        action_type: str,
+        goal: bytes,
+        *,
+        on_feedback: MessageCallback,
+        on_status: Callable[[int], None],
+        timeout: float,
+    ) -> BackendActionGoal:
+        self._started()
+        return await self._actions.send_goal(
+            action,
+            action_type,
+            goal,
+            on_feedback=on_feedback,
+            on_status=on_status,
+            timeout=timeout,
+            discovery_wait=self._options.discovery_wait,
+        )
 
     def _started(self) -> asyncio.AbstractEventLoop:
         if self._loop is None:

@@ -53,6 +53,10 @@ class Ros2Types:
         """The service class for `pkg/Service` (with .Request and .Response)."""
         return self._load(name, "srv")
 
+    def action(self, name: str) -> Any:
+        """The action class for `pkg/Action` (with .Goal, .Result, .Feedback)."""
+        return self._load(name, "action")
+
     def _load(self, name: str, kind: str) -> Any:
         package, base = _split(name, kind)
         key = (package, f"{kind}/{base}")

@@ -1,0 +1,337 @@
+"""ROS 2 action goals for the sim (the `actions` extension), through rclpy's ActionClient.
+
+rclpy's ActionClient keeps its pending requests in plain dicts that its executor thread
+reads, so every call on it (create, send, cancel, get the result) runs on the rclpy thread
+(`executor.create_task`); answers hop back to the event loop. Goals arrive and leave as
+CDR: decoded into the action's Goal class with rclpy.serialization, feedback and results
+encoded back. One ActionClient per action and type serves every client of the endpoint.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import time
+from collections import deque
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any, TypeVar
+
+from rclpy.action import ActionClient
+from rclpy.serialization import deserialize_message, serialize_message
+
+from simbridge.endpoint.backends.base import BackendActionGoal, MessageCallback
+from simbridge.errors import EndpointError
+from simbridge.protocol import STATUS_ACCEPTED, STATUS_CANCELING, STATUS_EXECUTING
+
+if TYPE_CHECKING:
+    from simbridge.endpoint.backends.ros2 import Ros2Backend
+
+__all__ = ["MAX_ACTION_CLIENTS", "Ros2Actions"]
+
+_log = logging.getLogger(__name__)
+_T = TypeVar("_T")
+
+MAX_ACTION_CLIENTS = 256
+"""Distinct (action, type) pairs the endpoint keeps an ActionClient for; more are refused."""
+
+_RUNNING = (STATUS_EXECUTING, STATUS_CANCELING)
+_EARLY_FEEDBACK = 100
+"""Feedback messages kept while a goal's acceptance is on its way (the oldest dropped)."""
+
+
+def _call_soon(loop: asyncio.AbstractEventLoop, fn: Callable[..., None], *args: Any) -> None:
+    try:
+        loop.call_soon_threadsafe(fn, *args)
+    except RuntimeError:  # the loop is closed: the endpoint is going away
+        return
+
+
+class _StatusActionClient(ActionClient):  # type: ignore[misc]  # rclpy has no type hints
+    """An ActionClient that reports each goal's status (rclpy only stores it); runs on the
+    rclpy thread."""
+
+    def __init__(self, *args: Any, on_status: Callable[[bytes, int], None], **kw: Any) -> None:
+        super().__init__(*args, **kw)
+        self._on_status = on_status
+
+    async def execute(self, taken_data: Any) -> None:
+        status = taken_data.get("status") if isinstance(taken_data, dict) else None
+        await super().execute(taken_data)
+        if status is not None:
+            for entry in status.status_list:
+                self._on_status(bytes(entry.goal_info.goal_id.uuid), int(entry.status))
+
+
+class Ros2Actions:
+    """The endpoint node's action clients and the goals sent through them."""
+
+    def __init__(self, backend: Ros2Backend) -> None:
+        self._backend = backend
+        self._clients: dict[tuple[str, str], tuple[Any, Any]] = {}
+        """(action, type) -> (ActionClient, action class); touched on the event loop only."""
+        self.goals: dict[bytes, _Ros2Goal] = {}
+        """Goals by UUID, for status reports; touched on the rclpy thread only."""
+
+    def on_rclpy(self, fn: Callable[[], _T]) -> asyncio.Future[_T]:
+        """Run `fn` on the rclpy thread; its value (or exception) in an event loop future."""
+        loop = self._backend._started()
+        future: asyncio.Future[_T] = loop.create_future()
+
+        def settle(value: Any, error: BaseException | None) -> None:
+            if future.done():
+                return
+            if error is not None:
+                future.set_exception(error)
+            else:
+                future.set_result(value)
+
+        def run() -> None:
+            try:
+                value = fn()
+            except Exception as exc:
+                _call_soon(loop, settle, None, exc)
+            else:
+                _call_soon(loop, settle, value, None)
+
+        self._backend._executor.create_task(run)
+        return future
+
+    async def client(self, action: str, action_type: str) -> tuple[Any, Any]:
+        """The ActionClient for `action` and its action class (created on first use)."""
+        key = (action, action_type)
+        found = self._clients.get(key)
+        if found is not None:
+            return found
+        cls = self._backend._types.action(action_type)
+        if len(self._clients) >= MAX_ACTION_CLIENTS:
+            raise EndpointError(
+                f"no client for action {action!r}: the endpoint already has "
+                f"{MAX_ACTION_CLIENTS} action clients (the limit)"
+            )
+        node = self._backend.node
+        try:
+            client = await self.on_rclpy(
+                lambda: _StatusActionClient(node, cls, action, on_status=self._status)
+            )
+        except Exception as exc:
+            raise EndpointError(f"cannot create a client for action {action!r}: {exc}") from exc
+        found = self._clients.setdefault(key, (client, cls))
+        if found[0] is not client:
+            self.on_rclpy(client.destroy)
+        else:
+            _log.info("action client for %s [%s]", action, action_type)
+        return found
+
+    async def server_ready(self, action: str, action_type: str) -> bool:
+        """Whether an action server for `action` is discovered now."""
+        client, _cls = await self.client(action, action_type)
+        return bool(client.server_is_ready())
+
+    async def send_goal(
+        self,
+        action: str,
+        action_type: str,
+        goal: bytes,
+        *,
+        on_feedback: MessageCallback,
+        on_status: Callable[[int], None],
+        timeout: float,
+        discovery_wait: float,
+    ) -> BackendActionGoal:
+        """See `Backend.send_goal`."""
+        client, cls = await self.client(action, action_type)
+        try:
+            decoded = deserialize_message(goal, cls.Goal)
+        except Exception as exc:
+            raise EndpointError(f"the goal is not a CDR {action_type} goal: {exc}") from exc
+        wait = min(timeout, discovery_wait)
+        deadline = time.monotonic() + wait
+        while not client.server_is_ready():
+            if time.monotonic() >= deadline:
+                raise EndpointError(
+                    f"no ROS 2 action server for {action!r} [{action_type}] "
+                    f"(none found within {wait:g} s)"
+                )
+            await asyncio.sleep(0.01)
+        sent = _Ros2Goal(self, client, on_feedback=on_feedback, on_status=on_status)
+        accepted = sent.start(decoded)
+        try:
+            ok = await asyncio.wait_for(asyncio.shield(accepted), timeout)
+        except TimeoutError:
+            sent.abandon()
+            raise EndpointError(
+                f"the action server of {action!r} did not answer the goal within {timeout:g} s"
+            ) from None
+        except asyncio.CancelledError:
+            sent.abandon()
+            raise
+        if not ok:
+            raise EndpointError(f"the action server of {action!r} rejected the goal")
+        return sent
+
+    def _status(self, uuid: bytes, status: int) -> None:
+        """From the status topic (rclpy thread)."""
+        goal = self.goals.get(uuid)
+        if goal is not None:
+            goal.status_seen(status)
+
+    async def close(self) -> None:
+        """Destroy every action client (before the node goes)."""
+        clients = [client for client, _cls in self._clients.values()]
+        self._clients.clear()
+        for client in clients:
+            try:
+                await asyncio.wait_for(self.on_rclpy(client.destroy), 2.0)
+            except Exception as exc:  # the executor may be gone already
+                _log.debug("destroying an action client: %s", exc)
+
+
+class _Ros2Goal(BackendActionGoal):
+    """One goal sent through an ActionClient. Fields with a leading `_r` belong to the
+    rclpy thread; the rest to the event loop."""
+
+    def __init__(
+        self,
+        actions: Ros2Actions,
+        client: Any,
+        *,
+        on_feedback: MessageCallback,
+        on_status: Callable[[int], None],
+    ) -> None:
+        self._actions = actions
+        self._client = client
+        self._loop = actions._backend._started()
+        self._on_feedback = on_feedback
+        self._on_status = on_status
+        self._accepted: asyncio.Future[bool] = self._loop.create_future()
+        self._result: asyncio.Future[tuple[int, bytes]] = self._loop.create_future()
+        self._gone = False
+        self._r_handle: Any = None
+        self._r_uuid = b""
+        self._r_abandoned = False
+        self._r_answered = False
+        self._r_reported = STATUS_ACCEPTED
+        self._r_latest = 0
+        self._r_early: deque[Any] = deque(maxlen=_EARLY_FEEDBACK)
+        """Feedback that came before the server's acceptance was handled (kept in order)."""
+
+    # ---- event loop -------------------------------------------------------------------
+
+    def start(self, goal: Any) -> asyncio.Future[bool]:
+        """Send the goal; the future says whether the server accepted it."""
+        self._actions.on_rclpy(lambda: self._r_send(goal)).add_done_callback(self._sent)
+        return self._accepted
+
+    def _sent(self, done: asyncio.Future[None]) -> None:
+        if not done.cancelled() and done.exception() is not None and not self._accepted.done():
+            self._accepted.set_exception(EndpointError(f"cannot send the goal: {done.exception()}"))
+
+    async def result(self) -> tuple[int, bytes]:
+        return await self._result
+
+    async def cancel(self) -> bool:
+        answer: asyncio.Future[bool] = self._loop.create_future()
+
+        def outcome(done: Any) -> None:  # rclpy thread
+            error = done.exception()
+            if error is not None:
+                self._post(self._settle, answer, None, EndpointError(f"cancel failed: {error}"))
+                return
+            response = done.result()
+            agreed = response.return_code == 0 and len(response.goals_canceling) > 0
+            self._post(self._settle, answer, agreed, None)
+
+        def ask() -> None:  # rclpy thread
+            if self._r_handle is None:
+                raise EndpointError("the goal is not accepted yet")
+            self._r_handle.cancel_goal_async().add_done_callback(outcome)
+
+        await self._actions.on_rclpy(ask)
+        return await answer
+
+    def abandon(self) -> None:
+        if self._gone:
+            return
+        self._gone = True
+        self._actions.on_rclpy(self._r_abandon)
+
+    def _deliver(self, fn: Callable[..., None], *args: Any) -> None:
+        if not self._gone:
+            fn(*args)
+
+    def _settle(self, future: asyncio.Future[Any], value: Any, error: BaseException | None) -> None:
+        if future.done():
+            return
+        if error is not None:
+            future.set_exception(error)
+        else:
+            future.set_result(value)
+
+    def _accept(self, ok: bool) -> None:
+        """Acceptance first reports STATUS_ACCEPTED, before any feedback posted after it."""
+        if ok and not self._gone:
+            self._on_status(STATUS_ACCEPTED)
+        self._settle(self._accepted, ok, None)
+
+    # ---- rclpy thread -----------------------------------------------------------------
+
+    def _post(self, fn: Callable[..., None], *args: Any) -> None:
+        _call_soon(self._loop, fn, *args)
+
+    def _r_send(self, goal: Any) -> None:
+        future = self._client.send_goal_async(goal, feedback_callback=self._r_feedback)
+        future.add_done_callback(self._r_response)
+
+    def _r_response(self, future: Any) -> None:
+        error = future.exception()
+        if error is not None:
+            self._post(self._settle, self._accepted, None, EndpointError(str(error)))
+            return
+        handle = future.result()
+        if not handle.accepted:
+            self._post(self._accept, False)
+            return
+        self._r_handle = handle
+        self._r_uuid = bytes(handle.goal_id.uuid)
+        self._actions.goals[self._r_uuid] = self
+        self._post(self._accept, True)
+        self._r_answered = True
+        for message in self._r_early:
+            self._r_feedback(message)
+        self._r_early.clear()
+        if self._r_latest in _RUNNING:
+            self.status_seen(self._r_latest)
+        handle.get_result_async().add_done_callback(self._r_result)
+        if self._r_abandoned:
+            handle.cancel_goal_async()
+
+    def _r_feedback(self, message: Any) -> None:
+        if not self._r_answered:
+            self._r_early.append(message)
+            return
+        if self._r_abandoned:
+            return
+        data = bytes(serialize_message(message.feedback))
+        self._post(self._deliver, self._on_feedback, data)
+
+    def status_seen(self, status: int) -> None:
+        """A status for this goal from the status topic (rclpy thread)."""
+        self._r_latest = status
+        if self._r_answered and status in _RUNNING and status != self._r_reported:
+            self._r_reported = status
+            self._post(self._deliver, self._on_status, status)
+
+    def _r_result(self, future: Any) -> None:
+        self._actions.goals.pop(self._r_uuid, None)
+        error = future.exception()
+        if error is not None:
+            self._post(self._settle, self._result, None, EndpointError(f"no result: {error}"))
+            return
+        response = future.result()
+        data = bytes(serialize_message(response.result))
+        self._post(self._settle, self._result, (int(response.status), data), None)
+
+    def _r_abandon(self) -> None:
+        self._r_abandoned = True
+        if self._r_handle is not None:
+            self._r_handle.cancel_goal_async()

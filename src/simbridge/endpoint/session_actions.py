@@ -1,0 +1,207 @@
+"""One client's ROS 2 action goals (the `actions` extension), for its `ClientSession`.
+
+Each goal is a task: send it through the backend, report acceptance, feedback and status
+changes, then the result. Goals in flight are bounded per client; a goal that ends
+without a result gets an `__error` carrying its `goal_id`. When the client leaves, its
+goals are cancelled on the server and forgotten.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+from collections.abc import Coroutine
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+from simbridge.endpoint.backends.base import BackendActionGoal
+from simbridge.errors import SimbridgeError
+from simbridge.protocol import (
+    ActionCancel,
+    ActionFeedback,
+    ActionGoal,
+    ActionResult,
+    ActionServerQuery,
+    ActionServerReply,
+    ActionStatus,
+    WarnMessage,
+    shorten,
+)
+
+if TYPE_CHECKING:
+    from simbridge.endpoint.session import ClientSession
+
+__all__ = ["ActionCommand", "SessionActions"]
+
+log = logging.getLogger("simbridge.endpoint")
+
+ActionCommand = ActionGoal | ActionCancel | ActionServerQuery
+
+
+@dataclass(slots=True)
+class _Goal:
+    command: ActionGoal
+    task: asyncio.Task[None] | None = None
+    backend_goal: BackendActionGoal | None = None
+    cancel_requested: bool = False
+    helpers: set[asyncio.Task[None]] = field(default_factory=set)
+
+
+class SessionActions:
+    """The action goals of one client connection."""
+
+    def __init__(self, session: ClientSession) -> None:
+        self._session = session
+        self._goals: dict[int, _Goal] = {}
+        self._queries: set[asyncio.Task[None]] = set()
+
+    def __len__(self) -> int:
+        return len(self._goals)
+
+    def handle(self, command: ActionCommand) -> None:
+        """Act on one of the extension's client commands."""
+        if isinstance(command, ActionGoal):
+            self._start(command)
+        elif isinstance(command, ActionCancel):
+            self._cancel(command.goal_id)
+        else:
+            self._spawn(self._queries, self._query(command))
+
+    def close(self) -> None:
+        """The client left: cancel its goals on the server and stop following them."""
+        goals, self._goals = self._goals, {}
+        for goal in goals.values():
+            if goal.backend_goal is not None:
+                goal.backend_goal.abandon()
+            for task in (goal.task, *goal.helpers):
+                if task is not None:
+                    task.cancel()
+        for task in list(self._queries):
+            task.cancel()
+        if goals:
+            log.info(
+                "client %s disconnected; cancelled its %d action goal(s)",
+                self._session.peer,
+                len(goals),
+            )
+
+    # ---- goals ------------------------------------------------------------------------
+
+    def _describe(self, command: ActionGoal) -> str:
+        return (
+            f"goal {command.goal_id} for {shorten(command.action)} [{shorten(command.action_type)}]"
+        )
+
+    def _start(self, command: ActionGoal) -> None:
+        session = self._session
+        session.stats.goals_sent += 1
+        limit = session.options.max_action_goals
+        if command.goal_id in self._goals:
+            session.stats.goals_refused += 1
+            session.send_error(
+                f"__action_goal refused: goal_id {command.goal_id} is already in flight; "
+                "pick a new id for each goal"
+            )
+            return
+        if len(self._goals) >= limit:
+            session.stats.goals_refused += 1
+            session.send_error(
+                f"{self._describe(command)} refused: {len(self._goals)} goals already in "
+                f"flight (limit {limit}); wait for results first",
+                goal_id=command.goal_id,
+            )
+            return
+        goal = _Goal(command)
+        self._goals[command.goal_id] = goal
+        goal.task = asyncio.ensure_future(self._run(goal))
+
+    async def _run(self, goal: _Goal) -> None:
+        session, command = self._session, goal.command
+        goal_id = command.goal_id
+        send = session._send_control
+        try:
+            try:
+                accepted = await session.server.backend.send_goal(
+                    command.action,
+                    command.action_type,
+                    command.goal,
+                    on_feedback=lambda data: send(ActionFeedback(goal_id, data).encode()),
+                    on_status=lambda status: send(ActionStatus(goal_id, status).encode()),
+                    timeout=session.options.service_timeout,
+                )
+            except SimbridgeError as exc:
+                session.stats.goals_refused += 1
+                session.send_error(f"{self._describe(command)} failed: {exc}", goal_id=goal_id)
+                return
+            if self._goals.get(goal_id) is not goal:  # the client left meanwhile
+                accepted.abandon()
+                return
+            goal.backend_goal = accepted
+            if goal.cancel_requested:
+                self._spawn(goal.helpers, self._request_cancel(goal, accepted))
+            status, result = await accepted.result()
+            send(ActionResult(goal_id, status, result).encode())
+        except asyncio.CancelledError:
+            raise
+        except Exception as exc:  # a backend failure must not end the session
+            log.exception("client %s: %s failed", session.peer, self._describe(command))
+            session.send_error(
+                f"{self._describe(command)} failed: {type(exc).__name__}: {shorten(str(exc), 200)}",
+                goal_id=goal_id,
+            )
+        finally:
+            if self._goals.get(goal_id) is goal:
+                del self._goals[goal_id]
+                for task in goal.helpers:
+                    task.cancel()
+
+    def _cancel(self, goal_id: int) -> None:
+        goal = self._goals.get(goal_id)
+        if goal is None:
+            self._session._send_control(
+                WarnMessage(
+                    f"__action_cancel: goal {goal_id} is not in flight (it ended already, or "
+                    "was never sent)",
+                    goal_id=goal_id,
+                ).encode()
+            )
+        elif goal.backend_goal is None:
+            goal.cancel_requested = True  # cancelled as soon as the server accepts it
+        else:
+            self._spawn(goal.helpers, self._request_cancel(goal, goal.backend_goal))
+
+    async def _request_cancel(self, goal: _Goal, accepted: BackendActionGoal) -> None:
+        try:
+            agreed = await accepted.cancel()
+        except SimbridgeError as exc:
+            agreed, why = False, str(exc)
+        else:
+            why = "the server refused"
+        if not agreed:
+            self._session._send_control(
+                WarnMessage(
+                    f"cancel of {self._describe(goal.command)} failed: {why}; it goes on",
+                    goal_id=goal.command.goal_id,
+                ).encode()
+            )
+
+    # ---- servers ----------------------------------------------------------------------
+
+    async def _query(self, command: ActionServerQuery) -> None:
+        session = self._session
+        ready = False
+        try:
+            ready = await session.server.backend.action_server_ready(
+                command.action, command.action_type
+            )
+        except SimbridgeError as exc:
+            session.send_error(
+                f"__action_server for {shorten(command.action)} "
+                f"[{shorten(command.action_type)}] failed: {exc}"
+            )
+        session._send_control(ActionServerReply(command.action, ready).encode())
+
+    def _spawn(self, tasks: set[asyncio.Task[None]], coro: Coroutine[Any, Any, None]) -> None:
+        task = asyncio.ensure_future(coro)
+        tasks.add(task)
+        task.add_done_callback(tasks.discard)
