@@ -26,6 +26,7 @@ SUITES = {
     "attacks": "benchmarks.bench_attacks",
     "urdf": "benchmarks.bench_urdf",
     "view": "benchmarks.bench_view",
+    "line": "benchmarks.bench_line",
 }
 
 TITLES = {

@@ -78,7 +78,7 @@ def _run(world: World, seconds: float, move: bool) -> dict[str, float]:
 def test_every_documented_example_loads_and_runs_stably(tmp_path: Path) -> None:
     docs = _docs_tree(tmp_path)
     blocks = re.findall(r"```yaml\n(.*?)```", DOCS.read_text(), flags=re.DOTALL)
-    assert len(blocks) == 7
+    assert len(blocks) == 8
     for index, block in enumerate(blocks):
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
@@ -112,6 +112,9 @@ def test_every_documented_example_loads_and_runs_stably(tmp_path: Path) -> None:
             if index == 2:  # two copies of one URDF, each with its own ros: block
                 assert sorted(world.robots) == ["arm_left", "arm_right"]
                 assert "arm_right/joint_1" in world.joint_names()
+            if "pallet_controller" in block:  # the line scene: an arm and the conveyor
+                assert sorted(world.robots) == ["arm_in", "conveyor"]
+                assert "conveyor/pallet_joint" in world.drives.joints
             worst = _run(world, 1.0, move=False)
             assert max(v for k, v in worst.items() if not k.endswith("/over")) < 0.1
 

@@ -62,14 +62,15 @@ def line_scene(task: LineTask, path: Path = SCENE_PATH) -> Scene:
     return dataclasses.replace(scene, objects=(*scene.objects, *parts))
 
 
-def grasp_contacts(task: LineTask) -> list[ModelExtension]:
-    """MJCF edits for ``World.from_scene``: grasp contacts and the output slot markers."""
+def grasp_contacts(task: LineTask, arms: tuple[str, ...] = ARMS) -> list[ModelExtension]:
+    """MJCF edits for ``World.from_scene``: grasp contacts (for the grippers of ``arms``)
+    and the output slot markers."""
 
     def contacts(doc: MjcfDocument) -> None:
         doc.option.attrib.update(cone="elliptic", impratio="10")
         geoms = {elem.get("name"): elem for elem in doc.worldbody.iter("geom")}
         wanted = [part_name(i) for i in range(len(task.parts))]
-        wanted += [f"{arm}/{finger}" for arm in ARMS for finger in _FINGER_GEOMS]
+        wanted += [f"{arm}/{finger}" for arm in arms for finger in _FINGER_GEOMS]
         for name in wanted:
             if name not in geoms:
                 raise AppError(f"the line scene has no geom {name!r} (a gripper or part)")
