@@ -9,13 +9,16 @@ with test_msgs/action/Fibonacci registered from tests/assets, not from the endpo
 from __future__ import annotations
 
 import os
+import threading
 import time
 from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
 
+from simbridge.connector import Connector, Ros2ActionClient, action_client
 from simbridge.messages import ROS2_STORE, MessageRegistry
+from simbridge.messages.actionlib import LOST, PREEMPTED, REJECTED, SUCCEEDED
 from simbridge.protocol import (
     ACTIONS_EXTENSION,
     STATUS_ACCEPTED,
@@ -223,3 +226,92 @@ def test_goals_in_flight_are_bounded(endpoint: tuple[Ros2Process, int]) -> None:
             assert stats["session"]["goals_refused"] == 1
         finally:
             raw.close()
+
+
+# ---- through the connector ------------------------------------------------------------
+
+
+@pytest.fixture
+def ros(endpoint: tuple[Ros2Process, int]) -> Iterator[Connector]:
+    with Connector("127.0.0.1", endpoint[1], registry=REG).connect() as connector:
+        yield connector
+
+
+def test_connector_goal_feedback_result(ros: Connector) -> None:
+    action = unique_action()
+    with server(action):
+        client = action_client(ros, action, FIB)
+        assert isinstance(client, Ros2ActionClient)
+        assert client.wait_for_server(30)
+        feedback: list[list[int]] = []
+        goal = client.send_goal(
+            REG.new("test_msgs/FibonacciGoal", order=6),
+            on_feedback=lambda fb: feedback.append([int(v) for v in fb.sequence]),
+        )
+        assert goal.wait(30), goal.text
+        assert goal.status == SUCCEEDED
+        assert goal.ros2_status == STATUS_SUCCEEDED
+        assert [int(v) for v in goal.result.sequence] == [0, 1, 1, 2, 3, 5, 8]
+        assert feedback[0] == [0, 1, 1]
+        assert feedback[-1] == [0, 1, 1, 2, 3, 5, 8]
+        assert goal.text == ""
+        assert not client.goals
+
+
+def test_connector_cancel(ros: Connector) -> None:
+    action = unique_action()
+    with server(action, 0.2) as srv:
+        client = Ros2ActionClient(ros, action, FIB)
+        assert client.wait_for_server(30)
+        got_feedback = threading.Event()
+        goal = client.send_goal(
+            REG.new("test_msgs/FibonacciGoal", order=40), on_feedback=lambda _fb: got_feedback.set()
+        )
+        assert got_feedback.wait(30)
+        goal.cancel()
+        assert goal.wait(30)
+        assert goal.status == PREEMPTED
+        assert goal.ros2_status == STATUS_CANCELED
+        assert len(goal.result.sequence) < 41
+        assert srv.expect_json("canceled") == 40
+
+
+def test_connector_rejected_and_no_server(ros: Connector) -> None:
+    action = unique_action()
+    with server(action, 0.05, "--reject"):
+        client = Ros2ActionClient(ros, action, FIB)
+        assert client.wait_for_server(30)
+        goal = client.send_goal(REG.new("test_msgs/FibonacciGoal", order=3))
+        assert goal.wait(30)
+        assert goal.status == REJECTED
+        assert goal.ros2_status is None
+        assert "rejected" in goal.text
+        assert goal.result is None
+    nobody = Ros2ActionClient(ros, unique_action(), FIB)
+    start = time.monotonic()
+    assert not nobody.wait_for_server(0.5)
+    goal = nobody.send_goal(REG.new("test_msgs/FibonacciGoal", order=3))
+    assert goal.wait(20)
+    assert time.monotonic() - start < 15
+    assert goal.status == REJECTED
+    assert "no ROS 2 action server" in goal.text
+
+
+def test_connector_close_cancels_its_goals(endpoint: tuple[Ros2Process, int]) -> None:
+    action = unique_action()
+    with server(action, 0.2) as srv:
+        ros = Connector("127.0.0.1", endpoint[1], registry=REG).connect()
+        try:
+            client = Ros2ActionClient(ros, action, FIB)
+            assert client.wait_for_server(30)
+            running = threading.Event()
+            goal = client.send_goal(
+                REG.new("test_msgs/FibonacciGoal", order=70), on_feedback=lambda _f: running.set()
+            )
+            assert running.wait(30)
+        finally:
+            ros.close()
+        assert goal.done
+        assert goal.status == LOST
+        assert "connector closed" in goal.text
+        assert srv.expect_json("canceled", timeout=20) == 70

@@ -12,6 +12,7 @@ from simbridge.connector.calls import ServiceHandler
 from simbridge.connector.connector import Connector
 from simbridge.connector.handles import MessageCallback, MessageTap, Publisher, Subscription
 from simbridge.connector.options import ConnectorOptions
+from simbridge.connector.ros2_actions import Ros2ActionClient, Ros2ClientGoal, action_client
 from simbridge.connector.stats import ConnectorStats
 
 __all__ = [
@@ -23,6 +24,9 @@ __all__ = [
     "MessageCallback",
     "MessageTap",
     "Publisher",
+    "Ros2ActionClient",
+    "Ros2ClientGoal",
     "ServiceHandler",
     "Subscription",
+    "action_client",
 ]

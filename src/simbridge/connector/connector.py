@@ -134,6 +134,12 @@ class Connector(ConnectorEngine):
         handshake arrived). Build messages with it to match the endpoint."""
         return self._codec.registry
 
+    @property
+    def extensions(self) -> frozenset[str]:
+        """The simbridge protocol extensions the endpoint announced in its handshake (empty
+        while not connected, and from endpoints without extensions such as Unity's)."""
+        return self._extensions
+
     def wait_connected(self, timeout: float | None = None) -> bool:
         """Block until connected; False when `timeout` passed first."""
         return self._connected.wait(timeout)

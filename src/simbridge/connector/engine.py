@@ -24,6 +24,7 @@ from simbridge.connector.codec import PayloadCodec
 from simbridge.connector.dispatcher import Dispatcher, Task
 from simbridge.connector.fifo import BoundedFifo
 from simbridge.connector.framer import Framer
+from simbridge.connector.goals import GoalRouter
 from simbridge.connector.handles import MessageTap, Publisher, Subscription
 from simbridge.connector.link import Link, open_link
 from simbridge.connector.options import ConnectorOptions
@@ -111,6 +112,8 @@ class ConnectorEngine:
         self._peer_keepalive: float | None = None
         self._extensions: frozenset[str] = frozenset()
         """simbridge protocol extensions the current endpoint announced."""
+        self._goals = GoalRouter()
+        """ROS 2 action goals in flight (the `actions` extension)."""
         self._handshaken = False
         self.handshake: Handshake | None = None
         """The endpoint's latest handshake (version and metadata)."""
@@ -129,6 +132,21 @@ class ConnectorEngine:
     def _send_command(self, command: Command) -> None:
         """Queue a registration frame (caller holds the lock); replayed on reconnect anyway."""
         if self._link is not None:
+            self._out.put_control(self._framer.command(command))
+
+    def _send_extension(self, command: Command, extension: str) -> None:
+        """Queue an extension's command now; ConnectorError when not connected or when the
+        endpoint did not announce `extension` (the original endpoint's connection thread
+        dies on system commands it does not know)."""
+        with self._lock:
+            if self._link is None:
+                raise ConnectorError(f"{command.NAME}: not connected to {self.host}:{self.port}")
+            if extension not in self._extensions:
+                raise ConnectorError(
+                    f"the endpoint at {self.host}:{self.port} does not offer {command.NAME} "
+                    f"(extension {extension!r}; announced extensions: "
+                    f"{sorted(self._extensions) or 'none'})"
+                )
             self._out.put_control(self._framer.command(command))
 
     def _send_call(self, call: PendingCall) -> None:
@@ -239,6 +257,15 @@ class ConnectorEngine:
             call.fail(f"{reason} before {call.service} answered (srv_id {call.srv_id})")
         for waiter in waiters:
             resolve_future(waiter, error=ConnectorError(f"{reason} before the endpoint replied"))
+        lost = functools.partial(
+            self._goals.lost,
+            f"{reason} before the goal ended (the endpoint cancels the goals of a client "
+            "that leaves)",
+        )
+        if self._closing.is_set():
+            lost()
+        else:
+            self._dispatcher.submit(lost)  # after the frames already queued for the goals
 
     def _expire(self, now: float) -> None:
         expired: list[PendingCall] = []
@@ -397,7 +424,12 @@ class ConnectorEngine:
             self._out.put_control(frame)
 
     def _on_command(self, command: Command) -> None:
-        if isinstance(command, Handshake):
+        if self._goals.takes(command):
+            if isinstance(command, ErrorMessage):
+                self._counters.errors_received += 1
+                _log.warning("endpoint: %s", command.text)
+            self._dispatcher.submit(functools.partial(self._goals.handle, command))
+        elif isinstance(command, Handshake):
             self._on_handshake(command)
         elif isinstance(command, ErrorMessage):
             self._counters.errors_received += 1
