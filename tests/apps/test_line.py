@@ -8,8 +8,10 @@ import json
 import threading
 import time
 from collections.abc import Callable
+from pathlib import Path
 
 import pytest
+from PIL import Image
 
 from simbridge.apps.line import (
     ARMS,
@@ -159,3 +161,15 @@ def test_result_counts_only_parts_within_tolerance() -> None:
     assert not result.success
     assert result.realtime_factor == pytest.approx(5.0)
     assert result.to_dict()["delivered"] == 1
+
+
+def test_video_renders_the_run(tmp_path: Path) -> None:
+    path = tmp_path / "line.gif"
+    result = run_line(5, parts=1, video=path, progress=None)
+    assert result.success
+    assert result.video == str(path)
+    with Image.open(path) as gif:
+        frames = gif.n_frames
+        size = gif.size
+    assert frames >= 15 * result.sim_s * 0.9  # 15 frames per sim second, the whole run
+    assert size == (480, 360)

@@ -26,6 +26,9 @@ class LineResult:
     sim_s: float
     wall_s: float
     robots: dict[str, dict[str, Any]]
+    cpu_s: float = 0.0
+    """CPU seconds the process spent (all threads) while the world ran: on a busy machine
+    ``sim_s / cpu_s`` says what the run would reach with a core to itself."""
     seed: int | None = None
     error: str | None = None
     planning_wall_s: float = 0.0
@@ -55,6 +58,7 @@ class LineResult:
             "wall_s": round(self.wall_s, 3),
             "robots": self.robots,
             "realtime_factor": round(self.realtime_factor, 2),
+            "cpu_s": round(self.cpu_s, 3),
             "planning_wall_s": round(self.planning_wall_s, 3),
             "seed": self.seed,
             "error": self.error,

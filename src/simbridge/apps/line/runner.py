@@ -56,6 +56,8 @@ class _SimThread:
         self.error: BaseException | None = None
         self.started = time.perf_counter()
         self.wall_s = 0.0
+        self.cpu_s = 0.0
+        """CPU seconds of the whole process (every thread) while the world ran."""
         self._thread = threading.Thread(target=self._run, name="line-sim", daemon=True)
 
     def _run(self) -> None:
@@ -67,9 +69,10 @@ class _SimThread:
                 )
                 capture = recorder.maybe_capture
                 self.world.add_step_callback(lambda _w: capture())
-            self.started = time.perf_counter()
+            self.started, cpu = time.perf_counter(), time.process_time()
             self.world.run(self.max_sim_s, 0.0)
             self.wall_s = time.perf_counter() - self.started
+            self.cpu_s = time.process_time() - cpu
             if recorder is not None:
                 self.frames = recorder.frame_count
                 recorder.save()
@@ -194,6 +197,7 @@ def run_line(
         cycle_s=(last - first) / len(task.parts) if last is not None else 0.0,
         sim_s=sim_s,
         wall_s=wall_s,
+        cpu_s=sim.cpu_s,
         robots=robots,
         seed=seed,
         error=error,

@@ -1,9 +1,15 @@
-"""The line's supervisor: sequences the cells part by part. It plans while the simulation
-is paused (std_srvs/SetBool on `<services_prefix>/pause`), so planning time never shows as
-idle sim time, and moves robots only through their cells' action goals."""
+"""The line's supervisor: runs the two arm cells side by side and hands parts over on the
+pallet. It plans while the simulation is paused (std_srvs/SetBool on
+`<services_prefix>/pause`), so planning time never shows as idle sim time, and moves robots
+only through their cells' action goals.
+
+Pipelined as a real line is: arm_in picks the next part while arm_out unloads the last one,
+and waits, holding it, until the pallet is back at the load station.
+"""
 
 from __future__ import annotations
 
+import threading
 import time
 from collections.abc import Callable
 from typing import Any
@@ -12,10 +18,48 @@ from simbridge.apps.line.cells import ArmCell, ConveyorCell
 from simbridge.apps.line.planner import ArmPlanner, Transfer, pallet_box, part_box
 from simbridge.apps.line.task import ARM_BASES, CONVEYOR_X, PART_SIZE, TRAVEL_M, LineTask
 from simbridge.endpoint import Node
-from simbridge.errors import AppError
+from simbridge.errors import AppError, SimbridgeError
 from simbridge.planning import BoxObstacle
 
 __all__ = ["LineSupervisor"]
+
+
+class _Pallet:
+    """The pallet's hand-over state, shared by the two cells: which station it waits at and
+    which part (if any) it carries; a failure on either side releases every waiter."""
+
+    def __init__(self) -> None:
+        self._cond = threading.Condition()
+        self.station = "load"
+        self.carrying: int | None = None
+        self.failed = False
+
+    def wait_for(self, station: str, carrying: int | None, timeout: float) -> None:
+        """Block until the pallet waits at ``station`` carrying ``carrying``."""
+        with self._cond:
+            ready = self._cond.wait_for(
+                lambda: self.failed or (self.station == station and self.carrying == carrying),
+                timeout,
+            )
+            if self.failed:
+                raise AppError("the other cell failed")
+            if not ready:
+                raise AppError(
+                    f"the pallet never reached the {station} station with part {carrying} "
+                    f"in {timeout:g} s"
+                )
+
+    def set(self, station: str, carrying: int | None) -> None:
+        """The pallet now waits at ``station`` carrying ``carrying`` (or is moving: "")."""
+        with self._cond:
+            self.station, self.carrying = station, carrying
+            self._cond.notify_all()
+
+    def fail(self) -> None:
+        """Release every waiter with an error."""
+        with self._cond:
+            self.failed = True
+            self._cond.notify_all()
 
 
 class LineSupervisor:
@@ -34,12 +78,14 @@ class LineSupervisor:
         sim_time: Callable[[], float] = lambda: 0.0,
         progress: Callable[[str], None] = lambda _text: None,
         seed: int = 0,
+        handover_timeout_s: float = 120.0,
     ) -> None:
         self.task, self.node = task, node
         self.arm_in, self.arm_out, self.conveyor = arm_in, arm_out, conveyor
         self.pause_service = pause_service
         self.sim_time = sim_time
         self.say = progress
+        self.handover_timeout_s = handover_timeout_s
         self.planners = {
             "arm_in": ArmPlanner(ARM_BASES["arm_in"], seed),
             "arm_out": ArmPlanner(ARM_BASES["arm_out"], seed),
@@ -47,14 +93,26 @@ class LineSupervisor:
         self.planning_wall_s = 0.0
         self.first_goal_at: float | None = None
         self.last_delivery_at: float | None = None
+        self._pallet = _Pallet()
+        self._pause_lock = threading.Lock()
+        self._pausers = 0
+        self._errors: list[str] = []
 
-    def _pause(self, paused: bool) -> None:
-        request = self.node.registry.new(
-            self.node.registry.service("std_srvs/SetBool").request, data=paused
-        )
+    # --- planning, with the simulation paused ----------------------------------------------
+
+    def _set_paused(self, paused: bool) -> None:
+        registry = self.node.registry
+        request = registry.new(registry.service("std_srvs/SetBool").request, data=paused)
         response: Any = self.node.call(self.pause_service, "std_srvs/SetBool", request, timeout=10)
         if not response.success:
             raise AppError(f"{self.pause_service} refused data={paused}: {response.message}")
+
+    def _pause(self, paused: bool) -> None:
+        """Counted: the simulation runs again when the last planner is done."""
+        with self._pause_lock:
+            self._pausers += 1 if paused else -1
+            if self._pausers == (1 if paused else 0):
+                self._set_paused(paused)
 
     def _plan(
         self,
@@ -75,37 +133,51 @@ class LineSupervisor:
         self.say(f"[line] planned {what} in {transfer.planning_time * 1000:.0f} ms")
         return transfer
 
-    def _execute(self, cell: ArmCell, transfer: Transfer, what: str) -> None:
+    # --- the two cells ---------------------------------------------------------------------
+
+    def _pick(self, cell: ArmCell, transfer: Transfer, what: str) -> None:
         cell.follow(transfer.pre_grasp, f"{what}: pre-grasp")
         cell.follow(transfer.grasp, f"{what}: grasp")
         cell.grip(True)
         cell.follow(transfer.pick_up, f"{what}: pick up")
+
+    def _place(self, cell: ArmCell, transfer: Transfer, what: str) -> None:
         cell.follow(transfer.place, f"{what}: place")
         cell.grip(False)
         cell.follow(transfer.retreat, f"{what}: retreat")
 
-    def run(self) -> None:
-        """Move every part; AppError (naming the part and the step) when one step fails."""
-        self.first_goal_at = self.sim_time()
+    def _loading(self) -> None:
+        """arm_in: pick each part, set it on the pallet at the load station, send it off."""
         parts = self.task.parts
+        load = self.task.pallet_slot(0.0)
         for index, part in enumerate(parts):
             waiting = [
                 part_box(f"part_{j}", (p.x, p.y, PART_SIZE / 2))
                 for j, p in enumerate(parts)
                 if j > index
             ]
-            load = self.task.pallet_slot(float(self.conveyor.positions()[0]))
+            what = f"part {index} (arm_in)"
             transfer = self._plan(
-                f"part {index} into the pallet",
+                f"part {index} onto the pallet",
                 "arm_in",
                 (part.x, part.y, PART_SIZE / 2, part.yaw),
                 load,
                 [pallet_box(load[1], CONVEYOR_X), *waiting],
             )
-            self._execute(self.arm_in, transfer, f"part {index} (arm_in)")
+            self._pick(self.arm_in, transfer, what)
+            self._pallet.wait_for("load", None, self.handover_timeout_s)
+            self._place(self.arm_in, transfer, what)
+            self._pallet.set("", index)
             self.conveyor.move_to(-TRAVEL_M, f"part {index} to the unload station")
+            self._pallet.set("unload", index)
+
+    def _unloading(self) -> None:
+        """arm_out: take each part off the pallet, send the pallet back, set the part down."""
+        for index in range(len(self.task.parts)):
+            self._pallet.wait_for("unload", index, self.handover_timeout_s)
             unload = self.task.pallet_slot(float(self.conveyor.positions()[0]))
             delivered = [part_box(f"delivered_{j}", self.task.target(j)) for j in range(index)]
+            what = f"part {index} (arm_out)"
             transfer = self._plan(
                 f"part {index} to output slot {index}",
                 "arm_out",
@@ -113,8 +185,40 @@ class LineSupervisor:
                 self.task.target(index),
                 [pallet_box(unload[1], CONVEYOR_X), *delivered],
             )
-            self._execute(self.arm_out, transfer, f"part {index} (arm_out)")
+            self._pick(self.arm_out, transfer, what)
+            returning: threading.Thread | None = None
+            if index + 1 < len(self.task.parts):  # the pallet goes back while arm_out places
+                self._pallet.set("", None)
+                returning = threading.Thread(target=self._guarded, args=(self._return,))
+                returning.start()
+            self._place(self.arm_out, transfer, what)
             self.last_delivery_at = self.sim_time()
             self.say(f"[line] part {index} set down at t = {self.last_delivery_at:.2f} s")
-            if index + 1 < len(parts):
-                self.conveyor.move_to(0.0, "pallet back to the load station")
+            if returning is not None:
+                returning.join()
+
+    def _return(self) -> None:
+        self.conveyor.move_to(0.0, "pallet back to the load station")
+        self._pallet.set("load", None)
+
+    def _guarded(self, work: Callable[[], None]) -> None:
+        """Run one cell's work on its thread; a failure is kept and stops the other cell."""
+        try:
+            work()
+        except SimbridgeError as exc:
+            self._errors.append(str(exc))
+            self._pallet.fail()
+
+    def run(self) -> None:
+        """Move every part; AppError (naming the part and the step) when one step fails."""
+        self.first_goal_at = self.sim_time()
+        cells = [
+            threading.Thread(target=self._guarded, args=(work,), name=f"line-{name}")
+            for name, work in (("arm_in", self._loading), ("arm_out", self._unloading))
+        ]
+        for cell in cells:
+            cell.start()
+        for cell in cells:
+            cell.join()
+        if self._errors:  # the first failure, not the other cell's reaction to it
+            raise AppError(self._errors[0])
