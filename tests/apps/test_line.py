@@ -169,7 +169,7 @@ def test_video_renders_the_run(tmp_path: Path) -> None:
     assert result.success
     assert result.video == str(path)
     with Image.open(path) as gif:
-        frames = gif.n_frames
+        frames = getattr(gif, "n_frames", 1)
         size = gif.size
     assert frames >= 15 * result.sim_s * 0.9  # 15 frames per sim second, the whole run
     assert size == (480, 360)
