@@ -24,6 +24,9 @@ PACKAGES=(
   python3-actionlib python3-actionlib-msgs
   # headless Chromium opens the live view (`simbridge sim --view`) in tests/sim/test_view.py
   chromium
+  # RViz for ROS 1 (`simbridge rviz`), drawn under Xvfb in tests/e2e/test_rviz.py, which
+  # reads the screenshot from Xvfb's framebuffer file (-fbdir); nothing else is needed
+  rviz xvfb
 )
 
 missing=()

@@ -13,13 +13,13 @@ from collections.abc import Sequence
 
 from simbridge.errors import SimbridgeError
 
-from . import demo, endpoint, graph, msg, planner, record, sim
+from . import demo, endpoint, graph, msg, planner, record, rviz, sim
 
 __all__ = ["build_parser", "main"]
 
 log = logging.getLogger("simbridge")
 
-_GROUPS = (endpoint, graph, msg, sim, demo, planner, record)
+_GROUPS = (endpoint, graph, msg, sim, demo, planner, record, rviz)
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -7,6 +7,8 @@
 from __future__ import annotations
 
 import asyncio
+import json
+import logging
 import threading
 import time
 from collections import deque
@@ -23,12 +25,14 @@ from simbridge.connector.stats import ConnectorStats
 from simbridge.connector.writer import OutTopic
 from simbridge.errors import ConnectorError, ServiceError
 from simbridge.protocol import (
+    MAX_COMMAND_SIZE,
     Command,
     RemovePublisher,
     RemoveRosService,
     RemoveSubscriber,
     RemoveUnityService,
     RosService,
+    SetParam,
     StatsRequest,
     Subscribe,
     TopicListRequest,
@@ -39,6 +43,8 @@ if TYPE_CHECKING:
     from simbridge.messages import MessageRegistry
 
 __all__ = ["Connector"]
+
+_log = logging.getLogger("simbridge.connector")
 
 
 def _check_name(name: str, what: str) -> None:
@@ -302,6 +308,39 @@ class Connector(ConnectorEngine):
         """The endpoint's topics and their types (`__topic_list`)."""
         topics: dict[str, str] = self._ask(TopicListRequest(), self._topic_waiters, timeout)
         return topics
+
+    def set_param(self, name: str, value: Any) -> None:
+        """Set the ROS parameter `name` (e.g. `/robot_description`) through the endpoint's
+        `set_param` extension, now and again after every reconnection (a restarted
+        endpoint or master has forgotten it). An endpoint without the extension (the
+        original one) is never sent it: a warning is logged instead. Failures the endpoint
+        reports are logged as its `__error`s."""
+        _check_name(name, "parameter")
+        if value is None:
+            raise ConnectorError(f"parameter {name!r}: ROS parameters cannot be None")
+        try:
+            size = len(json.dumps(value))
+        except (TypeError, ValueError) as exc:
+            raise ConnectorError(f"parameter {name!r}: value is not JSON ({exc})") from None
+        if size > MAX_COMMAND_SIZE - 1024:
+            raise ConnectorError(
+                f"parameter {name!r}: {size:,} bytes of JSON; a system command holds at most "
+                f"{MAX_COMMAND_SIZE - 1024:,}"
+            )
+        with self._lock:
+            self._params[name] = value
+            if self._link is None:
+                return  # set when the connection is made
+            if "set_param" in self._extensions:
+                self._send_command(SetParam(name, value))
+                return
+        _log.warning(
+            "the endpoint at %s:%d does not offer the set_param extension (the original "
+            "ROS-TCP endpoint has none); parameter %s not set",
+            self.host,
+            self.port,
+            name,
+        )
 
     def endpoint_stats(self, timeout: float | None = None) -> dict[str, Any]:
         """The endpoint's counters for this connection (simbridge `__stats` extension).

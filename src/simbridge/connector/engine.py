@@ -48,6 +48,7 @@ from simbridge.protocol import (
     ServiceFailure,
     ServiceRequestReceived,
     ServiceResponseReceived,
+    SetParam,
     StatsReply,
     Subscribe,
     SubscriberCount,
@@ -96,6 +97,8 @@ class ConnectorEngine:
         object is shared with every publisher."""
         self._ros_services: dict[str, str] = {}
         self._unity_services: dict[str, ServiceImpl] = {}
+        self._params: dict[str, Any] = {}
+        """ROS parameters set through `Connector.set_param`, set again on every connection."""
         self._calls: dict[int, PendingCall] = {}
         self._unsent_calls: list[PendingCall] = []
         self._unreachable: str | None = None
@@ -224,6 +227,16 @@ class ConnectorEngine:
                 frames.append(framer.command(RosService(service, srv_type)))
             for service, impl in self._unity_services.items():
                 frames.append(framer.command(UnityService(service, impl.srv_type)))
+            if self._params and "set_param" in self._extensions:
+                frames.extend(framer.command(SetParam(k, v)) for k, v in self._params.items())
+            elif self._params:
+                _log.warning(
+                    "the endpoint at %s:%d does not offer the set_param extension (the "
+                    "original ROS-TCP endpoint has none); parameters not set: %s",
+                    self.host,
+                    self.port,
+                    ", ".join(sorted(self._params)),
+                )
             for topic, pub in self._publishers.items():
                 last = pub.last_payload
                 if last is not None and self._out.pending(pub.out) == 0:

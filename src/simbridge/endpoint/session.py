@@ -43,6 +43,7 @@ from simbridge.protocol import (
     ServiceFailure,
     ServiceRequestReceived,
     ServiceResponseReceived,
+    SetParam,
     StatsReply,
     StatsRequest,
     Subscribe,
@@ -554,11 +555,28 @@ class ClientSession(asyncio.BufferedProtocol):
                 )
         elif isinstance(command, ActionGoal | ActionCancel | ActionServerQuery):
             self.actions.handle(command)
+        elif isinstance(command, SetParam):
+            if len(self._tasks) >= self.options.max_inflight_calls:
+                raise EndpointError(
+                    f"{shorten(command.name)} not set: {len(self._tasks)} requests already in "
+                    f"flight (limit {self.options.max_inflight_calls}); wait for them first"
+                )
+            self._spawn(self._set_param(command))
         elif isinstance(command, StatsRequest):
             stats = {"session": self.stats.as_dict(), "server": self.server.stats()}
             self._send_control(StatsReply(stats).encode())
         else:
             self.send_error(f"{command.NAME} is not something a client sends")
+
+    async def _set_param(self, command: SetParam) -> None:
+        """`__set_param`: the backend sets it (the ROS 1 master is a round trip away, so
+        this runs as a task); a failure is an `__error` naming the parameter."""
+        try:
+            await self.server.backend.set_param(command.name, command.value)
+        except SimbridgeError as exc:
+            self.send_error(f"__set_param {shorten(command.name)} failed: {exc}")
+            return
+        log.info("client %s set parameter %s", self.peer, shorten(command.name))
 
     # ---- services -----------------------------------------------------------------------
 

@@ -37,6 +37,7 @@ __all__ = [
     "ServiceHeader",
     "ServiceRequestHeader",
     "ServiceResponseHeader",
+    "SetParam",
     "StatsReply",
     "StatsRequest",
     "Subscribe",
@@ -51,7 +52,7 @@ __all__ = [
 ]
 
 PROTOCOL_VERSION = "v0.7.0"
-EXTENSIONS = ("keepalive", "error_srv_id", "stats", "subscribers", "service_error")
+EXTENSIONS = ("keepalive", "error_srv_id", "stats", "subscribers", "service_error", "set_param")
 """simbridge additions an endpoint announces in its handshake metadata (`extensions`)."""
 DEFAULT_SUBSCRIBE_QUEUE = 100
 """Per-client send queue bound for a subscription that names none (simbridge extension)."""
@@ -517,6 +518,29 @@ class ServiceFailure(Command):
 
 
 @dataclass(frozen=True, slots=True)
+class SetParam(Command):
+    """simbridge extension: set the ROS parameter `name` to `value` (any JSON value but
+    null), e.g. the sim's `/robot_description`. Failures come back as an `__error`."""
+
+    NAME: ClassVar[str] = "__set_param"
+    name: str
+    value: Any
+
+    def to_json(self) -> dict[str, Any]:
+        return {"name": self.name, "value": self.value}
+
+    @classmethod
+    def from_json(cls, obj: dict[str, Any]) -> Command:
+        name = _get_name(cls.NAME, obj, "name")
+        if "value" not in obj or obj["value"] is None:
+            raise ProtocolError(
+                f"{cls.NAME}: parameter {shorten(name)} has no 'value'; expected a string, "
+                "number, boolean, list or object (ROS parameters cannot be null)"
+            )
+        return cls(name, obj["value"])
+
+
+@dataclass(frozen=True, slots=True)
 class StatsRequest(Command):
     """simbridge extension: ask the endpoint for this connection's counters."""
 
@@ -559,6 +583,7 @@ ClientCommand = (
     | TopicListRequest
     | StatsRequest
     | ServiceFailure
+    | SetParam
 )
 EndpointCommand = (
     Handshake

@@ -11,7 +11,7 @@ from __future__ import annotations
 import abc
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 from simbridge.errors import EndpointError
 
@@ -121,6 +121,11 @@ class Backend(abc.ABC):
     def stats(self) -> dict[str, int]:
         """Backend counters for `__stats` (e.g. failed publishes); none by default."""
         return {}
+
+    async def set_param(self, name: str, value: Any) -> None:
+        """Set the graph parameter `name` (`__set_param`); EndpointError where the graph
+        has no such parameter (the default)."""
+        raise EndpointError(f"the {self.name} backend cannot set parameters ({name!r})")
 
     @abc.abstractmethod
     def advertise(

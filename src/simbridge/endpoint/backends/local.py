@@ -14,7 +14,7 @@ import itertools
 import logging
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Any, Literal
 
 from simbridge.endpoint.backends.base import (
     Backend,
@@ -30,6 +30,9 @@ from simbridge.errors import EndpointError, ServiceError
 __all__ = ["LocalBus"]
 
 log = logging.getLogger("simbridge.endpoint.local")
+
+MAX_PARAMS = 10_000
+"""Parameters the bus holds at most; setting a new one past this is refused."""
 
 
 @dataclass(slots=True)
@@ -135,6 +138,7 @@ class LocalBus(Backend):
         self._topics: dict[str, _Topic] = {}
         self._services: dict[str, _Service] = {}
         self._ids = itertools.count(1)
+        self._params: dict[str, Any] = {}
         self.loop: asyncio.AbstractEventLoop | None = None
 
     async def start(self) -> None:
@@ -201,6 +205,18 @@ class LocalBus(Backend):
 
     def topics(self) -> list[TopicInfo]:
         return [TopicInfo(name, state.msg_type) for name, state in sorted(self._topics.items())]
+
+    async def set_param(self, name: str, value: Any) -> None:
+        """Keep `value` as parameter `name` (a plain dict: the bus has no master)."""
+        if name not in self._params and len(self._params) >= MAX_PARAMS:
+            raise EndpointError(
+                f"parameter {name!r} not set: the bus holds {MAX_PARAMS} parameters (the limit)"
+            )
+        self._params[name] = value
+
+    def get_param(self, name: str, default: Any = None) -> Any:
+        """Parameter `name` as last set by a client, or `default`."""
+        return self._params.get(name, default)
 
     def services(self) -> dict[str, str]:
         """Every offered service and its type."""

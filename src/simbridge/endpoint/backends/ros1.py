@@ -210,6 +210,17 @@ class Ros1Backend(Backend):
         _log.info("serving %s [%s] for the sim", service, srv_type)
         return server
 
+    async def set_param(self, name: str, value: Any) -> None:
+        """`rospy.set_param` on the master's parameter server (in a worker thread: it is an
+        XML-RPC call). A master that restarts forgets it, as it forgets every parameter."""
+        loop = self._started()
+        _check_name(name, "parameter")
+        try:
+            await loop.run_in_executor(self._executor, rospy.set_param, name, value)
+        except Exception as exc:  # XML-RPC faults, OverflowError (ints past 32 bits), OSError
+            raise EndpointError(f"cannot set parameter {name!r}: {exc}") from exc
+        _log.info("set parameter %s for the sim", rospy.resolve_name(name))
+
     def topics(self) -> list[TopicInfo]:
         """The topics that have a publisher or a subscriber now, with their types, by name.
 

@@ -135,6 +135,8 @@ class Ros2Backend(Backend):
         self._executor: Any = None
         self._thread: threading.Thread | None = None
         self._clients: dict[tuple[str, str], Any] = {}
+        self._descriptions: dict[str, Ros2Publisher] = {}
+        """`__set_param` of `*/robot_description`: its latched topic's publisher."""
         self._live: set[_Entity] = set()
         self._inbox: deque[tuple[Callable[[bytes], None], bytes]] = deque()
         self._inbox_scheduled = False
@@ -263,6 +265,33 @@ class Ros2Backend(Backend):
         )
         _log.info("subscribed to %s [%s] for the sim", topic, msg_type)
         return subscription
+
+    async def set_param(self, name: str, value: Any) -> None:
+        """ROS 2 has no parameter server. By its convention (robot_state_publisher's) a
+        robot description is a transient-local std_msgs/String topic, so
+        `<ns>/robot_description` is published there; other parameters are refused."""
+        loop = self._started()
+        if name.rstrip("/").rsplit("/", 1)[-1] != "robot_description":
+            raise EndpointError(
+                f"cannot set parameter {name!r}: ROS 2 has no global parameter server (node "
+                "parameters belong to their nodes); the ros2 backend publishes only "
+                "*/robot_description, as a transient-local std_msgs/String topic"
+            )
+        if not isinstance(value, str):
+            kind = type(value).__name__
+            raise EndpointError(f"{name!r} must be a string (URDF text), got {kind}")
+        publisher = self._descriptions.get(name)
+        if publisher is None or publisher.closed:
+            cls = self._types.message("std_msgs/String")
+            qos = QoSProfile(
+                history=HistoryPolicy.KEEP_LAST,
+                depth=1,
+                reliability=ReliabilityPolicy.RELIABLE,
+                durability=DurabilityPolicy.TRANSIENT_LOCAL,
+            )
+            publisher = self._descriptions[name] = Ros2Publisher(self, name, cls, qos, loop)
+        publisher.publish(serialize_message(publisher.msg_class(data=value)))
+        _log.info("published %s (std_msgs/String, transient local) for the sim", publisher.topic)
 
     def _adapted_qos(self, topic: str) -> QoSProfile:
         """Reliable unless a publisher is best effort; transient local if all publishers are
@@ -455,6 +484,7 @@ class Ros2Publisher(_Entity, BackendPublisher):
         except Exception as exc:
             raise EndpointError(f"cannot advertise {topic!r}: {exc}") from exc
         self.topic: str = self._publisher.topic_name
+        self.msg_class = cls
         super().__init__(backend)
 
     def publish(self, payload: bytes) -> None:

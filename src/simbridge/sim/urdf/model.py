@@ -221,6 +221,8 @@ class Robot:
     materials: dict[str, Material] = field(default_factory=dict)
     source: Path | None = None
     warnings: tuple[str, ...] = ()
+    xml: str = field(default="", repr=False, compare=False)
+    """The URDF text parsed (xacro already expanded): what `robot_description` starts from."""
 
     def child_joints(self, link: str) -> list[Joint]:
         """Joints whose parent is `link`, in document order."""

@@ -432,7 +432,7 @@ def parse_urdf(
         raise UrdfError(
             f"{tree.at(root)}more than one root link: {', '.join(roots)} (connect them with joints)"
         )
-    robot = Robot(robot_name, links, joints, roots[0], parser.materials, source, ())
+    robot = Robot(robot_name, links, joints, roots[0], parser.materials, source, (), text)
     reached = set(robot.links_depth_first())
     unreached = [name for name in links if name not in reached]
     if unreached:
