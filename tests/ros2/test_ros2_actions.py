@@ -315,3 +315,23 @@ def test_connector_close_cancels_its_goals(endpoint: tuple[Ros2Process, int]) ->
         assert goal.status == LOST
         assert "connector closed" in goal.text
         assert srv.expect_json("canceled", timeout=20) == 70
+
+
+def test_server_that_leaves_mid_goal_ends_it_with_an_error(ros: Connector) -> None:
+    action = unique_action()
+    srv = server(action, 0.2)
+    try:
+        client = Ros2ActionClient(ros, action, FIB)
+        assert client.wait_for_server(30)
+        running = threading.Event()
+        goal = client.send_goal(
+            REG.new("test_msgs/FibonacciGoal", order=80), on_feedback=lambda _f: running.set()
+        )
+        assert running.wait(30)
+    finally:
+        srv.stop()
+    left = time.monotonic()
+    assert goal.wait(30)
+    assert time.monotonic() - left < 20  # discovery_wait (5 s) after the server is gone
+    assert goal.status == LOST
+    assert "left the graph" in goal.text

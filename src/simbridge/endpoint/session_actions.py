@@ -37,6 +37,9 @@ log = logging.getLogger("simbridge.endpoint")
 
 ActionCommand = ActionGoal | ActionCancel | ActionServerQuery
 
+_MAX_QUERIES = 100
+"""`__action_server` queries one client may have waiting for the backend at once."""
+
 
 @dataclass(slots=True)
 class _Goal:
@@ -64,6 +67,12 @@ class SessionActions:
             self._start(command)
         elif isinstance(command, ActionCancel):
             self._cancel(command.goal_id)
+        elif len(self._queries) >= _MAX_QUERIES:
+            self._session.send_error(
+                f"__action_server for {shorten(command.action)} refused: {_MAX_QUERIES} "
+                "queries already waiting for an answer"
+            )
+            self._session._send_control(ActionServerReply(command.action, False).encode())
         else:
             self._spawn(self._queries, self._query(command))
 
@@ -125,7 +134,7 @@ class SessionActions:
                     command.action,
                     command.action_type,
                     command.goal,
-                    on_feedback=lambda data: send(ActionFeedback(goal_id, data).encode()),
+                    on_feedback=lambda data: self._feedback(goal_id, data),
                     on_status=lambda status: send(ActionStatus(goal_id, status).encode()),
                     timeout=session.options.service_timeout,
                 )
@@ -139,7 +148,13 @@ class SessionActions:
             goal.backend_goal = accepted
             if goal.cancel_requested:
                 self._spawn(goal.helpers, self._request_cancel(goal, accepted))
-            status, result = await accepted.result()
+            try:
+                status, result = await accepted.result()
+            except SimbridgeError as exc:
+                session.send_error(
+                    f"{self._describe(command)} ended without a result: {exc}", goal_id=goal_id
+                )
+                return
             send(ActionResult(goal_id, status, result).encode())
         except asyncio.CancelledError:
             raise
@@ -154,6 +169,16 @@ class SessionActions:
                 del self._goals[goal_id]
                 for task in goal.helpers:
                     task.cancel()
+
+    def _feedback(self, goal_id: int, data: bytes) -> None:
+        """Feedback is a sample, not a record: dropped (counted) while the client is not
+        reading, so a fast server cannot fill the control backlog that would end the
+        connection."""
+        session = self._session
+        if session._paused:
+            session.stats.feedback_dropped += 1
+            return
+        session._send_control(ActionFeedback(goal_id, data).encode())
 
     def _cancel(self, goal_id: int) -> None:
         goal = self._goals.get(goal_id)

@@ -23,6 +23,8 @@ class SessionStats:
     goals_refused: int = 0
     """Of those, goals that ended without a result: refused by the endpoint (limit, unknown
     type, no server) or rejected by the action server."""
+    feedback_dropped: int = 0
+    """Action feedback messages dropped while the client was not reading."""
     dropped: Counter[str] = field(default_factory=Counter)
     """Messages dropped per topic because the client fell behind its queue_size."""
 
@@ -36,6 +38,7 @@ class SessionStats:
             "errors_sent": self.errors_sent,
             "goals_sent": self.goals_sent,
             "goals_refused": self.goals_refused,
+            "feedback_dropped": self.feedback_dropped,
             "dropped": dict(self.dropped),
             "dropped_total": sum(self.dropped.values()),
         }

@@ -21,7 +21,14 @@ from rclpy.serialization import deserialize_message, serialize_message
 
 from simbridge.endpoint.backends.base import BackendActionGoal, MessageCallback
 from simbridge.errors import EndpointError
-from simbridge.protocol import STATUS_ACCEPTED, STATUS_CANCELING, STATUS_EXECUTING
+from simbridge.protocol import (
+    STATUS_ABORTED,
+    STATUS_ACCEPTED,
+    STATUS_CANCELED,
+    STATUS_CANCELING,
+    STATUS_EXECUTING,
+    STATUS_SUCCEEDED,
+)
 
 if TYPE_CHECKING:
     from simbridge.endpoint.backends.ros2 import Ros2Backend
@@ -35,6 +42,9 @@ MAX_ACTION_CLIENTS = 256
 """Distinct (action, type) pairs the endpoint keeps an ActionClient for; more are refused."""
 
 _RUNNING = (STATUS_EXECUTING, STATUS_CANCELING)
+_ENDED = (STATUS_SUCCEEDED, STATUS_CANCELED, STATUS_ABORTED)
+_SERVER_CHECK = 1.0
+"""How often a goal waiting for its result checks that its server is still there (s)."""
 _EARLY_FEEDBACK = 100
 """Feedback messages kept while a goal's acceptance is on its way (the oldest dropped)."""
 
@@ -153,7 +163,14 @@ class Ros2Actions:
                     f"(none found within {wait:g} s)"
                 )
             await asyncio.sleep(0.01)
-        sent = _Ros2Goal(self, client, on_feedback=on_feedback, on_status=on_status)
+        sent = _Ros2Goal(
+            self,
+            client,
+            action,
+            on_feedback=on_feedback,
+            on_status=on_status,
+            lost_after=discovery_wait,
+        )
         accepted = sent.start(decoded)
         try:
             ok = await asyncio.wait_for(asyncio.shield(accepted), timeout)
@@ -194,11 +211,15 @@ class _Ros2Goal(BackendActionGoal):
         self,
         actions: Ros2Actions,
         client: Any,
+        action: str,
         *,
         on_feedback: MessageCallback,
         on_status: Callable[[int], None],
+        lost_after: float,
     ) -> None:
         self._actions = actions
+        self._action = action
+        self._lost_after = lost_after
         self._client = client
         self._loop = actions._backend._started()
         self._on_feedback = on_feedback
@@ -212,6 +233,8 @@ class _Ros2Goal(BackendActionGoal):
         self._r_answered = False
         self._r_reported = STATUS_ACCEPTED
         self._r_latest = 0
+        self.ended = False
+        """Set (on the rclpy thread) once the status topic reports the goal over."""
         self._r_early: deque[Any] = deque(maxlen=_EARLY_FEEDBACK)
         """Feedback that came before the server's acceptance was handled (kept in order)."""
 
@@ -227,7 +250,34 @@ class _Ros2Goal(BackendActionGoal):
             self._accepted.set_exception(EndpointError(f"cannot send the goal: {done.exception()}"))
 
     async def result(self) -> tuple[int, bytes]:
-        return await self._result
+        """The result; EndpointError when the server left the graph (not seen for
+        `discovery_wait`) without sending it, so a dead server never leaves a goal hanging."""
+        missing_since: float | None = None
+        ended_checks = 0
+        while True:
+            try:
+                return await asyncio.wait_for(asyncio.shield(self._result), _SERVER_CHECK)
+            except TimeoutError:
+                pass
+            if self.ended:
+                # The status topic says the goal is over but no result came: the answer to
+                # the result request was lost (a DDS service response can be, while its reader
+                # is still being matched). Asking again is harmless.
+                ended_checks += 1
+                if ended_checks >= 2:
+                    ended_checks = 0
+                    self._actions.on_rclpy(self._r_ask_result)
+            now = time.monotonic()
+            if self._client.server_is_ready():
+                missing_since = None
+            elif missing_since is None:
+                missing_since = now
+            elif now - missing_since >= self._lost_after:
+                self.abandon()
+                raise EndpointError(
+                    f"the action server of {self._action!r} left the graph "
+                    f"(not seen for {self._lost_after:g} s) before sending the result"
+                )
 
     async def cancel(self) -> bool:
         answer: asyncio.Future[bool] = self._loop.create_future()
@@ -301,7 +351,7 @@ class _Ros2Goal(BackendActionGoal):
         self._r_early.clear()
         if self._r_latest in _RUNNING:
             self.status_seen(self._r_latest)
-        handle.get_result_async().add_done_callback(self._r_result)
+        self._r_ask_result()
         if self._r_abandoned:
             handle.cancel_goal_async()
 
@@ -317,9 +367,15 @@ class _Ros2Goal(BackendActionGoal):
     def status_seen(self, status: int) -> None:
         """A status for this goal from the status topic (rclpy thread)."""
         self._r_latest = status
+        if status in _ENDED:
+            self.ended = True
         if self._r_answered and status in _RUNNING and status != self._r_reported:
             self._r_reported = status
             self._post(self._deliver, self._on_status, status)
+
+    def _r_ask_result(self) -> None:
+        if self._r_handle is not None:
+            self._r_handle.get_result_async().add_done_callback(self._r_result)
 
     def _r_result(self, future: Any) -> None:
         self._actions.goals.pop(self._r_uuid, None)
