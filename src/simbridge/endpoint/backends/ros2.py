@@ -9,9 +9,10 @@ results (the `actions` extension, in ros2_actions).
 rclpy runs one SingleThreadedExecutor on a thread of its own. Publishers,
 subscriptions and clients are created from the endpoint's event loop (rclpy
 allows that with this executor; its EventsExecutor does not, and it cannot run
-the coroutine service callbacks a sim-implemented service needs). Callbacks hop
-back to the event loop with `call_soon_threadsafe`. The process's ROS 2 settings
-(domain, discovery range, the Fast DDS profile) come from ros2_env and are logged.
+the coroutine service callbacks a sim-implemented service needs). Messages hop
+back to the event loop in batches, one `call_soon_threadsafe` per burst. The
+process's ROS 2 settings (domain, discovery range, the Fast DDS profile) come from
+ros2_env and are logged; large buffers stay in the heap (malloc_tuning).
 """
 
 from __future__ import annotations
@@ -42,6 +43,7 @@ from simbridge.endpoint.backends.base import (
     ServiceHandler,
     TopicInfo,
 )
+from simbridge.endpoint.backends.malloc_tuning import keep_large_buffers
 from simbridge.endpoint.backends.ros2_actions import Ros2Actions
 from simbridge.endpoint.backends.ros2_env import apply_ros2_env
 from simbridge.endpoint.backends.ros2_types import Ros2Types, tcp_type_name
@@ -138,7 +140,7 @@ class Ros2Backend(Backend):
         self._descriptions: dict[str, Ros2Publisher] = {}
         """`__set_param` of `*/robot_description`: its latched topic's publisher."""
         self._live: set[_Entity] = set()
-        self._inbox: deque[tuple[Callable[[bytes], None], bytes]] = deque()
+        self._inbox: deque[tuple[Callable[[list[bytes]], None], list[bytes]]] = deque()
         self._inbox_scheduled = False
         self.settings: dict[str, str] = {}
         self.counters: dict[str, int] = {"publish_errors": 0, "service_failures": 0}
@@ -160,6 +162,7 @@ class Ros2Backend(Backend):
             return
         opts = self._options
         self.settings = apply_ros2_env(domain_id=opts.domain_id)
+        keep_large_buffers()  # images: reuse heap buffers, no page faults per copy
         context = rclpy.Context()
         args = ["simbridge", "--ros-args", *opts.ros_args] if opts.ros_args else None
         try:
@@ -219,10 +222,10 @@ class Ros2Backend(Backend):
     def stats(self) -> dict[str, int]:
         return dict(self.counters)
 
-    def _post(self, deliver: Callable[[bytes], None], payload: bytes) -> None:
-        """From the rclpy thread: queue a message for the event loop, waking it only when
-        no drain is pending (one wake-up per burst, not per message)."""
-        self._inbox.append((deliver, payload))
+    def _post(self, deliver: Callable[[list[bytes]], None], batch: list[bytes]) -> None:
+        """From the rclpy thread: queue a batch of messages for the event loop, waking it
+        only when no drain is pending (one wake-up per burst, not per message)."""
+        self._inbox.append((deliver, batch))
         if not self._inbox_scheduled and self._loop is not None:
             self._inbox_scheduled = True
             _call_soon(self._loop, self._drain)
@@ -233,8 +236,8 @@ class Ros2Backend(Backend):
         self._inbox_scheduled = False
         inbox = self._inbox
         while inbox:
-            deliver, payload = inbox.popleft()
-            deliver(payload)
+            deliver, batch = inbox.popleft()
+            deliver(batch)
 
     # ---- topics ----------------------------------------------------------------------
 
@@ -560,23 +563,28 @@ class _Ros2Subscription(_Entity, BackendSubscription):
 
     def _on_message(self, payload: bytes) -> None:
         """Runs on the rclpy thread. Also takes what else is waiting (up to _TAKE_BURST):
-        the executor would otherwise rebuild its wait set for every message of a burst."""
-        post, deliver = self._backend._post, self._deliver
-        post(deliver, payload)
+        the executor would otherwise rebuild its wait set for every message of a burst.
+        The event loop gets the burst as one batch."""
+        batch = [payload]
         handle = self._subscription.handle
         try:
             with handle:
+                take, cls, append = handle.take_message, self._cls, batch.append
                 for _ in range(_TAKE_BURST):
-                    taken = handle.take_message(self._cls, True)
+                    taken = take(cls, True)
                     if taken is None:
-                        return
-                    post(deliver, taken[0])
-        except Exception:  # destroyed meanwhile: the executor's next take will say so
-            return
+                        break
+                    append(taken[0])
+        except Exception as exc:  # destroyed meanwhile: the executor's next take will say so
+            _log.debug("taking from %s: %s", self.topic, exc)
+        self._backend._post(self._deliver, batch)
 
-    def _deliver(self, payload: bytes) -> None:
-        if not self.closed:
-            self._callback(payload)
+    def _deliver(self, batch: list[bytes]) -> None:
+        callback = self._callback
+        for payload in batch:
+            if self.closed:
+                return
+            callback(payload)
 
     def _destroy(self) -> None:
         self._backend.node.destroy_subscription(self._subscription)
