@@ -43,6 +43,10 @@ MAX_ACTION_CLIENTS = 256
 
 _RUNNING = (STATUS_EXECUTING, STATUS_CANCELING)
 _ENDED = (STATUS_SUCCEEDED, STATUS_CANCELED, STATUS_ABORTED)
+_SETTLE = 0.5
+"""How long after first seeing a server the first goal waits. We see the server when our
+side matched; its response writer matches our reader on the server's own schedule, and
+rmw_fastrtps drops a response whose reader is not matched within 100 ms."""
 _SERVER_CHECK = 1.0
 """How often a goal waiting for its result checks that its server is still there (s)."""
 _EARLY_FEEDBACK = 100
@@ -80,6 +84,8 @@ class Ros2Actions:
         self._clients: dict[tuple[str, str], tuple[Any, Any]] = {}
         """(action, type) -> (ActionClient, action class); touched on the event loop only."""
         self.goals: dict[bytes, _Ros2Goal] = {}
+        self._ready_since: dict[int, float] = {}
+        """When each ActionClient (by id) first saw its server, for the settle time."""
         """Goals by UUID, for status reports; touched on the rclpy thread only."""
 
     def on_rclpy(self, fn: Callable[[], _T]) -> asyncio.Future[_T]:
@@ -135,7 +141,15 @@ class Ros2Actions:
     async def server_ready(self, action: str, action_type: str) -> bool:
         """Whether an action server for `action` is discovered now."""
         client, _cls = await self.client(action, action_type)
-        return bool(client.server_is_ready())
+        return self._ready(client)
+
+    def _ready(self, client: Any) -> bool:
+        """`server_is_ready`, remembering when each client first saw its server."""
+        if not client.server_is_ready():
+            self._ready_since.pop(id(client), None)
+            return False
+        self._ready_since.setdefault(id(client), time.monotonic())
+        return True
 
     async def send_goal(
         self,
@@ -156,13 +170,16 @@ class Ros2Actions:
             raise EndpointError(f"the goal is not a CDR {action_type} goal: {exc}") from exc
         wait = min(timeout, discovery_wait)
         deadline = time.monotonic() + wait
-        while not client.server_is_ready():
+        while not self._ready(client):
             if time.monotonic() >= deadline:
                 raise EndpointError(
                     f"no ROS 2 action server for {action!r} [{action_type}] "
                     f"(none found within {wait:g} s)"
                 )
             await asyncio.sleep(0.01)
+        settle = self._ready_since[id(client)] + _SETTLE - time.monotonic()
+        if settle > 0:
+            await asyncio.sleep(settle)
         sent = _Ros2Goal(
             self,
             client,
@@ -196,6 +213,7 @@ class Ros2Actions:
         """Destroy every action client (before the node goes)."""
         clients = [client for client, _cls in self._clients.values()]
         self._clients.clear()
+        self._ready_since.clear()
         for client in clients:
             try:
                 await asyncio.wait_for(self.on_rclpy(client.destroy), 2.0)
