@@ -101,3 +101,40 @@ def test_cli_writes_a_config(tmp_path: Path, capsys: pytest.CaptureFixture[str])
     assert f"rviz -d {out}" in capsys.readouterr().out
     assert main(["rviz", str(tmp_path / "missing.yaml")]) == 2
     assert "neither a demo" in capsys.readouterr().err
+
+
+def test_pick_and_place_demo_feeds_rviz(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The demo sets the arm's description and publishes its joints and TF (what the
+    shipped config shows), on the bus like on any graph."""
+    from simbridge.apps.pick_and_place import run_pick_and_place, runner
+    from simbridge.endpoint import LocalBus
+
+    buses: list[LocalBus] = []
+    published: dict[str, int] = {}
+
+    class WatchedBus(LocalBus):
+        def __init__(self) -> None:
+            super().__init__()
+            buses.append(self)
+
+        def advertise(self, topic: str, msg_type: str, *, queue_size: int, latch: bool):  # type: ignore[no-untyped-def]
+            publisher = super().advertise(topic, msg_type, queue_size=queue_size, latch=latch)
+            publish = publisher.publish
+
+            def counted(payload: bytes) -> None:
+                published[topic] = published.get(topic, 0) + 1
+                publish(payload)
+
+            publisher.publish = counted  # type: ignore[method-assign]
+            return publisher
+
+    monkeypatch.setattr(runner, "LocalBus", WatchedBus)
+    result = run_pick_and_place("local", progress=None)
+    assert result.success
+    description = buses[0].get_param("/robot_description")
+    assert '<robot name="niryo_one">' in description
+    assert published["/tf_static"] == 1
+    # 50 Hz of the run's sim time, give or take the last period
+    assert published["/tf"] >= 50 * result.sim_time - 2
+    assert published["/joint_states"] >= 50 * result.sim_time - 2
+    assert "/clock" not in published

@@ -25,6 +25,9 @@ from simbridge.connector import Connector, ConnectorOptions
 from simbridge.endpoint import EndpointOptions, EndpointThread, LocalBus, make_backend
 from simbridge.endpoint.backends.ros1_master import unique_node_name
 from simbridge.errors import AppError, SimbridgeError
+from simbridge.sim.ros.publishers import StatePublisher
+from simbridge.sim.ros.session import description_params
+from simbridge.sim.scene.model import RosSettings
 
 __all__ = ["BACKENDS", "main", "run_pick_and_place"]
 
@@ -83,6 +86,12 @@ def run_pick_and_place(
             say(f"[pick-and-place] endpoint on port {endpoint.port} (ros1 backend)")
         connector = Connector("127.0.0.1", endpoint.port, ConnectorOptions(reconnect_initial=0.2))
         stack.enter_context(connector.connect())
+        # What RViz shows (`simbridge rviz pick-and-place`): the arm's model, joints and TF.
+        for name, description in description_params(world).items():
+            connector.set_param(name, description)
+        state = StatePublisher(world, connector, RosSettings(clock=False))
+        state.start()
+        stack.callback(state.close)
         sim = PickAndPlaceSim(
             world, connector, task, backend=backend, seed=seed, options=options, progress=say,
             recorder=recorder,
