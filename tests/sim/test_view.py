@@ -3,11 +3,6 @@ Chromium drawing the robot, and the page's pause control stopping the sim clock.
 
 from __future__ import annotations
 
-import contextlib
-import os
-import shutil
-import signal
-import subprocess
 import threading
 import time
 from collections.abc import Iterator
@@ -16,11 +11,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
-from PIL import Image
 
 from simbridge.sim.scene import load_scene
 from simbridge.sim.view import LiveView, ViewOptions, visual_shapes
 from simbridge.sim.world import World
+from tests.sim.browser import CHROMIUM, screenshot_until
 
 pytest.importorskip("viser")
 
@@ -100,64 +95,19 @@ def test_pause_in_the_page_stops_the_sim_clock(running: tuple[World, LiveView]) 
     assert view.frames_sent > 10, "poses keep streaming"
 
 
-CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
-
-
-def _screenshot(command: list[str]) -> None:
-    """Run headless Chromium in its own process group, killed whole if it hangs (its
-    helper processes included)."""
-    proc = subprocess.Popen(
-        command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True
-    )
-    try:
-        proc.wait(timeout=150)
-    except subprocess.TimeoutExpired:
-        pass
-    finally:
-        with contextlib.suppress(ProcessLookupError):
-            os.killpg(proc.pid, signal.SIGKILL)  # helpers left behind, or a hung browser
-        proc.wait()
-
-
 @pytest.mark.skipif(CHROMIUM is None, reason="Debian's chromium is not installed")
 def test_headless_chromium_draws_the_robot(running: tuple[World, LiveView], tmp_path: Path) -> None:
     _, view = running
-    assert CHROMIUM is not None
-    shot = tmp_path / "view.png"
-    red = np.zeros((1, 1), dtype=bool)
-    for attempt in range(3):  # the page may be shot before its websocket delivered the scene
-        shot.unlink(missing_ok=True)
-        _screenshot(
-            [
-                CHROMIUM,
-                "--headless",
-                "--no-sandbox",
-                "--disable-gpu",
-                "--disable-background-networking",
-                "--disable-component-update",
-                "--disable-sync",
-                "--no-first-run",
-                f"--user-data-dir={tmp_path / f'chrome{attempt}'}",
-                "--enable-unsafe-swiftshader",  # WebGL in software (no GPU in CI)
-                "--use-angle=swiftshader",
-                "--window-size=900,700",
-                "--virtual-time-budget=8000",
-                f"--screenshot={shot}",
-                view.url,
-            ]
-        )
-        assert shot.is_file(), "chromium wrote no screenshot"
-        pixels = np.asarray(Image.open(shot).convert("RGB")).astype(int)
+
+    def robot_red(pixels: np.ndarray) -> np.ndarray:
         r, g, b = pixels[..., 0], pixels[..., 1], pixels[..., 2]
         # the robot's own red, not the pale red of the page still loading
-        red = (r > 120) & (g < 0.45 * r) & (b < 0.45 * r)
-        if red.sum() > 500:
-            break
+        return (r > 120) & (g < 0.45 * r) & (b < 0.45 * r)
+
+    pixels = screenshot_until(view.url, tmp_path, lambda p: robot_red(p).sum() > 500)
+    red = robot_red(pixels)
     assert red.sum() > 500, f"only {red.sum()} red pixels: the robot is not drawn"
     rows, cols = np.nonzero(red)
     # the camera looks at the robot: it is drawn around the middle of the page
     assert 0.2 * pixels.shape[1] < cols.mean() < 0.8 * pixels.shape[1]
     assert 0.15 * pixels.shape[0] < rows.mean() < 0.85 * pixels.shape[0]
-    keep = os.environ.get("SIMBRIDGE_SCREENSHOT_DIR")
-    if keep:
-        shutil.copy(shot, Path(keep) / "view.png")

@@ -14,6 +14,13 @@ def run_demo(args: argparse.Namespace) -> int:
     if args.backend == "ros2":
         reexec_in_ros2_venv()
     if args.name == "bridge":
+        if args.view or args.record:
+            print(
+                "simbridge demo bridge: --view and --record need a simulation; the bridge demo "
+                "has none (use pick-and-place, mobile-robot or line)",
+                file=sys.stderr,
+            )
+            return 2
         from simbridge.apps.bridge_demo import run_bridge_demo
 
         return 0 if run_bridge_demo(backend=args.backend) else 1
@@ -38,6 +45,12 @@ def run_demo(args: argparse.Namespace) -> int:
         forwarded += ["--video", args.video]
     if args.seed is not None:
         forwarded += ["--seed", str(args.seed)]
+    if args.realtime is not None:
+        forwarded += ["--realtime", str(args.realtime)]
+    if args.record:
+        forwarded += ["--record", args.record]
+    if args.view:
+        forwarded += ["--view", "--view-port", str(args.view_port)]
     return pick_and_place_main(forwarded)
 
 
@@ -102,18 +115,20 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     demo.add_argument(
         "--realtime",
         type=float,
-        default=0.0,
-        help="mobile-robot: pace at this real-time factor (0 = flat out)",
+        default=None,
+        help="mobile-robot and pick-and-place: pace at this real-time factor (0 = flat out; "
+        "default 0, pick-and-place with --view 1)",
     )
     demo.add_argument(
         "--record",
         metavar="FILE",
-        help="mobile-robot, line: record every sim topic (.mcap or .bag)",
+        help="mobile-robot, line, pick-and-place: record every sim topic (.mcap or .bag)",
     )
     demo.add_argument(
         "--view",
         action="store_true",
-        help="mobile-robot, line: live 3D view in the browser (viser)",
+        help="mobile-robot, line, pick-and-place: live 3D view in the browser (viser); "
+        "pick-and-place keeps serving with a 'run again' button until Ctrl-C",
     )
     demo.add_argument("--view-port", type=int, default=8080, help="live view port (default 8080)")
     demo.set_defaults(func=run_demo)

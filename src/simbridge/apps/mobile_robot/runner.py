@@ -126,9 +126,12 @@ def run_mobile_robot(
         )
         stack.enter_context(session)
         world = session.world
-        if view is not None:
-            say(f"[mobile-robot] live view at {stack.enter_context(LiveView(world, view)).url}")
         bridge, sensors = session.bridge, session.sensors
+        if view is not None:
+            live = stack.enter_context(LiveView(world, view))
+            if sensors is not None:
+                sensors.add_observer(live.watch_sensors(sensors.suite))
+            say(f"[mobile-robot] live view at {live.url}")
         if bridge is None or bridge.diff_drive is None or sensors is None:
             raise AppError(f"scene {scene} needs ros.diff_drive and sensors (odometry at least)")
         config = bridge.diff_drive.config

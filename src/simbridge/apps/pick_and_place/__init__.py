@@ -7,6 +7,7 @@ joint drives and grips the cube by contact. `run_pick_and_place` runs the whole 
 
 from __future__ import annotations
 
+from simbridge.apps.pick_and_place.demo import AGAIN_LABEL, PickAndPlaceDemo
 from simbridge.apps.pick_and_place.planner_node import (
     PLANNER_SERVICE,
     SERVICE_TYPE,
@@ -21,6 +22,7 @@ from simbridge.apps.pick_and_place.sim_side import ExecutionOptions, PickAndPlac
 from simbridge.apps.pick_and_place.task import PickAndPlaceTask
 
 __all__ = [
+    "AGAIN_LABEL",
     "BACKENDS",
     "PLANNER_SERVICE",
     "SCENE_PATH",
@@ -29,6 +31,7 @@ __all__ = [
     "LocalPlannerNode",
     "MoverServiceHandler",
     "PhaseTiming",
+    "PickAndPlaceDemo",
     "PickAndPlaceResult",
     "PickAndPlaceSim",
     "PickAndPlaceTask",

@@ -38,6 +38,7 @@ from simbridge.connector import Connector
 from simbridge.errors import AppError, SimbridgeError
 from simbridge.messages import MessageRegistry
 from simbridge.sim import World
+from simbridge.sim.world.pacer import Pacer
 
 __all__ = ["ARM_JOINTS", "GRIPPER_JOINT", "STAGES", "ExecutionOptions", "PickAndPlaceSim"]
 
@@ -59,6 +60,9 @@ class ExecutionOptions:
     """Time given to the gripper to close or open."""
     final_settle_s: float = 0.5
     """Time for the released cube to come to rest before it is measured."""
+    realtime_factor: float = 0.0
+    """Pace the motion at this many sim seconds per wall second (0: as fast as possible;
+    a live view wants 1)."""
     service_timeout_s: float = 30.0
     error_wait_s: float = 2.0
     """After an empty plan, how long to wait for the planner's reason on /rosout (wall)."""
@@ -128,11 +132,18 @@ class PickAndPlaceSim:
     # --- stepping --------------------------------------------------------------------------
 
     def _advance(self, seconds: float) -> None:
-        """Step the world ``seconds`` of sim time, recording the cube and video frames."""
+        """Step the world ``seconds`` of sim time (paced, and held while paused), recording
+        the cube and video frames."""
         world = self.world
         end = world.time + seconds - 1e-9
+        pacer = Pacer(self.options.realtime_factor)
+        pacer.restart(world.time)
         while world.time < end:
+            if world.paused:  # the live view's pause and step N
+                world.hold_while_paused()
+                pacer.restart(world.time)
             world.step()
+            pacer.wait(world.time)
             x, y, z = world.data.xpos[self._cube]
             self._track.append((world.time, float(x), float(y), float(z)))
             if self.recorder is not None:

@@ -10,15 +10,28 @@ to the ROS 2 layout (Header without seq, CameraInfo `d k r p`) on its way out.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Collection
-from typing import Any
+from collections.abc import Callable, Collection, Sequence
+from typing import Any, Protocol
+
+import mujoco
 
 from simbridge.connector import Connector, Publisher
 from simbridge.messages import Translator, default_registry
-from simbridge.sim.sensors import SensorSuite
+from simbridge.sim.sensors import Publication, SensorSuite
 from simbridge.sim.world.world import World
 
-__all__ = ["SensorPublisher"]
+__all__ = ["SensorObserver", "SensorPublisher"]
+
+
+class SensorObserver(Protocol):
+    """Another consumer of the sensors' messages (the live view): it may ask for topics
+    nobody subscribes to, and is shown every batch of messages on the physics thread."""
+
+    def wants(self, topic: str) -> bool:
+        """Whether `topic` should be measured now for this observer."""
+
+    def observe(self, publications: Sequence[Publication], data: mujoco.MjData) -> None:
+        """The messages just measured, with the state they describe (must not block)."""
 
 
 class SensorPublisher:
@@ -42,6 +55,11 @@ class SensorPublisher:
         self._translator: Translator | None = None
         self.always_on = False
         """Measure every output even without subscribers (set while recording)."""
+        self.observers: list[SensorObserver] = []
+
+    def add_observer(self, observer: SensorObserver) -> None:
+        """Also measure what `observer` wants, and show it every batch of messages."""
+        self.observers.append(observer)
 
     def start(self) -> None:
         """Advertise the sensor topics and poll after every step; restart on world reset."""
@@ -62,10 +80,13 @@ class SensorPublisher:
     def poll(self) -> None:
         """Publish every message due at the current sim time, for outputs someone reads."""
         for topic, publisher in self._lazy.items():
-            self.suite.set_wanted(topic, self.always_on or publisher.has_subscribers)
+            wanted = self.always_on or publisher.has_subscribers
+            self.suite.set_wanted(topic, wanted or any(o.wants(topic) for o in self.observers))
         publications = self.suite.poll(self.world.model, self.world.data, self.world.refresh)
         if not publications:
             return
+        for observer in self.observers:
+            observer.observe(publications, self.world.data)
         translate = self._translate()
         for publication in publications:
             message = publication.message

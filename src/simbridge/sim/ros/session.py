@@ -201,6 +201,8 @@ def run_scene(
     serve a live 3D view in the browser while it runs."""
     with SimulationSession(scene, endpoint, record=record) as session:
         live = LiveView(session.world, view) if view is not None else None
+        if live is not None and session.sensors is not None:
+            session.sensors.add_observer(live.watch_sensors(session.sensors.suite))
         try:
             return session.run(duration, realtime_factor, viewer)
         except KeyboardInterrupt:

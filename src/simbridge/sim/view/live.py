@@ -1,11 +1,12 @@
 """A live 3D view of a running `World` in the browser, served by `viser`.
 
-Geometry is sent once when the view starts (and to each browser that connects); a
+Geometry is sent once when a world is shown (and to each browser that connects); a
 streaming thread then samples body poses at a bounded wall-clock rate (30 Hz by
 default) and sends only those, so the physics thread never waits on the view, and a
-browser that goes away costs nothing. The page has pause/resume, step N, reset, the
-sim clock and real-time factor, and a slider per joint (drive target, like
-joint_state_publisher_gui).
+browser that goes away costs nothing. The page has the simulation controls
+(`controls.py`), TF frames and contact points on demand (`overlays.py`), a drag gizmo
+for free objects (`mover.py`), lidar points and camera images when a sensor suite is
+attached (`sensors.py`), and the buttons a demo registers (`add_button`).
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ from __future__ import annotations
 import logging
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -20,6 +22,11 @@ import mujoco
 import numpy as np
 
 from simbridge.errors import SimError
+from simbridge.sim.sensors import SensorSuite
+from simbridge.sim.view.controls import SimControls
+from simbridge.sim.view.mover import ObjectMover
+from simbridge.sim.view.overlays import ContactPoints, TfFrames
+from simbridge.sim.view.sensors import SensorFeed
 from simbridge.sim.view.shapes import Shape, body_names, visual_shapes
 from simbridge.sim.world.world import World
 
@@ -44,7 +51,7 @@ class ViewOptions:
 
 
 class LiveView:
-    """Serves `world` at http://host:port until `close()`."""
+    """Serves `world` at http://host:port until `close()`; `show()` swaps in another world."""
 
     def __init__(self, world: World, options: ViewOptions | None = None) -> None:
         self.options = opts = options or ViewOptions()
@@ -61,11 +68,20 @@ class LiveView:
         self.port = int(self.server.get_port())
         self.frames_sent = 0
         """Pose updates sent since start (for tests and benchmarks)."""
+        self.buttons: dict[str, Any] = {}
+        """Demo buttons by label (`add_button`)."""
+        self.sensors: SensorFeed | None = None
         self._bodies: dict[int, Any] = {}
         self._last: tuple[np.ndarray, np.ndarray] | None = None
+        self._lock = threading.Lock()  # the streaming thread vs `show`
         self._stop = threading.Event()
-        self._build_scene(world.model)
-        self._build_gui()
+        self.controls = SimControls(self.server, lambda: self.world)
+        with self.server.gui.add_folder("Show") as self._show_folder:
+            self.tf = TfFrames(self.server)
+            self.contacts = ContactPoints(self.server)
+        self.mover = ObjectMover(self.server, lambda: self.world)
+        self._demo_folder: Any = None
+        self.show(world)
         self._thread = threading.Thread(target=self._stream, name="simbridge-view", daemon=True)
         self._thread.start()
         _log.info("live view at http://%s:%d", opts.host, self.port)
@@ -75,6 +91,45 @@ class LiveView:
         """Where a browser opens the view."""
         host = "127.0.0.1" if self.options.host in ("", "0.0.0.0") else self.options.host
         return f"http://{host}:{self.port}"
+
+    def show(self, world: World) -> None:
+        """Show `world` from now on (a demo's next run builds a new one): its geometry,
+        joint sliders and free objects replace the previous world's."""
+        with self._lock:
+            self.world = world
+            self._last = None
+            self._bodies.clear()
+            self.server.scene.reset()
+            self.tf.reset(world.model)
+            self.contacts.reset()
+            if self.sensors is not None:
+                self.sensors.forget_scene()
+            self._build_scene(world.model)
+            self.controls.show_joints(world)
+            self.mover.reset(world.model)
+
+    def add_button(self, label: str, on_click: Callable[[], None], hint: str | None = None) -> Any:
+        """A button in the page's "Demo" folder running `on_click()` (on a viser thread:
+        hand long work to your own thread). This is how an app adds its own controls."""
+        if label in self.buttons:
+            raise SimError(f"the view already has a demo button {label!r}")
+        gui = self.server.gui
+        if self._demo_folder is None:
+            self._demo_folder = gui.add_folder("Demo", order=-1.0)
+        with self._demo_folder:
+            button = gui.add_button(label, hint=hint)
+        button.on_click(lambda _event: on_click())
+        self.buttons[label] = button
+        return button
+
+    def watch_sensors(self, suite: SensorSuite) -> SensorFeed:
+        """Draw `suite`'s lidar returns and camera images. Give the returned feed to the
+        publisher that polls the suite (`SensorPublisher.add_observer`)."""
+        if self.sensors is not None:
+            raise SimError("the view already watches a sensor suite")
+        with self.server.gui.add_folder("Sensors", order=self._show_folder.order + 0.5):
+            self.sensors = SensorFeed(self.server, suite)
+        return self.sensors
 
     # -- scene ------------------------------------------------------------------------------
 
@@ -131,68 +186,19 @@ class LiveView:
                 path, shape.vertices, shape.faces, color=color, opacity=opacity, **pose
             )
 
-    # -- controls ---------------------------------------------------------------------------
-
-    def _build_gui(self) -> None:
-        gui = self.server.gui
-        self._clock = gui.add_text("sim time (s)", initial_value="0.000", disabled=True)
-        self._rtf = gui.add_text("real-time factor", initial_value="-", disabled=True)
-        self._pause = gui.add_button("Pause")
-        self._pause.on_click(lambda _event: self.toggle_pause())
-        self._steps = gui.add_number("steps", initial_value=10, min=1, step=1)
-        gui.add_button("Step N").on_click(lambda _event: self.step(int(self._steps.value)))
-        gui.add_button("Reset").on_click(lambda _event: self.world.request_reset())
-        model = self.world.model
-        with gui.add_folder("Joints"):
-            for name in self.world.joint_names():
-                jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, name)
-                if jid < 0 or int(model.jnt_type[jid]) not in (
-                    mujoco.mjtJoint.mjJNT_HINGE,
-                    mujoco.mjtJoint.mjJNT_SLIDE,
-                ):
-                    continue
-                low, high = (float(v) for v in model.jnt_range[jid])
-                if not model.jnt_limited[jid] or not high > low:
-                    low, high = -np.pi, np.pi
-                value = float(np.clip(self.world.data.qpos[model.jnt_qposadr[jid]], low, high))
-                slider = gui.add_slider(
-                    name, min=low, max=high, step=(high - low) / 200, initial_value=value
-                )
-                slider.on_update(self._slider_handler(name, slider))
-
-    def _slider_handler(self, joint: str, slider: Any) -> Any:
-        def moved(_event: Any) -> None:
-            self.set_joint(joint, float(slider.value))
-
-        return moved
+    # -- controls (kept here for callers and tests; see `SimControls`) -----------------------
 
     def set_joint(self, joint: str, value: float) -> None:
-        """Send `joint` to `value`: its drive's target, or a teleport for undriven joints
-        (applied on the simulation thread)."""
-        world = self.world
-
-        def apply() -> None:
-            if joint in world.drives.joints:
-                world.drives.set_position(joint, value)
-            else:
-                world.set_joint_positions({joint: value})
-
-        world.post(apply)
+        """Send `joint` to `value` (what its slider does)."""
+        self.controls.set_joint(joint, value)
 
     def toggle_pause(self) -> None:
         """What the Pause/Resume button does."""
-        if self.world.paused:
-            self.world.resume()
-            self._pause.label = "Pause"
-        else:
-            self.world.pause()
-            self._pause.label = "Resume"
+        self.controls.toggle_pause()
 
     def step(self, count: int) -> None:
         """Pause (if running) and advance exactly `count` steps."""
-        if not self.world.paused:
-            self.toggle_pause()
-        self.world.request_steps(max(count, 0))
+        self.controls.step(count)
 
     # -- streaming --------------------------------------------------------------------------
 
@@ -209,31 +215,41 @@ class LiveView:
             now = time.perf_counter()
             if now >= next_rtf:
                 sim = self.world.time
-                self._rtf.value = f"{(sim - last_sim) / (now - last_wall):.2f}"  # type: ignore[misc]
+                rate = max(sim - last_sim, 0.0) / (now - last_wall)  # a reset goes back
+                self.controls.rtf.value = f"{rate:.2f}"  # type: ignore[misc]
                 last_wall, last_sim, next_rtf = now, sim, now + 1.0
 
     def push(self) -> None:
-        """Send the current body poses and clock once (the streaming thread calls this)."""
-        data = self.world.data
-        xpos, xquat = np.array(data.xpos), np.array(data.xquat)  # one snapshot
-        last = self._last
-        moved = [
-            body
-            for body in self._bodies
-            if last is None
-            or not (
-                np.allclose(xpos[body], last[0][body], atol=1e-5)
-                and np.allclose(xquat[body], last[1][body], atol=1e-6)
-            )
-        ]
-        self._last = (xpos, xquat)
-        with self.server.atomic():
-            for body in moved:  # bodies at rest cost nothing
-                handle = self._bodies[body]
-                handle.position = xpos[body]
-                handle.wxyz = xquat[body]
-            self._clock.value = f"{self.world.time:.3f}"  # type: ignore[misc]
-        self.frames_sent += 1
+        """Send the current body poses, overlays and clock once (the streaming thread
+        calls this)."""
+        with self._lock:
+            data = self.world.data
+            xpos, xquat = np.array(data.xpos), np.array(data.xquat)  # one snapshot
+            last = self._last
+            if last is None or len(last[0]) != len(xpos):
+                moved = list(range(1, len(xpos)))
+            else:
+                moved = [
+                    body
+                    for body in range(1, len(xpos))
+                    if not (
+                        np.allclose(xpos[body], last[0][body], atol=1e-5)
+                        and np.allclose(xquat[body], last[1][body], atol=1e-6)
+                    )
+                ]
+            self._last = (xpos, xquat)
+            with self.server.atomic():
+                for body in moved:  # bodies at rest cost nothing
+                    handle = self._bodies.get(body)
+                    if handle is not None:
+                        handle.position = xpos[body]
+                        handle.wxyz = xquat[body]
+                self.tf.update(xpos, xquat, moved)
+                self.contacts.update(data)
+                if self.sensors is not None:
+                    self.sensors.draw()
+                self.controls.clock.value = f"{self.world.time:.3f}"  # type: ignore[misc]
+            self.frames_sent += 1
 
     def close(self) -> None:
         """Stop streaming and the server."""

@@ -265,6 +265,18 @@ class World:
         with self._lock:
             self._pending_steps += count
 
+    def hold_while_paused(self, poll: float = 0.002) -> None:
+        """For loops that call `step` themselves (not `run`): while paused, wait, running
+        posted work, until resumed, or until a step granted by `request_steps` is due
+        (which this takes). Returns at once when not paused."""
+        while self._paused:
+            self.process_posted()
+            with self._lock:
+                if self._pending_steps > 0:
+                    self._pending_steps -= 1
+                    return
+            time.sleep(poll)
+
     def request_reset(self) -> None:
         """Reset at the start of `run`'s next iteration (thread-safe)."""
         self._reset_requested = True

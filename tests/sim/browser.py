@@ -1,0 +1,146 @@
+"""Debian's headless Chromium for view tests, driven over the DevTools protocol: open a
+page, then take screenshots until one shows what the test waits for (the page may need a
+while to receive the scene on a loaded machine), all bounded in time. The browser runs
+in its own process group, killed whole at the end (its helper processes included)."""
+
+from __future__ import annotations
+
+import base64
+import contextlib
+import io
+import itertools
+import json
+import os
+import shutil
+import signal
+import subprocess
+import time
+import urllib.request
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from PIL import Image
+from websockets.sync.client import connect
+
+__all__ = ["CHROMIUM", "Browser", "keep_screenshot", "screenshot_until"]
+
+CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+
+
+class Browser:
+    """One headless Chromium page at `url`; `shoot()` returns its pixels now."""
+
+    def __init__(self, url: str, profile: Path, size: tuple[int, int] = (900, 700)) -> None:
+        assert CHROMIUM is not None
+        self.size = size
+        command = [
+            CHROMIUM,
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--disable-background-networking",
+            "--disable-component-update",
+            "--disable-sync",
+            "--no-first-run",
+            f"--user-data-dir={profile}",
+            "--enable-unsafe-swiftshader",  # WebGL in software (no GPU in CI)
+            "--use-angle=swiftshader",
+            f"--window-size={size[0]},{size[1]}",
+            "--remote-debugging-address=127.0.0.1",
+            "--remote-debugging-port=0",  # a free port, written to DevToolsActivePort
+            url,
+        ]
+        self.proc = subprocess.Popen(
+            command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True
+        )
+        self._ids = itertools.count(1)
+        self.socket: Any = None
+        try:
+            port = self._devtools_port(profile / "DevToolsActivePort")
+            self.socket = connect(self._page_socket(port), max_size=None, open_timeout=20)
+        except BaseException:
+            self.close()
+            raise
+
+    def _devtools_port(self, path: Path, timeout: float = 60.0) -> int:
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            with contextlib.suppress(OSError, ValueError, IndexError):
+                return int(path.read_text().splitlines()[0])
+            time.sleep(0.1)
+        raise AssertionError(f"chromium wrote no {path.name} within {timeout:g} s")
+
+    @staticmethod
+    def _page_socket(port: int, timeout: float = 30.0) -> str:
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            with urllib.request.urlopen(f"http://127.0.0.1:{port}/json/list", timeout=5) as r:
+                pages = [t for t in json.load(r) if t.get("type") == "page"]
+            if pages:
+                return str(pages[0]["webSocketDebuggerUrl"])
+            time.sleep(0.2)
+        raise AssertionError("chromium opened no page")
+
+    def call(self, method: str, **params: Any) -> Any:
+        """One DevTools command; its result."""
+        ident = next(self._ids)
+        self.socket.send(json.dumps({"id": ident, "method": method, "params": params}))
+        while True:
+            reply = json.loads(self.socket.recv(timeout=120))
+            if reply.get("id") == ident:
+                if "error" in reply:
+                    raise AssertionError(f"{method}: {reply['error']}")
+                return reply.get("result", {})
+
+    def shoot(self) -> tuple[np.ndarray, bytes]:
+        """The page as rgb ints (height, width, 3), and as PNG bytes."""
+        png = base64.b64decode(self.call("Page.captureScreenshot", format="png")["data"])
+        pixels = np.asarray(Image.open(io.BytesIO(png)).convert("RGB")).astype(int)
+        return pixels, png
+
+    def close(self) -> None:
+        """End the browser and every process it started."""
+        if self.socket is not None:
+            self.socket.close()
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(self.proc.pid, signal.SIGKILL)
+        self.proc.wait()
+
+
+@contextlib.contextmanager
+def open_page(url: str, profile: Path, size: tuple[int, int]) -> Iterator[Browser]:
+    browser = Browser(url, profile, size)
+    try:
+        yield browser
+    finally:
+        browser.close()
+
+
+def screenshot_until(
+    url: str,
+    tmp_path: Path,
+    accept: Callable[[np.ndarray], bool],
+    *,
+    timeout: float = 90.0,
+    name: str = "view.png",
+    size: tuple[int, int] = (900, 700),
+) -> np.ndarray:
+    """Open `url` and take a screenshot every second until `accept(pixels)` or `timeout`
+    seconds; the last one is written to tmp_path/`name` and its pixels returned."""
+    deadline = time.monotonic() + timeout
+    with open_page(url, tmp_path / "chrome", size) as browser:
+        while True:
+            time.sleep(1.0)
+            pixels, png = browser.shoot()
+            if accept(pixels) or time.monotonic() > deadline:
+                (tmp_path / name).write_bytes(png)
+                return pixels
+
+
+def keep_screenshot(shot: Path, name: str) -> None:
+    """Copy `shot` to $SIMBRIDGE_SCREENSHOT_DIR/`name` when that is set (docs images)."""
+    keep = os.environ.get("SIMBRIDGE_SCREENSHOT_DIR")
+    if keep:
+        shutil.copy(shot, Path(keep) / name)

@@ -1,0 +1,150 @@
+"""The live view's on-demand overlays and controls, driven as a browser drives them (a
+websocket client speaking viser's protocol): TF frames, contact points, the drag gizmo
+moving a free body in MuJoCo, demo buttons, and several browsers at once."""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from simbridge.errors import SimError
+from simbridge.sim.scene import load_scene
+from simbridge.sim.view import LiveView, ViewOptions, free_bodies
+from simbridge.sim.world import World
+from tests.sim.test_view import ARM
+
+pytest.importorskip("viser")
+
+import viser._messages as messages
+
+from tests.sim.viser_client import ViserClient
+
+
+def _world(tmp_path: Path) -> World:
+    (tmp_path / "arm.urdf").write_text(ARM)
+    scene = {
+        "physics": {"timestep": 0.002, "realtime_factor": 1},
+        "robots": [{"urdf": "arm.urdf", "fixed_base": True}],
+        "objects": [
+            {"name": "floor", "type": "plane"},
+            {
+                "name": "crate",
+                "type": "box",
+                "size": [0.1, 0.1, 0.1],
+                "pose": {"xyz": [0.4, 0.0, 0.05]},
+                "dynamic": True,
+                "mass": 0.5,
+            },
+        ],
+        "ros": {"enabled": False},
+    }
+    (tmp_path / "scene.yaml").write_text(yaml.safe_dump(scene))
+    return World.from_scene(load_scene(tmp_path / "scene.yaml"))
+
+
+def _wait(predicate: Callable[[], bool], timeout: float = 10.0) -> bool:
+    deadline = time.monotonic() + timeout
+    while not predicate():
+        if time.monotonic() > deadline:
+            return False
+        time.sleep(0.02)
+    return True
+
+
+@pytest.fixture
+def running(tmp_path: Path) -> Iterator[tuple[World, LiveView]]:
+    world = _world(tmp_path)
+    view = LiveView(world, ViewOptions(port=0, rate=30))
+    runner = threading.Thread(target=world.run, kwargs={"realtime_factor": 1.0})
+    runner.start()
+    yield world, view
+    world.stop()
+    runner.join(10)
+    view.close()
+
+
+def test_tf_frames_appear_and_go_with_their_checkbox(running: tuple[World, LiveView]) -> None:
+    world, view = running
+    assert view.tf.frames == {}, "off by default"
+    with ViserClient(view.port) as browser:
+        browser.send(messages.GuiUpdateMessage(view.tf.checkbox._impl.uuid, {"value": True}))
+        assert _wait(lambda: len(view.tf.frames) == world.model.nbody - 1)
+        names = {handle.name for handle in view.tf.frames.values()}
+        assert {"/tf/upper", "/tf/crate"} <= names
+        upper = world.model.body("upper").id
+        assert _wait(lambda: np.allclose(view.tf.frames[upper].position, world.data.xpos[upper]))
+        browser.send(messages.GuiUpdateMessage(view.tf.checkbox._impl.uuid, {"value": False}))
+        assert _wait(lambda: view.tf.frames == {})
+
+
+def test_contact_points_on_demand(running: tuple[World, LiveView]) -> None:
+    world, view = running
+    time.sleep(0.3)  # the crate settles on the floor
+    assert view.contacts.handle is None, "off by default"
+    view.contacts.checkbox.value = True  # type: ignore[misc]
+    assert _wait(lambda: view.contacts.handle is not None)
+    handle = view.contacts.handle
+    assert handle is not None
+    points = np.asarray(handle.points, dtype=np.float64)
+    assert len(points) >= 4, "a box resting on a plane touches at its corners"
+    crate = world.data.xpos[world.model.body("crate").id]
+    assert np.abs(points[:, 2]).max() < 5e-3, "the contacts lie on the floor"
+    assert np.abs(points[:, :2] - crate[:2]).max() < 0.06, "under the crate"
+
+
+def test_dragging_the_gizmo_moves_the_body_in_mujoco(running: tuple[World, LiveView]) -> None:
+    world, view = running
+    crate = world.model.body("crate").id
+    assert free_bodies(world.model) == {"crate": crate}
+    view.toggle_pause()
+    with ViserClient(view.port) as browser:
+        browser.send(messages.GuiUpdateMessage(view.mover.dropdown._impl.uuid, {"value": "crate"}))
+        assert _wait(lambda: view.mover.gizmo is not None)
+        target = (0.1, 0.5, 0.3)
+        yaw = (np.cos(0.3), 0.0, 0.0, np.sin(0.3))
+        browser.drag("/move_object", target, yaw)
+        assert _wait(lambda: np.allclose(world.data.xpos[crate], target, atol=1e-9))
+        assert np.allclose(world.data.xquat[crate], yaw, atol=1e-9)
+        view.toggle_pause()  # the physics takes over: it falls onto the floor below
+        assert _wait(lambda: abs(world.data.xpos[crate][2] - 0.05) < 2e-3, timeout=15)
+        assert np.allclose(world.data.xpos[crate][:2], target[:2], atol=0.02)
+
+
+def test_demo_buttons_run_what_the_app_registered(running: tuple[World, LiveView]) -> None:
+    _, view = running
+    pressed = threading.Event()
+    view.add_button("Do it", pressed.set)
+    with pytest.raises(SimError, match="Do it"):
+        view.add_button("Do it", pressed.set)
+    with ViserClient(view.port) as browser:
+        browser.click(view.buttons["Do it"])
+        assert pressed.wait(10)
+
+
+def test_several_browsers_and_one_going_away_leave_the_physics_at_pace(
+    running: tuple[World, LiveView],
+) -> None:
+    world, view = running
+    browsers = [ViserClient(view.port) for _ in range(3)]
+    try:
+        assert _wait(lambda: len(view.server.get_clients()) == 3)
+        assert _wait(lambda: all(b.received > 20 for b in browsers)), "each gets the scene"
+        sim0, wall0, frames0 = world.time, time.perf_counter(), view.frames_sent
+        time.sleep(2.0)
+        factor = (world.time - sim0) / (time.perf_counter() - wall0)
+        assert factor > 0.9, f"three browsers slowed the physics to x{factor:.2f}"
+        browsers[0].socket.close_socket()  # gone without a goodbye, like a closed laptop
+        assert _wait(lambda: len(view.server.get_clients()) == 2)
+        seen = browsers[1].received
+        assert _wait(lambda: browsers[1].received > seen + 10), "the others keep streaming"
+        assert view.frames_sent > frames0 + 30
+        assert view._thread.is_alive()
+    finally:
+        for browser in browsers:
+            browser.close()
