@@ -7,11 +7,13 @@ from __future__ import annotations
 import json
 import threading
 import time
+from collections import Counter
 from collections.abc import Callable
 from pathlib import Path
 
 import pytest
 from PIL import Image
+from rosbags.highlevel import AnyReader
 
 from simbridge.apps.line import (
     ARMS,
@@ -57,8 +59,11 @@ def test_parts_move_from_input_to_output_by_physics(seed: int) -> None:
     assert 0 < result.cycle_s < result.sim_s
 
 
-def test_json_line_has_the_documented_shape(capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["--seed", "3", "--parts", "1", "--json"]) == 0
+def test_json_line_has_the_documented_shape_and_the_bag_every_robot(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    bag = tmp_path / "line.mcap"
+    assert main(["--seed", "3", "--parts", "1", "--json", "--record", str(bag)]) == 0
     last = capsys.readouterr().out.strip().splitlines()[-1]
     summary = json.loads(last)
     for key, kind in {
@@ -70,6 +75,13 @@ def test_json_line_has_the_documented_shape(capsys: pytest.CaptureFixture[str]) 
     assert summary["parts"] == summary["delivered"] == 1
     assert len(summary["placement_error_m"]) == 1
     assert set(summary["robots"]) == set(ROBOTS)
+    with AnyReader([bag]) as reader:
+        topics = Counter(connection.topic for connection, _, _ in reader.messages())
+    for robot, controller in (("arm_in", "arm"), ("arm_out", "arm"), (CONVEYOR, "pallet")):
+        assert topics[f"/{robot}/joint_states"] > 100
+        assert topics[f"/{robot}/{controller}_controller/follow_joint_trajectory/goal"] >= 1
+        assert topics[f"/{robot}/{controller}_controller/follow_joint_trajectory/feedback"] > 0
+    assert topics["/tf"] > 100
 
 
 def _wait(predicate: Callable[[], bool], timeout: float = 10.0) -> bool:
