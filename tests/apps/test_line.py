@@ -151,6 +151,7 @@ def test_every_robot_has_its_own_namespaced_topics_frames_and_actions() -> None:
     [
         (["--parts", "9"], "--parts must be 1 to 4, got 9"),
         (["--video", "run.avi"], "unknown format '.avi'"),
+        (["--realtime", "-1"], "--realtime must be >= 0, got -1.0"),
     ],
 )
 def test_bad_options_get_a_clear_error(

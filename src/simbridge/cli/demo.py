@@ -65,6 +65,8 @@ def _run_line(args: argparse.Namespace) -> int:
         )
         return 2
     forwarded = ["--parts", str(args.parts)]
+    if args.realtime is not None:
+        forwarded += ["--realtime", str(args.realtime)]
     if args.seed is not None:
         forwarded += ["--seed", str(args.seed)]
     if args.video:
@@ -116,8 +118,8 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         "--realtime",
         type=float,
         default=None,
-        help="mobile-robot and pick-and-place: pace at this real-time factor (0 = flat out; "
-        "default 0, pick-and-place with --view 1)",
+        help="mobile-robot, pick-and-place, line: pace at this real-time factor (0 = flat "
+        "out; default 0, pick-and-place and line with --view 1)",
     )
     demo.add_argument(
         "--record",

@@ -2,7 +2,7 @@
 connection, one in-process node per robot and the supervisor; and its command line.
 
 `main(argv)` is `simbridge demo line [--seed N] [--parts N] [--json] [--video PATH]
-[--record FILE] [--view]`.
+[--realtime F] [--record FILE] [--view [--view-port P]]`.
 """
 
 from __future__ import annotations
@@ -47,11 +47,15 @@ _CAMERA_TARGET = (0.12, 0.0, 0.0)
 
 
 class _SimThread:
-    """Runs the world flat out on a thread of its own until stopped or ``max_sim_s``;
+    """Runs the world (flat out, or paced at ``realtime_factor``) on a thread of its own
+    until stopped or ``max_sim_s``;
     video frames are rendered and written there, on the thread that owns the GL context."""
 
-    def __init__(self, world: World, max_sim_s: float, video: Path | None) -> None:
+    def __init__(
+        self, world: World, max_sim_s: float, video: Path | None, realtime_factor: float = 0.0
+    ) -> None:
         self.world, self.max_sim_s, self.video = world, max_sim_s, video
+        self.realtime_factor = realtime_factor
         self.frames = 0
         self.error: BaseException | None = None
         self.started = time.perf_counter()
@@ -70,7 +74,7 @@ class _SimThread:
                 capture = recorder.maybe_capture
                 self.world.add_step_callback(lambda _w: capture())
             self.started, cpu = time.perf_counter(), time.process_time()
-            self.world.run(self.max_sim_s, 0.0)
+            self.world.run(self.max_sim_s, self.realtime_factor)
             self.wall_s = time.perf_counter() - self.started
             self.cpu_s = time.process_time() - cpu
             if recorder is not None:
@@ -120,6 +124,7 @@ def run_line(
     record: RecordOptions | None = None,
     view: ViewOptions | None = None,
     max_sim_s: float = 600.0,
+    realtime_factor: float = 0.0,
     progress: Callable[[str], None] | None = print,
 ) -> LineResult:
     """Move ``parts`` parts (poses drawn from ``seed``, else seed 0) from the input area to
@@ -128,7 +133,8 @@ def run_line(
     The endpoint runs on the local bus; every robot is served on its own connection; one
     in-process node per robot drives it through its controllers' actions. ``video`` writes
     a .gif (or .mp4), ``record`` a bag of every sim topic, ``view`` a live browser view;
-    ``json`` prints the summary as the last line. A failed step ends the run with ``error``
+    ``json`` prints the summary as the last line; ``realtime_factor`` paces the run (0: as
+    fast as possible). A failed step ends the run with ``error``
     set; setup problems (bad options, video path) raise AppError.
     """
     task = LineTask.random(seed if seed is not None else 0, parts)
@@ -151,7 +157,7 @@ def run_line(
         world = session.world
         if view is not None:
             say(f"[line] live view at {stack.enter_context(LiveView(world, view)).url}")
-        sim = _SimThread(world, max_sim_s, video_path)
+        sim = _SimThread(world, max_sim_s, video_path, realtime_factor)
         alive = lambda: sim.alive  # noqa: E731
         arm_in = ArmCell(bus, f"/{ARMS[0]}", alive=alive)
         arm_out = ArmCell(bus, f"/{ARMS[1]}", alive=alive)
@@ -230,10 +236,19 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--parts", type=int, default=3, help=f"parts to move, 1 to {MAX_PARTS}")
     parser.add_argument("--json", action="store_true", help="print a JSON summary last")
     parser.add_argument("--video", metavar="PATH", help="write a .gif (or .mp4 with ffmpeg)")
+    parser.add_argument(
+        "--realtime",
+        type=float,
+        help="sim seconds per wall second (default: 1 with --view, else 0 = as fast as possible)",
+    )
     parser.add_argument("--record", metavar="FILE", help="record the run (.mcap or .bag)")
     parser.add_argument("--view", action="store_true", help="live browser view (viser)")
     parser.add_argument("--view-port", type=int, default=8080, help="live view port")
     args = parser.parse_args(argv)
+    realtime = args.realtime if args.realtime is not None else (1.0 if args.view else 0.0)
+    if not realtime >= 0:
+        print(f"simbridge demo line: --realtime must be >= 0, got {realtime}", file=sys.stderr)
+        return 2
     try:
         result = run_line(
             args.seed,
@@ -242,6 +257,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             args.json,
             record=RecordOptions(Path(args.record)) if args.record else None,
             view=ViewOptions(port=args.view_port) if args.view else None,
+            realtime_factor=realtime,
         )
     except SimbridgeError as exc:
         print(f"simbridge demo line: {exc}", file=sys.stderr)
