@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
@@ -120,3 +122,38 @@ def test_round_trips(goal_id: int, action: str, payload: bytes) -> None:
         ErrorMessage(f"goal {goal_id} rejected", goal_id=goal_id),
     ):
         assert endpoint_side.receive_data(command.encode()) == [CommandReceived(command)]
+
+
+_JSON = st.recursive(
+    st.none() | st.booleans() | st.integers() | st.floats(allow_nan=False) | st.text(max_size=20),
+    lambda inner: st.lists(inner, max_size=4) | st.dictionaries(st.text(max_size=8), inner),
+    max_leaves=12,
+)
+_KEYS = ("goal_id", "action", "action_type", "goal", "status", "feedback", "result", "ready")
+
+
+@given(
+    st.sampled_from(
+        [
+            ("__action_goal", "client"),
+            ("__action_cancel", "client"),
+            ("__action_server", "client"),
+            ("__action_server", "endpoint"),
+            ("__action_status", "endpoint"),
+            ("__action_feedback", "endpoint"),
+            ("__action_result", "endpoint"),
+        ]
+    ),
+    st.dictionaries(st.sampled_from(_KEYS), _JSON, max_size=8),
+)
+def test_fuzz_decoders_refuse_or_round_trip(which: tuple[str, str], obj: object) -> None:
+    """Any JSON object is refused with a ProtocolError, or decodes to a command whose own
+    frame decodes to the same command again."""
+    name, sender = which
+    try:
+        command = decode_command(name, json.dumps(obj).encode(), sender=sender)  # type: ignore[arg-type]
+    except ProtocolError:
+        return
+    assert name == command.NAME
+    receiver = ProtocolConnection("endpoint" if sender == "client" else "client")
+    assert receiver.receive_data(command.encode()) == [CommandReceived(command)]
