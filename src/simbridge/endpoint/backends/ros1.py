@@ -36,6 +36,7 @@ from simbridge.endpoint.backends.ros1_raw import (
     raw_message_class,
     raw_service_class,
 )
+from simbridge.endpoint.backends.ros1_rejoin import remember_param
 from simbridge.endpoint.backends.ros1_rosout import RosoutForwarder
 from simbridge.endpoint.backends.ros1_types import Ros1Types
 from simbridge.errors import EndpointError, MessageError, ServiceError
@@ -212,14 +213,17 @@ class Ros1Backend(Backend):
 
     async def set_param(self, name: str, value: Any) -> None:
         """`rospy.set_param` on the master's parameter server (in a worker thread: it is an
-        XML-RPC call). A master that restarts forgets it, as it forgets every parameter."""
+        XML-RPC call). A restarted master gets it again with the node's registrations."""
         loop = self._started()
         _check_name(name, "parameter")
         try:
             await loop.run_in_executor(self._executor, rospy.set_param, name, value)
         except Exception as exc:  # XML-RPC faults, OverflowError (ints past 32 bits), OSError
             raise EndpointError(f"cannot set parameter {name!r}: {exc}") from exc
-        _log.info("set parameter %s for the sim", rospy.resolve_name(name))
+        resolved = rospy.resolve_name(name)
+        if not remember_param(resolved, value):
+            _log.warning("%s is set but would not be set again on a restarted master", resolved)
+        _log.info("set parameter %s for the sim", resolved)
 
     def topics(self) -> list[TopicInfo]:
         """The topics that have a publisher or a subscriber now, with their types, by name.

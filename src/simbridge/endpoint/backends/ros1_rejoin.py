@@ -26,9 +26,24 @@ from rospy.impl.registration import (
 
 from simbridge.errors import EndpointError
 
-__all__ = ["MasterWatch", "register_again"]
+__all__ = ["MAX_REMEMBERED_PARAMS", "MasterWatch", "register_again", "remember_param"]
 
 _log = logging.getLogger("simbridge.endpoint.ros1")
+
+MAX_REMEMBERED_PARAMS = 10_000
+"""Parameters set through this node that a restarted master is given again, at most."""
+_params: dict[str, Any] = {}
+_params_lock = threading.Lock()
+
+
+def remember_param(name: str, value: Any) -> bool:
+    """Note a parameter (resolved name) this node set, to set it again on a restarted
+    master, which starts with none. False (not remembered) past MAX_REMEMBERED_PARAMS."""
+    with _params_lock:
+        if name not in _params and len(_params) >= MAX_REMEMBERED_PARAMS:
+            return False
+        _params[name] = value
+        return True
 
 
 def _reg_manager() -> RegManager:
@@ -55,8 +70,9 @@ def _still_running() -> None:
 
 
 def register_again(master_uri: str) -> tuple[int, int, int]:
-    """Register every publisher, subscriber and service of this node with the master;
-    returns how many of each. Subscribers connect to the publishers the master names."""
+    """Register every publisher, subscriber and service of this node with the master, and
+    set the parameters it set (`remember_param`); returns how many publishers, subscribers
+    and services. Subscribers connect to the publishers the master names."""
     caller = rospy.get_caller_id()
     manager = _reg_manager()
     node_uri = manager.uri
@@ -73,6 +89,11 @@ def register_again(master_uri: str) -> tuple[int, int, int]:
     for name, service_uri in services:
         _still_running()
         master.registerService(caller, name, service_uri, node_uri)
+    with _params_lock:
+        params = list(_params.items())
+    for name, value in params:
+        _still_running()
+        master.setParam(caller, name, value)
     # Withdraw what was closed meanwhile (its own unregistration may have come first).
     still_published, still_subscribed, still_served = (set(held) for held in _held())
     for entry in set(publications) - still_published:
@@ -144,9 +165,10 @@ class MasterWatch:
         self.rejoined += 1
         _log.warning(
             "the ROS master at %s restarted and did not know %s: registered %d publisher(s), "
-            "%d subscriber(s) and %d service(s) again",
+            "%d subscriber(s) and %d service(s) again and set %d parameter(s)",
             self.master_uri,
             rospy.get_name(),
             *counts,
+            len(_params),
         )
         return True
