@@ -14,6 +14,7 @@ import yaml
 
 from simbridge.errors import SimError
 from simbridge.sim.scene import build_scene, load_scene, parse_scene
+from simbridge.sim.sensors import RateSchedule
 from simbridge.sim.urdf import MjcfDocument, forward_kinematics, parse_urdf
 from simbridge.sim.world import World
 from tests.sim.urdf_samples import GRAVITY_ARM
@@ -319,3 +320,40 @@ def test_request_steps_needs_a_paused_world(tmp_path: Path) -> None:
     world = arm_world(tmp_path)
     with pytest.raises(SimError, match="paused world"):
         world.request_steps(3)
+
+
+def test_scheduled_callbacks_fire_on_their_steps_when_the_loop_skips_idle_steps(
+    tmp_path: Path,
+) -> None:
+    """Only scheduled callbacks: `step` skips the callback loop between due steps, yet each
+    fires on exactly the steps a RateSchedule polled every step gives, also for one added
+    by another callback, after a timestep change and after a reset."""
+    world = arm_world(tmp_path)  # 2 ms steps
+    fast: list[int] = []
+    slow: list[int] = []
+    late: list[int] = []
+    world.add_step_callback(lambda w: fast.append(w.step_count), period=0.01)
+    world.add_step_callback(lambda w: slow.append(w.step_count), period=0.03)
+
+    def add_late(w: World) -> None:
+        if w.step_count == 7:
+            w.add_step_callback(lambda w2: late.append(w2.step_count), period=0.004)
+
+    world.add_step_callback(add_late, period=0.002)
+    world.step(30)
+    assert fast == [5, 10, 15, 20, 25, 30]
+    assert slow == [15, 30]
+    assert late == [8, 10, 12, 14, 16, 18, 20, 22, 24, 26, 28, 30]
+    reference = RateSchedule(100.0)  # polled every step, as the loop did before skipping
+    for step in range(1, 31):
+        reference.due(step, 0.002)
+    world.model.opt.timestep = 0.005
+    fast.clear()
+    world.step(6)
+    assert fast == [n for n in range(31, 37) if reference.due(n, 0.005)]
+    assert fast[-2:] == [34, 36]  # 10 ms is now every 2 steps
+    world.model.opt.timestep = 0.002
+    world.reset()
+    fast.clear()
+    world.step(10)
+    assert fast == [5, 10]

@@ -1,6 +1,7 @@
 """Precompiled serializers for the messages a simulator publishes every few steps.
 
-`JointStateWriter`, `TFWriter` and `ClockWriter` lay a message out once (names, frame
+`JointStateWriter`, `TFWriter`, `ClockWriter` and, for sensors, `ImuWriter`,
+`LaserScanWriter` and `OdometryWriter` lay a message out once (names, frame
 ids, CDR alignment) in a reused buffer and then only write the stamp and the numbers
 into it, so publishing costs a few `pack_into` calls instead of building message
 objects and walking them field by field. Their bytes equal the generic `Codec`'s for
@@ -13,9 +14,19 @@ from __future__ import annotations
 import struct
 from collections.abc import Sequence
 
+import numpy as np
+from numpy.typing import NDArray
+
 from .codec import WireFormat
 
-__all__ = ["ClockWriter", "JointStateWriter", "TFWriter"]
+__all__ = [
+    "ClockWriter",
+    "ImuWriter",
+    "JointStateWriter",
+    "LaserScanWriter",
+    "OdometryWriter",
+    "TFWriter",
+]
 
 _CDR_LE = b"\x00\x01\x00\x00"
 _U32 = struct.Struct("<I")
@@ -66,6 +77,14 @@ class _Layout:
         return stamp
 
 
+def _doubles(buf: bytearray, offset: int, count: int) -> NDArray[np.float64]:
+    """`count` little-endian float64 at `offset` of `buf`, as a writable view (the buffer
+    must not be resized while a view exists, and the layout is final by then)."""
+    if count == 0:
+        return np.zeros(0, "<f8")
+    return np.frombuffer(buf, "<f8", count, offset)
+
+
 def _stamp_struct(fmt: WireFormat) -> struct.Struct:
     """ROS 1 `time` is uint32 secs; builtin_interfaces/Time in CDR has int32 sec."""
     return struct.Struct("<iI" if fmt == "cdr" else "<II")
@@ -93,6 +112,16 @@ class JointStateWriter:
         self._stamp = _stamp_struct(fmt)
         self._values = struct.Struct(f"<{len(names)}d")
         self.size = len(names)
+        self.position, self.velocity, self.effort = (
+            _doubles(self._buf, at, self.size) for at in self._arrays
+        )
+        """The three arrays as float64 views into the buffer: write them in place (e.g.
+        `numpy.take(data.qpos, index, out=writer.position)`), then call `finish`."""
+
+    def finish(self, sec: int, nanosec: int) -> bytes:
+        """The payload with this stamp and the values now in the views."""
+        self._stamp.pack_into(self._buf, self._stamp_at, sec, nanosec)
+        return bytes(self._buf)
 
     def encode(
         self,
@@ -156,3 +185,139 @@ class ClockWriter:
         """The payload for this time."""
         self._stamp.pack_into(self._buf, self._at, sec, nanosec)
         return bytes(self._buf)
+
+
+def _floats(buf: bytearray, offset: int, count: int) -> NDArray[np.float32]:
+    """`count` little-endian float32 at `offset` of `buf`, as a writable view."""
+    if count == 0:
+        return np.zeros(0, "<f4")
+    return np.frombuffer(buf, "<f4", count, offset)
+
+
+class _Stamped:
+    """A message that starts with a std_msgs/Header: its stamp, and its seq where the
+    layout has one (sensors count it up; a layout without seq ignores it)."""
+
+    def __init__(self, fmt: WireFormat, frame_id: str, seq: bool) -> None:
+        self.wire = (fmt, seq)
+        self.frame_id = frame_id
+        self._out = _Layout(fmt)
+        self._stamp_at = self._out.header(frame_id, seq)
+        self._seq_at = self._stamp_at - 4 if seq else -1
+        self._stamp = _stamp_struct(fmt)
+
+    def _finish(self, buf: bytearray, sec: int, nanosec: int, seq: int) -> bytes:
+        self._stamp.pack_into(buf, self._stamp_at, sec, nanosec)
+        if self._seq_at >= 0:
+            _U32.pack_into(buf, self._seq_at, seq & 0xFFFFFFFF)
+        return bytes(buf)
+
+
+_IMU = struct.Struct("<37d")
+
+
+class ImuWriter(_Stamped):
+    """sensor_msgs/Imu for one frame: everything after the Header is 37 float64."""
+
+    def __init__(self, fmt: WireFormat, frame_id: str, seq: bool = True) -> None:
+        super().__init__(fmt, frame_id, seq)
+        self._at = self._out.reserve(_IMU.size, 8)
+        self._buf = self._out.buf
+
+    def encode(
+        self,
+        sec: int,
+        nanosec: int,
+        *,
+        orientation_xyzw: Sequence[float],
+        orientation_covariance: Sequence[float],
+        angular_velocity: Sequence[float],
+        angular_velocity_covariance: Sequence[float],
+        linear_acceleration: Sequence[float],
+        linear_acceleration_covariance: Sequence[float],
+        seq: int = 0,
+    ) -> bytes:
+        """The payload (covariances row-major 3x3, vectors x, y, z)."""
+        _IMU.pack_into(
+            self._buf,
+            self._at,
+            *orientation_xyzw,
+            *orientation_covariance,
+            *angular_velocity,
+            *angular_velocity_covariance,
+            *linear_acceleration,
+            *linear_acceleration_covariance,
+        )
+        return self._finish(self._buf, sec, nanosec, seq)
+
+
+_SCAN = struct.Struct("<7f")
+
+
+class LaserScanWriter(_Stamped):
+    """sensor_msgs/LaserScan for one frame and fixed numbers of ranges and intensities
+    (`ranges` and `intensities` are float32 views to write the readings into)."""
+
+    def __init__(
+        self, fmt: WireFormat, frame_id: str, ranges: int, intensities: int, seq: bool = True
+    ) -> None:
+        super().__init__(fmt, frame_id, seq)
+        out = self._out
+        self._at = out.reserve(_SCAN.size, 4)
+        out.u32(ranges)
+        ranges_at = out.reserve(4 * ranges, 4)
+        out.u32(intensities)
+        intensities_at = out.reserve(4 * intensities, 4)
+        self._buf = out.buf
+        self.ranges = _floats(self._buf, ranges_at, ranges)
+        self.intensities = _floats(self._buf, intensities_at, intensities)
+
+    def encode(
+        self,
+        sec: int,
+        nanosec: int,
+        *,
+        limits: Sequence[float],
+        ranges: Sequence[float] | NDArray[np.float32],
+        intensities: Sequence[float] | NDArray[np.float32],
+        seq: int = 0,
+    ) -> bytes:
+        """The payload; `limits` are angle_min, angle_max, angle_increment,
+        time_increment, scan_time, range_min and range_max."""
+        _SCAN.pack_into(self._buf, self._at, *limits)
+        self.ranges[:] = ranges
+        self.intensities[:] = intensities
+        return self._finish(self._buf, sec, nanosec, seq)
+
+
+_ODOM = struct.Struct("<85d")
+
+
+class OdometryWriter(_Stamped):
+    """nav_msgs/Odometry for one (frame, child frame) pair: after the child frame id,
+    pose (7), its covariance (36), twist (6) and its covariance (36), all float64."""
+
+    def __init__(
+        self, fmt: WireFormat, frame_id: str, child_frame_id: str, seq: bool = True
+    ) -> None:
+        super().__init__(fmt, frame_id, seq)
+        self.child_frame_id = child_frame_id
+        self._out.string(child_frame_id)
+        self._at = self._out.reserve(_ODOM.size, 8)
+        self._buf = self._out.buf
+
+    def encode(
+        self,
+        sec: int,
+        nanosec: int,
+        *,
+        pose: Sequence[float],
+        pose_covariance: Sequence[float],
+        twist: Sequence[float],
+        twist_covariance: Sequence[float],
+        seq: int = 0,
+    ) -> bytes:
+        """The payload; `pose` is (x, y, z, qx, qy, qz, qw), `twist` (linear x, y, z,
+        angular x, y, z), covariances row-major 6x6."""
+        _ODOM.pack_into(self._buf, self._at, *pose, *pose_covariance, *twist, *twist_covariance)
+        return self._finish(self._buf, sec, nanosec, seq)

@@ -14,8 +14,9 @@ from typing import Any
 
 from simbridge.connector import Connector
 from simbridge.messages import MessageRegistry, Translator, WireFormat, default_registry
-from simbridge.messages.fastwire import ClockWriter, JointStateWriter, TFWriter
+from simbridge.messages.fastwire import ClockWriter, TFWriter
 from simbridge.sim.ros.convert import StampMaker, joint_state_message, tf_message
+from simbridge.sim.ros.joint_state_encoder import JointStateEncoder, stamp_parts
 from simbridge.sim.ros.names import RobotNames
 from simbridge.sim.scene.model import RosSettings
 from simbridge.sim.urdf.transforms import Transform
@@ -61,7 +62,7 @@ class StatePublisher:
             j for name, r in world.robots.items() if name not in self.names for j in r.joint_names
         ]
         """Joints on the scene-wide joint-states topic (robots without a `ros:` block)."""
-        self._js_writer: JointStateWriter | None = None
+        self._js_encoder: JointStateEncoder | None = None
         self._tf_writer: TFWriter | None = None
         self._tf_bodies: list[tuple[int, int]] = []
         """MuJoCo body ids of the moving edges' parents and children (for `_tf_writer`)."""
@@ -111,22 +112,15 @@ class StatePublisher:
     def publish_joint_states(self) -> None:
         """Positions, velocities and efforts of every 1-DoF joint."""
         w, joints = self.world, self.shared_joints if self.names else None
-        positions = w.joint_positions(joints)
-        velocities, efforts = w.joint_velocities(joints), w.joint_efforts(joints)
         wire = self._wire()
         if wire is None:
+            positions = w.joint_positions(joints)
+            velocities, efforts = w.joint_velocities(joints), w.joint_efforts(joints)
             msg: Any = joint_state_message(self.stamps, w.time, positions, velocities, efforts)
         else:
-            writer = self._js_writer
-            names = list(positions)
-            if writer is None or writer.wire != wire or writer.names != names:
-                writer = self._js_writer = JointStateWriter(wire[0], names, seq=wire[1])
-            msg = writer.encode(
-                *_stamp(w.time),
-                list(positions.values()),
-                [velocities[n] for n in names],
-                [efforts[n] for n in names],
-            )
+            if self._js_encoder is None:
+                self._js_encoder = JointStateEncoder(w, joints)
+            msg = self._js_encoder.encode(wire)
         self.connector.publish(self.settings.joint_states_topic, msg)
 
     def _wire(self) -> tuple[WireFormat, bool] | None:
@@ -181,7 +175,7 @@ class StatePublisher:
         if bodies:
             self.world.refresh()
             poses = relative_poses(self.world.data, bodies)
-            self.connector.publish("/tf", writer.encode(*_stamp(self.world.time), poses))
+            self.connector.publish("/tf", writer.encode(*stamp_parts(self.world.time), poses))
 
     def _body_id(self, link: str) -> int:
         return 0 if link == WORLD_FRAME else int(self.world.model.body(link).id)
@@ -223,12 +217,7 @@ class StatePublisher:
         writer = self._clock_writer
         if writer is None or writer.fmt != wire[0]:
             writer = self._clock_writer = ClockWriter(wire[0])
-        self.connector.publish("/clock", writer.encode(*_stamp(self.world.time)))
-
-
-def _stamp(seconds: float) -> tuple[int, int]:
-    """(sec, nanosec) of `seconds`, rounded to the nanosecond as `StampMaker.time` does."""
-    return divmod(round(seconds * 1e9), 10**9)
+        self.connector.publish("/clock", writer.encode(*stamp_parts(self.world.time)))
 
 
 def relative_poses(data: Any, edges: Sequence[tuple[int, int]]) -> list[tuple[float, ...]]:

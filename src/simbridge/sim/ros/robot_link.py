@@ -9,12 +9,13 @@ from dataclasses import replace
 
 from simbridge.connector import Connector
 from simbridge.errors import SimError
-from simbridge.messages import MessageRegistry
+from simbridge.messages import MessageRegistry, WireFormat
 from simbridge.sim.ros.commands import CommandSubscriber
 from simbridge.sim.ros.convert import StampMaker, joint_state_message
 from simbridge.sim.ros.diff_drive_link import DiffDriveLink
 from simbridge.sim.ros.gripper_controller import GripperActionController
 from simbridge.sim.ros.group_controller import GroupCommandController
+from simbridge.sim.ros.joint_state_encoder import JointStateEncoder
 from simbridge.sim.ros.names import RobotNames, resolve_name
 from simbridge.sim.ros.trajectory_controller import JointTrajectoryController
 from simbridge.sim.scene.model import (
@@ -95,6 +96,7 @@ class RobotRosLink:
                 ),
             )
         self._callback: int | None = None
+        self._encoder: JointStateEncoder | None = None
 
     def start(self) -> RobotRosLink:
         """Subscribe to the commands and publish joint states at the robot's rate."""
@@ -137,6 +139,13 @@ class RobotRosLink:
         if self._stamps.registry is not registry:
             self._stamps = StampMaker(registry)
         w, ros_name = self.world, self.names.to_ros
+        if self._registry is None:  # the connector's layouts: the precompiled writer
+            if self._encoder is None:
+                self._encoder = JointStateEncoder(w, self.joints, ros_name.__getitem__)
+            fmt: WireFormat = "cdr" if self.connector.wire_format == "cdr" else "ros1"
+            wire = (fmt, registry.protocol == "ROS1")
+            self.connector.publish(self.joint_states_topic, self._encoder.encode(wire))
+            return
         positions = w.joint_positions(self.joints)
         velocities = w.joint_velocities(self.joints)
         efforts = w.joint_efforts(self.joints)

@@ -67,6 +67,12 @@ class RateSchedule:
     def _step_of_tick(self, tick: int) -> int:
         return -(-tick * self._num // self._den)  # ceil(tick * steps_per_tick)
 
+    def next_step(self, timestep: float) -> int:
+        """The first step at which `due(step, timestep)` is True (a caller may skip
+        polling until then)."""
+        self._use_timestep(timestep)
+        return self._next_step
+
     def due(self, step: int, timestep: float) -> bool:
         """True once per tick reached by physics step `step`; advances past every tick
         reached (so a late or skipped poll fires once, not once per missed tick)."""

@@ -13,6 +13,7 @@ from pathlib import Path
 
 import mujoco
 import numpy as np
+from numpy.typing import NDArray
 
 from simbridge.errors import SimError
 from simbridge.sim.control.drive_bank import DriveBank
@@ -27,6 +28,9 @@ from simbridge.sim.world.pacer import Pacer
 from simbridge.sim.world.robot import RobotHandle
 
 __all__ = ["ModelExtension", "RunStats", "StepCallback", "World"]
+
+_NEVER = 2**62
+"""A step no run reaches (no scheduled callback is waiting)."""
 
 StepCallback = Callable[["World"], None]
 """Called on the simulation thread after a step, with the world."""
@@ -88,6 +92,12 @@ class World:
         self._stop = threading.Event()
         self._steps = 0
         self._derived_stale = False
+        self._opt = self.model.opt
+        """The model's options, held once (`model.opt` builds a new accessor per read)."""
+        self._next_due = 0
+        """No callback is due before this step (at `_due_timestep`): `step` skips the
+        callback loop until then. 0 forces a check (after callbacks or the timestep change)."""
+        self._due_timestep = 0.0
         self.reset()
 
     @classmethod
@@ -119,7 +129,7 @@ class World:
     @property
     def timestep(self) -> float:
         """Seconds of sim time per step."""
-        return float(self.model.opt.timestep)
+        return float(self._opt.timestep)
 
     @property
     def step_count(self) -> int:
@@ -162,6 +172,18 @@ class World:
     def joint_names(self) -> list[str]:
         """Every robot's 1-DoF joint names (the /joint_states set)."""
         return [n for r in self.robots.values() for n in r.joint_names]
+
+    def joint_indices(
+        self, names: Sequence[str] | None = None
+    ) -> tuple[list[str], NDArray[np.intp], NDArray[np.intp]]:
+        """(names, their qpos indices, their dof indices) of `names` (every 1-DoF joint if
+        None), to read many joints from `data.qpos`/`qvel`/`qfrc_actuator` at once."""
+        slots = self._slots(names)
+        return (
+            [n for n, _, _ in slots],
+            np.array([q for _, q, _ in slots], dtype=np.intp),
+            np.array([d for _, _, d in slots], dtype=np.intp),
+        )
 
     def joint_positions(self, names: Sequence[str] | None = None) -> dict[str, float]:
         """Joint positions (rad or m)."""
@@ -229,6 +251,7 @@ class World:
             schedule.skip_through(self._steps, self.timestep)
         self._next_id += 1
         self._callbacks[self._next_id] = _Callback(fn, schedule)
+        self._next_due = 0
         return self._next_id
 
     def add_reset_callback(self, fn: StepCallback) -> None:
@@ -312,6 +335,7 @@ class World:
             if cb.schedule is not None:
                 cb.schedule.reset()
                 cb.schedule.skip_through(0, self.timestep)
+        self._next_due = 0
         for fn in self._reset_callbacks:
             fn(self)
 
@@ -321,17 +345,33 @@ class World:
         The clock is the step count times the timestep (not a running sum, which drifts),
         and callbacks that read poses get them for the new time (see `refresh`).
         """
+        model, data, opt = self.model, self.data, self._opt
         for _ in range(count):
             self.process_posted()
-            self.follower.update(self.time)
-            mujoco.mj_step(self.model, self.data)
-            self._steps += 1
-            self.data.time = self._steps * self.timestep
+            self.follower.update(data.time)
+            mujoco.mj_step(model, data)
+            self._steps = step = self._steps + 1
+            timestep = opt.timestep
+            data.time = step * timestep
             self._derived_stale = True
-            step, timestep = self._steps, self.timestep
-            for cb in list(self._callbacks.values()):
-                if cb.schedule is None or cb.schedule.due(step, timestep):
-                    cb.fn(self)
+            if step >= self._next_due or timestep != self._due_timestep:
+                self._run_callbacks(step, timestep)
+
+    def _run_callbacks(self, step: int, timestep: float) -> None:
+        """Call the callbacks due at `step`, then note the next step any can be due."""
+        self._next_due = -1
+        every_step = False
+        for cb in list(self._callbacks.values()):
+            if cb.schedule is None:
+                every_step = True
+                cb.fn(self)
+            elif cb.schedule.due(step, timestep):
+                cb.fn(self)
+        if self._next_due == -1:  # else a callback added one or reset: check next step
+            schedules = [cb.schedule for cb in self._callbacks.values() if cb.schedule]
+            nearest = min((s.next_step(timestep) for s in schedules), default=_NEVER)
+            self._next_due = step + 1 if every_step else nearest
+            self._due_timestep = timestep
 
     def run(
         self,
