@@ -9,6 +9,15 @@ Payloads: geometry_msgs/Twist (48 B) and a 640x480 rgb8 sensor_msgs/Image.
 For reference it also measures the whole path a simulation sees: a Connector in
 this process -> `simbridge endpoint --backend ros1` (a subprocess) -> the rospy
 subscriber node, and back.
+
+Round trip: a small message (std_msgs/Header) sent one at a time through a rospy echo
+node and back, sim -> endpoint -> echo -> endpoint -> sim, beside rospy -> echo ->
+rospy (a rospy pinger node in place of the sim and endpoint) in the same run; p50 and
+p99 of `RT_COUNT` pings after a warm-up (target: the endpoint adds at most 50% to the
+rospy p50 and 100% to its p99).
+
+Every figure is taken `REPEATS` (>= 3) times in interleaved rounds; rows give the best
+and the median round and the 1-minute load average when the row's first round started.
 """
 
 from __future__ import annotations
@@ -21,21 +30,24 @@ import re
 import shutil
 import signal
 import socket
+import statistics
 import struct
 import subprocess
 import sys
 import tempfile
 import textwrap
+import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from benchmarks.repeats import REPEATS, best_and_median, load_average
+
 __all__ = ["run"]
 
 SYSTEM_PYTHON = "/usr/bin/python3"
-REPEATS = int(os.environ.get("SIMBRIDGE_BENCH_REPEATS", "3"))
 IDLE_END = 1.5
 """Seconds without a message after which a receiver stops counting."""
 
@@ -121,6 +133,50 @@ _NODE_SCRIPT = textwrap.dedent(
             if len(times) == before:
                 break
         print(json.dumps({"times": [times[0], times[-1]] if times else [], "count": len(times)}))
+    """
+)
+
+
+RT_COUNT = max(int(1000 * SCALE), 50)
+"""Pings per round-trip run (after `RT_WARMUP` unmeasured ones)."""
+RT_WARMUP = 50
+RT_TYPE = "std_msgs/Header"
+RT_PAYLOAD = struct.pack("<III", 0, 0, 0) + _ros_string("rt")
+"""The ping: a std_msgs/Header (seq, stamp, frame_id "rt") in ROS 1 binary."""
+
+_RT_SCRIPT = textwrap.dedent(
+    """
+    import json, sys, threading, time
+    import rospy
+    from std_msgs.msg import Header
+
+    role, ping, pong = sys.argv[1], sys.argv[2], sys.argv[3]
+    rospy.init_node("rt_" + role, anonymous=True)
+    if role == "echo":
+        out = rospy.Publisher(pong, Header, queue_size=10)
+        rospy.Subscriber(ping, Header, out.publish, tcp_nodelay=True)
+        print("READY", flush=True)
+        sys.stdin.readline()
+    else:
+        count, warmup = int(sys.argv[4]), int(sys.argv[5])
+        got = threading.Event()
+        rospy.Subscriber(pong, Header, lambda m: got.set(), tcp_nodelay=True)
+        out = rospy.Publisher(ping, Header, queue_size=10)
+        msg = Header(frame_id="rt")
+        deadline = time.time() + 30
+        while time.time() < deadline:  # until the echo's connections both ways are up
+            got.clear()
+            out.publish(msg)
+            if got.wait(0.2):
+                break
+        samples = []
+        for i in range(warmup + count):
+            got.clear()
+            start = time.perf_counter()
+            out.publish(msg)
+            if got.wait(2) and i >= warmup:
+                samples.append((time.perf_counter() - start) * 1e6)
+        print(json.dumps(samples), flush=True)
     """
 )
 
@@ -366,56 +422,192 @@ def _full_ros_to_sim(env: dict[str, str], script: Path, p: Payload, topic: str) 
     return _row("ros -> sim (endpoint -> connector)", p, len(times), span)
 
 
-def run(repeats: int = REPEATS) -> list[dict[str, Any]]:
-    """Every direction and payload, best of `repeats` interleaved rounds (the machine may be
-    shared); each backend row carries its share of the ceiling and the worst loss seen."""
-    rows: list[dict[str, Any]] = []
+def _start_rt(env: dict[str, str], script: Path, *args: str) -> subprocess.Popen[str]:
+    return subprocess.Popen(
+        [SYSTEM_PYTHON, str(script), *args],
+        env=env,
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    )
+
+
+def _stop(proc: subprocess.Popen[str]) -> None:
+    """End a node: a line on its stdin asks it to exit; killed (as a group) if it does not."""
+    if proc.poll() is None:
+        with contextlib.suppress(BrokenPipeError, OSError):
+            assert proc.stdin is not None
+            proc.stdin.write("\n")
+            proc.stdin.flush()
+        try:
+            proc.wait(5)
+        except subprocess.TimeoutExpired:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+
+
+def _echo(env: dict[str, str], script: Path, ping: str, pong: str) -> subprocess.Popen[str]:
+    """The rospy echo node: every message on `ping` goes back out on `pong`."""
+    echo = _start_rt(env, script, "echo", ping, pong)
+    assert echo.stdout is not None
+    line = echo.stdout.readline()
+    if line.strip() != "READY":
+        _stop(echo)
+        raise RuntimeError(f"the echo node failed to start: {line!r}")
+    return echo
+
+
+def _latency(samples: list[float]) -> dict[str, float]:
+    if not samples:
+        raise RuntimeError("no ping came back")
+    ordered = sorted(samples)
+    return {
+        "p50_us": statistics.median(ordered),
+        "p99_us": ordered[max(int(len(ordered) * 0.99) - 1, 0)],
+        "lost": RT_COUNT - len(ordered),
+    }
+
+
+def _rospy_round_trip(env: dict[str, str], script: Path, topic: str) -> dict[str, float]:
+    """rospy pinger -> rospy echo -> rospy pinger."""
+    echo = _echo(env, script, topic + "/ping", topic + "/pong")
+    try:
+        args = ["ping", topic + "/ping", topic + "/pong", str(RT_COUNT), str(RT_WARMUP)]
+        pinger = _start_rt(env, script, *args)
+        try:
+            out, _ = pinger.communicate(timeout=120)
+        finally:
+            _stop(pinger)
+    finally:
+        _stop(echo)
+    return _latency(json.loads(out.strip().splitlines()[-1]))
+
+
+def _endpoint_round_trip(env: dict[str, str], script: Path, topic: str) -> dict[str, float]:
+    """Connector -> `simbridge endpoint --backend ros1` -> rospy echo -> endpoint -> Connector."""
+    from simbridge.connector import Connector
+
+    endpoint = _EndpointProcess(env)
+    conn = Connector("127.0.0.1", endpoint.port).connect(wait=10)
+    echo: subprocess.Popen[str] | None = None
+    try:
+        got = threading.Event()
+        conn.subscribe(topic + "/pong", RT_TYPE, lambda _: got.set(), raw=True)
+        ping = conn.register_publisher(topic + "/ping", RT_TYPE, queue_size=10)
+        echo = _echo(env, script, topic + "/ping", topic + "/pong")
+        deadline = time.monotonic() + 30
+        while time.monotonic() < deadline:  # until the echo's connections both ways are up
+            got.clear()
+            ping.publish(RT_PAYLOAD)
+            if got.wait(0.2):
+                break
+        samples = []
+        for i in range(RT_WARMUP + RT_COUNT):
+            got.clear()
+            start = time.perf_counter()
+            ping.publish(RT_PAYLOAD)
+            if got.wait(2) and i >= RT_WARMUP:
+                samples.append((time.perf_counter() - start) * 1e6)
+    finally:
+        if echo is not None:
+            _stop(echo)
+        conn.close()
+        endpoint.stop()
+    return _latency(samples)
+
+
+Measure = Callable[[dict[str, str], Path, Payload, str], dict[str, Any]]
+MEASURES: list[tuple[str, Measure]] = [
+    ("ceiling", _ceiling),  # first: the other rows are shares of it
+    ("sim_to_ros", lambda env, script, p, t: asyncio.run(_sim_to_ros(env, script, p, t))),
+    ("ros_to_sim", lambda env, script, p, t: asyncio.run(_ros_to_sim(env, script, p, t))),
+    ("full_sim_to_ros", _full_sim_to_ros),
+    ("full_ros_to_sim", _full_ros_to_sim),
+]
+"""Throughput measurements of one round, each on its own topic."""
+
+THROUGHPUT_TITLE = (
+    "ROS 1 backend against the rospy ceiling, same run "
+    "(targets: >= 100% sim->ROS, >= 95% ROS->sim, zero loss)"
+)
+ROUND_TRIP_TITLE = (
+    "ROS 1 round trip through a rospy echo node, beside rospy -> echo -> rospy in the same "
+    "run (target: the endpoint adds <= 50% to the rospy p50, <= 100% to its p99)"
+)
+
+
+def run(repeats: int = REPEATS) -> dict[str, list[dict[str, Any]]]:
+    """Every direction and payload, then the round trips, in `repeats` interleaved rounds
+    (the machine may be shared); rows give the best and the median round."""
+    throughput: list[dict[str, Any]] = []
+    round_trips: list[dict[str, Any]] = []
     with _roscore() as env, tempfile.TemporaryDirectory() as tmp:
         os.environ.update({k: v for k, v in env.items() if k.startswith("ROS_")})
         script = Path(tmp, "bench_node.py")
         script.write_text(_NODE_SCRIPT % {"idle": IDLE_END})
+        rt_script = Path(tmp, "rt_node.py")
+        rt_script.write_text(_RT_SCRIPT)
         for i, p in enumerate(PAYLOADS):
+            loads: list[float] = []
             rounds: list[list[dict[str, Any]]] = []
             for r in range(repeats):
-                topic = f"/bench/p{i}r{r}"
-                rounds.append(
-                    [
-                        _ceiling(env, script, p, topic + "/ceiling"),
-                        asyncio.run(_sim_to_ros(env, script, p, topic + "/sim_to_ros")),
-                        asyncio.run(_ros_to_sim(env, script, p, topic + "/ros_to_sim")),
-                        _full_sim_to_ros(env, script, p, topic + "/full_sim_to_ros"),
-                        _full_ros_to_sim(env, script, p, topic + "/full_ros_to_sim"),
-                    ]
-                )
-            best = [_best([rnd[k] for rnd in rounds]) for k in range(len(rounds[0]))]
-            for row in best:
-                row["of_ceiling"] = row["msg_per_s"] / best[0]["msg_per_s"]
-            rows.extend(best)
-    return rows
+                results = []
+                for name, measure in MEASURES:
+                    if r == 0:
+                        loads.append(load_average())
+                    results.append(measure(env, script, p, f"/bench/p{i}r{r}/{name}"))
+                rounds.append(results)
+            throughput.extend(_summary(rounds, k, loads[k]) for k in range(len(MEASURES)))
+        rt: dict[str, list[dict[str, float]]] = {"rospy": [], "endpoint": []}
+        rt_loads: dict[str, float] = {}
+        for r in range(repeats):
+            rt_loads.setdefault("rospy", load_average())
+            rt["rospy"].append(_rospy_round_trip(env, rt_script, f"/bench/rt{r}/rospy"))
+            rt_loads.setdefault("endpoint", load_average())
+            rt["endpoint"].append(_endpoint_round_trip(env, rt_script, f"/bench/rt{r}/endpoint"))
+    labels = {
+        "rospy": "rospy -> rospy echo -> rospy",
+        "endpoint": "sim -> endpoint -> rospy echo -> endpoint -> sim",
+    }
+    for key, runs in rt.items():
+        row: dict[str, Any] = {"path": labels[key], "pings": RT_COUNT, "load_1min": rt_loads[key]}
+        for figure in ("p50_us", "p99_us"):
+            values = [run[figure] for run in runs]
+            row[f"{figure}_best"], row[f"{figure}_median"] = best_and_median(values, True)
+            # The share of the rospy figure, round by round (1.5 = 50% added).
+            ratios = [a[figure] / b[figure] for a, b in zip(runs, rt["rospy"], strict=True)]
+            row[f"{figure}_vs_rospy"] = statistics.median(ratios)
+        row["lost"] = sum(int(run["lost"]) for run in runs)
+        round_trips.append(row)
+    return {THROUGHPUT_TITLE: throughput, ROUND_TRIP_TITLE: round_trips}
 
 
-def _best(rows: list[dict[str, Any]]) -> dict[str, Any]:
-    best = dict(max(rows, key=lambda r: r["msg_per_s"]))
-    best["loss"] = max(r["loss"] for r in rows)
-    return best
-
-
-def _table(rows: list[dict[str, Any]]) -> str:
-    head = f"{'direction':36} {'payload':20} {'msg/s':>9} {'MB/s':>8} {'loss':>6} {'ceiling':>8}"
-    lines = [head, "-" * len(head)]
-    for r in rows:
-        share = f"{r['of_ceiling']:.0%}"
-        lines.append(
-            f"{r['direction']:36} {r['payload']:20} {r['msg_per_s']:9.0f} "
-            f"{r['mb_per_s']:8.1f} {r['loss']:6.1%} {share:>8}"
-        )
-    return "\n".join(lines)
+def _summary(rounds: list[list[dict[str, Any]]], k: int, load: float) -> dict[str, Any]:
+    """Measurement `k` over the rounds: best and median rate, share of the same round's
+    ceiling (measurement 0), the worst loss seen."""
+    runs = [rnd[k] for rnd in rounds]
+    rates = [r["msg_per_s"] for r in runs]
+    best, median = best_and_median(rates)
+    shares = [r["msg_per_s"] / rnd[0]["msg_per_s"] for r, rnd in zip(runs, rounds, strict=True)]
+    share_best, share_median = best_and_median(shares)
+    size = len(next(p.data for p in PAYLOADS if p.label == runs[0]["payload"]))
+    return {
+        "direction": runs[0]["direction"],
+        "payload": runs[0]["payload"],
+        "sent": runs[0]["sent"],
+        "load_1min": load,
+        "msg_per_s_best": best,
+        "msg_per_s_median": median,
+        "mb_per_s_best": best * size / 1e6,
+        "of_ceiling_best": share_best,
+        "of_ceiling_median": share_median,
+        "loss_worst": max(r["loss"] for r in runs),
+    }
 
 
 if __name__ == "__main__":
-    rows = []
-    for row in run():
-        print(row, file=sys.stderr, flush=True)
-        rows.append(row)
-    print(_table(rows))
-    sys.exit(0)
+    from benchmarks.table import format_table
+
+    for title, table in run().items():
+        print(f"### {title}\n\n{format_table(table, markdown='--markdown' in sys.argv)}\n")

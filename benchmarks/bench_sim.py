@@ -1,19 +1,31 @@
 """Simulator speed: physics steps per second and real-time factor for a 6-DoF arm scene.
 
 The Niryo One (6 revolute joints and a mimic gripper) with its default position drives,
-alone, following a trajectory, among dynamic boxes, publishing its ROS state through an
-in-process endpoint, and paced at real time (which should land on a factor of 1.0).
-Column `vs_bare`: steps/s over those of the bare trajectory run measured just before it
-in the same run (the ROS row's figure is the cost of publishing the sim's ROS state; the
-goal is >= 0.5).
+alone, following a trajectory, among dynamic boxes, publishing its ROS state (joint
+states 50 Hz, TF 50 Hz, /clock 100 Hz) and paced at real time (which should land on a
+factor of 1.0). The ROS state goes to an endpoint in its own process, as `simbridge sim
+--endpoint` runs (the goal: >= 0.5 of the bare stepping speed), and for comparison to an
+endpoint thread inside the simulator's process, whose work then shares the simulator's
+interpreter lock.
+
+Every scenario runs `REPEATS` (>= 3) times, in rounds that take each scenario in turn;
+rows give the best and the median run and the 1-minute load average when the row's first
+run started. `vs_bare`: steps/s over those of the bare trajectory run of the same round
+(measured just before), best and median over the rounds.
 """
 
 from __future__ import annotations
 
+import contextlib
+import os
+import re
+import signal
+import subprocess
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from typing import Any
 
+from benchmarks.repeats import REPEATS, best_and_median, load_average
 from simbridge.assets import robot_urdf
 from simbridge.connector import Connector
 from simbridge.endpoint import EndpointOptions, EndpointThread
@@ -21,6 +33,8 @@ from simbridge.sim.control import Trajectory
 from simbridge.sim.ros import SimRosBridge
 from simbridge.sim.scene import parse_scene
 from simbridge.sim.world import World
+
+__all__ = ["run"]
 
 ARM_JOINTS = [f"joint_{i}" for i in range(1, 7)]
 
@@ -54,7 +68,6 @@ def _sweep(world: World) -> None:
 
 
 def _measure(
-    name: str,
     world: World,
     sim_seconds: float,
     factor: float = 0.0,
@@ -64,7 +77,6 @@ def _measure(
         setup(world)
     stats = world.run(duration=sim_seconds, realtime_factor=factor)
     return {
-        "scenario": name,
         "bodies": world.model.nbody,
         "dofs": world.model.nv,
         "timestep_ms": world.timestep * 1e3,
@@ -74,39 +86,105 @@ def _measure(
     }
 
 
-def _with_ros(sim_seconds: float) -> dict[str, Any]:
+def _with_ros(port: int, sim_seconds: float) -> dict[str, Any]:
     world = _world()
-    with EndpointThread(EndpointOptions(port=0)) as endpoint:
-        connector = Connector("127.0.0.1", endpoint.port).connect(wait=5)
-        try:
-            with SimRosBridge(world, connector):
-                row = _measure(
-                    "arm + ROS state (js 50 Hz, tf 50 Hz, clock 100 Hz)",
-                    world,
-                    sim_seconds,
-                    setup=_sweep,
-                )
-                connector.flush(5)
-        finally:
-            connector.close()
+    connector = Connector("127.0.0.1", port).connect(wait=5)
+    try:
+        with SimRosBridge(world, connector):
+            row = _measure(world, sim_seconds, setup=_sweep)
+            connector.flush(5)
+    finally:
+        connector.close()
     return row
 
 
-def run(sim_seconds: float = 20.0) -> list[dict[str, Any]]:
-    """One row per scenario; `sim_seconds` of simulated time each (real-time row: 2 s)."""
-    holding = _measure("arm holding pose", _world(), sim_seconds)
-    bare = _measure("arm following a trajectory", _world(), sim_seconds, setup=_sweep)
-    rows = [
-        holding,
-        bare,
-        _with_ros(sim_seconds),  # right after its bare twin: the ratio of one moment
-        _measure("arm + 20 dynamic boxes", _world(boxes=20), sim_seconds, setup=_sweep),
-        _measure("arm, 1 ms timestep", _world(timestep=0.001), sim_seconds, setup=_sweep),
-    ]
-    for row in rows:
-        row["vs_bare"] = row["steps_per_s"] / bare["steps_per_s"]
-    paced = _measure("arm paced at real time", _world(), 2.0, factor=1.0, setup=_sweep)
-    return [*rows, {**paced, "vs_bare": ""}]
+def _with_ros_in_process(sim_seconds: float) -> dict[str, Any]:
+    with EndpointThread(EndpointOptions(port=0)) as endpoint:
+        return _with_ros(endpoint.port, sim_seconds)
+
+
+@contextlib.contextmanager
+def _endpoint_process() -> Iterator[int]:
+    """`simbridge endpoint` (local backend) in its own process; yields its port."""
+    command = [sys.executable, "-m", "simbridge.cli", "--log-level", "WARNING", "endpoint"]
+    proc = subprocess.Popen(
+        [*command, "--port", "0", "--idle-timeout", "0"],
+        stdout=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+        env=dict(os.environ, PYTHONUNBUFFERED="1"),
+    )
+    try:
+        assert proc.stdout is not None
+        line = proc.stdout.readline()
+        found = re.search(r"listening on \S+:(\d+)", line)
+        if found is None:
+            raise RuntimeError(f"the endpoint did not start: {line!r}")
+        yield int(found[1])
+    finally:
+        os.killpg(proc.pid, signal.SIGINT)
+        try:
+            proc.wait(10)
+        except subprocess.TimeoutExpired:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+
+
+def run(sim_seconds: float = 20.0, repeats: int = REPEATS) -> list[dict[str, Any]]:
+    """One row per scenario; `sim_seconds` of simulated time per run (real-time row: 2 s)."""
+    with _endpoint_process() as port:
+        scenarios: list[tuple[str, Callable[[], dict[str, Any]]]] = [
+            ("arm holding pose", lambda: _measure(_world(), sim_seconds)),
+            ("arm following a trajectory", lambda: _measure(_world(), sim_seconds, setup=_sweep)),
+            (  # right after its bare twin: the ratio of one moment
+                "arm + ROS state, endpoint process",
+                lambda: _with_ros(port, sim_seconds),
+            ),
+            (
+                "arm + ROS state, in-process endpoint thread",
+                lambda: _with_ros_in_process(sim_seconds),
+            ),
+            (
+                "arm + 20 dynamic boxes",
+                lambda: _measure(_world(boxes=20), sim_seconds, setup=_sweep),
+            ),
+            (
+                "arm, 1 ms timestep",
+                lambda: _measure(_world(timestep=0.001), sim_seconds, setup=_sweep),
+            ),
+            (
+                "arm paced at real time",
+                lambda: _measure(_world(), 2.0, factor=1.0, setup=_sweep),
+            ),
+        ]
+        runs: dict[str, list[dict[str, Any]]] = {name: [] for name, _ in scenarios}
+        loads: dict[str, float] = {}
+        for _ in range(repeats):
+            for name, measure in scenarios:
+                loads.setdefault(name, load_average())
+                runs[name].append(measure())
+    bare = [r["steps_per_s"] for r in runs["arm following a trajectory"]]
+    rows = []
+    for name, results in runs.items():
+        first = results[0]
+        best, median = best_and_median([r["steps_per_s"] for r in results])
+        row: dict[str, Any] = {
+            "scenario": name,
+            "bodies": first["bodies"],
+            "dofs": first["dofs"],
+            "timestep_ms": first["timestep_ms"],
+            "load_1min": loads[name],
+            "steps_per_s_best": best,
+            "steps_per_s_median": median,
+            "realtime_factor_median": best_and_median([r["realtime_factor"] for r in results])[1],
+            "vs_bare_best": "",
+            "vs_bare_median": "",
+        }
+        if name != "arm paced at real time":
+            ratios = [r["steps_per_s"] / b for r, b in zip(results, bare, strict=True)]
+            row["vs_bare_best"], row["vs_bare_median"] = best_and_median(ratios)
+        rows.append(row)
+    return rows
 
 
 if __name__ == "__main__":
