@@ -31,7 +31,6 @@ SUITES = {
 
 TITLES = {
     "endpoint": "Endpoint, local backend (targets: >= 50,000 small msg/s, >= 1 GB/s images)",
-    "ros1": "ROS 1 backend against the rospy ceiling, same run (target: >= 90%, zero loss)",
     "sim": "Simulator (Niryo One arm)",
     "sensors": "Sensors (targets: camera >= 15 fps on CPU, mobile robot >= 2x real time)",
     "pick_and_place": "Pick and place, 20 random seeds (target: >= 95% success)",
@@ -46,7 +45,9 @@ TITLES = {
 NOTES = """Notes:
 - **Machine and load:** the line above says where and under what load this run was taken;
   figures swing with load (other jobs on the same cores), so compare rows of one run.
-- **Best and median:** endpoint rows give the best and the median of three runs.
+- **Best and median:** endpoint, ROS 1 and simulator rows give the best and the median of
+  three runs (ROS 1 and simulator runs in rounds that take each row in turn); `load_1min` is
+  the 1-minute load average when a row's first run started.
 - **ROS 1 ceiling:** a rospy publisher feeding a rospy subscriber, measured with the same
   payloads in the same run.
 - **Attacks:** peak resident memory of an endpoint process under each attack, beside its

@@ -5,7 +5,9 @@ through its subscriber-count extension) is not measured at all. With an endpoint
 that cannot report counts every output stays on.
 
 Sensors build ROS 1 (noetic) messages; against a ROS 2 endpoint each one is translated
-to the ROS 2 layout (Header without seq, CameraInfo `d k r p`) on its way out.
+to the ROS 2 layout (Header without seq, CameraInfo `d k r p`) on its way out. IMU,
+laser-scan and odometry messages skip that and the generic encoder: precompiled writers
+serialize them for either generation (`sensor_wire.py`).
 """
 
 from __future__ import annotations
@@ -16,7 +18,8 @@ from typing import Any, Protocol
 import mujoco
 
 from simbridge.connector import Connector, Publisher
-from simbridge.messages import Translator, default_registry
+from simbridge.messages import Translator, WireFormat, default_registry
+from simbridge.sim.ros.sensor_wire import SensorWire
 from simbridge.sim.sensors import Publication, SensorSuite
 from simbridge.sim.world.world import World
 
@@ -53,6 +56,8 @@ class SensorPublisher:
         self._callback: int | None = None
         self._lazy: dict[str, Publisher] = {}
         self._translator: Translator | None = None
+        self._wire = SensorWire()
+        """Precompiled writers for the hot kinds (IMU, laser scans, odometry and its TF)."""
         self.always_on = False
         """Measure every output even without subscribers (set while recording)."""
         self.observers: list[SensorObserver] = []
@@ -87,10 +92,17 @@ class SensorPublisher:
             return
         for observer in self.observers:
             observer.observe(publications, self.world.data)
+        connector = self.connector
+        fmt: WireFormat = "cdr" if connector.wire_format == "cdr" else "ros1"
+        wire = (fmt, connector.registry.protocol == "ROS1")
         translate = self._translate()
         for publication in publications:
+            payload = self._wire.encode(publication, wire)
+            if payload is not None:
+                connector.publish(publication.topic, payload)
+                continue
             message = publication.message
-            self.connector.publish(
+            connector.publish(
                 publication.topic, message if translate is None else translate(message)
             )
 
