@@ -43,3 +43,14 @@ def test_unknown_action_type_is_named_before_anything_is_sent() -> None:
     unconnected = Connector("127.0.0.1", 9)
     with pytest.raises(MessageError, match="test_msgs/FibonacciGoal"):
         Ros2ActionClient(unconnected, "/fibonacci", "test_msgs/Fibonacci")
+
+
+def test_a_goal_too_big_for_one_system_command_is_refused() -> None:
+    registry = MessageRegistry(store=ROS2_STORE)
+    registry.load_packages(ASSETS)
+    client = Ros2ActionClient(
+        Connector("127.0.0.1", 9, registry=registry), "/fib", "test_msgs/Fibonacci"
+    )
+    with pytest.raises(ConnectorError, match="800,000 bytes is more than the actions extension"):
+        client.send_goal(b"\0" * 800_000)
+    assert not client.goals

@@ -31,6 +31,7 @@ from simbridge.messages.actionlib import (
 )
 from simbridge.protocol import (
     ACTIONS_EXTENSION,
+    MAX_COMMAND_SIZE,
     STATUS_ABORTED,
     STATUS_ACCEPTED,
     STATUS_CANCELED,
@@ -55,6 +56,8 @@ ACTIONLIB_STATUS = {
 """action_msgs/GoalStatus -> actionlib's GoalStatus (a goal refused or rejected before it
 ran is REJECTED; one whose connection was lost is LOST)."""
 
+_MAX_GOAL = (MAX_COMMAND_SIZE - 64 * 1024) // 4 * 3
+"""Largest serialized goal sent: its base64 plus names and ids fit in one system command."""
 _QUERY_WAIT = 2.0
 """Longest wait for one `__action_server` reply before asking again."""
 
@@ -193,6 +196,12 @@ class Ros2ActionClient:
             payload = bytes(goal)
         else:
             payload = connector.registry.encode(goal, f"{self.action_type}Goal", fmt="cdr")
+        if len(payload) > _MAX_GOAL:
+            raise ConnectorError(
+                f"a goal of {len(payload):,} bytes is more than the actions extension carries "
+                f"({_MAX_GOAL:,} bytes: base64 in a system command of at most "
+                f"{MAX_COMMAND_SIZE:,} bytes)"
+            )
         handle = Ros2ClientGoal(self)
         handle.on_feedback = on_feedback
         router = connector._goals

@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, Any
 from simbridge.endpoint.backends.base import BackendActionGoal
 from simbridge.errors import SimbridgeError
 from simbridge.protocol import (
+    MAX_COMMAND_SIZE,
     ActionCancel,
     ActionFeedback,
     ActionGoal,
@@ -36,6 +37,12 @@ __all__ = ["ActionCommand", "SessionActions"]
 log = logging.getLogger("simbridge.endpoint")
 
 ActionCommand = ActionGoal | ActionCancel | ActionServerQuery
+
+
+def _too_big(frame: bytes, name: str) -> bool:
+    """Whether a command's JSON exceeds MAX_COMMAND_SIZE (the client would refuse it)."""
+    return len(frame) - 8 - len(name) > MAX_COMMAND_SIZE
+
 
 _MAX_QUERIES = 100
 """`__action_server` queries one client may have waiting for the backend at once."""
@@ -155,7 +162,16 @@ class SessionActions:
                     f"{self._describe(command)} ended without a result: {exc}", goal_id=goal_id
                 )
                 return
-            send(ActionResult(goal_id, status, result).encode())
+            frame = ActionResult(goal_id, status, result).encode()
+            if _too_big(frame, ActionResult.NAME):
+                session.send_error(
+                    f"{self._describe(command)} ended ({status}) with a result of "
+                    f"{len(result):,} bytes, more than a system command carries "
+                    f"({MAX_COMMAND_SIZE:,} bytes of JSON, base64 inside)",
+                    goal_id=goal_id,
+                )
+                return
+            send(frame)
         except asyncio.CancelledError:
             raise
         except Exception as exc:  # a backend failure must not end the session
@@ -178,7 +194,11 @@ class SessionActions:
         if session._paused:
             session.stats.feedback_dropped += 1
             return
-        session._send_control(ActionFeedback(goal_id, data).encode())
+        frame = ActionFeedback(goal_id, data).encode()
+        if _too_big(frame, ActionFeedback.NAME):
+            session.stats.feedback_dropped += 1
+            return
+        session._send_control(frame)
 
     def _cancel(self, goal_id: int) -> None:
         goal = self._goals.get(goal_id)
