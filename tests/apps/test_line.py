@@ -162,8 +162,8 @@ def test_bad_options_get_a_clear_error(
 
 
 def test_cli_refuses_other_backends(capsys: pytest.CaptureFixture[str]) -> None:
-    assert cli_main(["demo", "line", "--backend", "ros1"]) == 2
-    assert "--backend ros1 is not supported" in capsys.readouterr().err
+    assert cli_main(["demo", "line", "--backend", "ros2"]) == 2
+    assert "--backend ros2 is not supported" in capsys.readouterr().err
 
 
 def test_result_counts_only_parts_within_tolerance() -> None:

@@ -11,6 +11,8 @@ __all__ = ["add_parser"]
 
 
 def run_demo(args: argparse.Namespace) -> int:
+    if args.name == "line":  # local or ros1 only: decided before any ROS 2 re-exec
+        return _run_line(args)
     if args.backend == "ros2":
         reexec_in_ros2_venv()
     if args.name == "bridge":
@@ -34,8 +36,6 @@ def run_demo(args: argparse.Namespace) -> int:
         if args.view:
             forwarded += ["--view", "--view-port", str(args.view_port)]
         return mobile_robot_main([*forwarded, "--json"] if args.json else forwarded)
-    if args.name == "line":
-        return _run_line(args)
     from simbridge.apps import pick_and_place_main
 
     forwarded = ["--backend", args.backend]
@@ -57,14 +57,14 @@ def run_demo(args: argparse.Namespace) -> int:
 def _run_line(args: argparse.Namespace) -> int:
     from simbridge.apps.line import main as line_main
 
-    if args.backend != "local":
+    if args.backend == "ros2":
         print(
-            f"simbridge demo line: --backend {args.backend} is not supported; the line runs "
-            "its nodes on the local bus (--backend local)",
+            "simbridge demo line: --backend ros2 is not supported (the controllers speak "
+            "ROS 1 actions); use --backend local or ros1",
             file=sys.stderr,
         )
         return 2
-    forwarded = ["--parts", str(args.parts)]
+    forwarded = ["--backend", args.backend, "--parts", str(args.parts)]
     if args.realtime is not None:
         forwarded += ["--realtime", str(args.realtime)]
     if args.seed is not None:

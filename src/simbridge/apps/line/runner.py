@@ -1,8 +1,8 @@
-"""Run the line headless: endpoint on the local bus, the scene with every robot on its own
+"""Run the line headless: endpoint (local bus or ROS 1), the scene with every robot on its own
 connection, one in-process node per robot and the supervisor; and its command line.
 
-`main(argv)` is `simbridge demo line [--seed N] [--parts N] [--json] [--video PATH]
-[--realtime F] [--record FILE] [--view [--view-port P]]`.
+`main(argv)` is `simbridge demo line [--backend local|ros1] [--seed N] [--parts N] [--json]
+[--video PATH] [--realtime F] [--record FILE] [--view [--view-port P]]`.
 """
 
 from __future__ import annotations
@@ -30,15 +30,26 @@ from simbridge.apps.line.scene import (
 from simbridge.apps.line.supervisor import LineSupervisor
 from simbridge.apps.line.task import MAX_PARTS, LineTask
 from simbridge.apps.pick_and_place.video import VideoRecorder, check_video_path
+from simbridge.apps.ros_master import DemoMaster
 from simbridge.connector import ConnectorOptions
-from simbridge.endpoint import EndpointOptions, EndpointThread, LocalBus, Node
+from simbridge.endpoint import (
+    Backend,
+    EndpointOptions,
+    EndpointThread,
+    LocalBus,
+    Node,
+    make_backend,
+)
+from simbridge.endpoint.backends.ros1_master import unique_node_name
 from simbridge.errors import AppError, SimbridgeError
 from simbridge.sim.record import RecordOptions
 from simbridge.sim.ros import SimulationSession
 from simbridge.sim.view import LiveView, ViewOptions
 from simbridge.sim.world import World
 
-__all__ = ["main", "run_line"]
+__all__ = ["BACKENDS", "main", "run_line"]
+
+BACKENDS = ("local", "ros1")
 
 SETTLE_S = 0.5
 """Simulated seconds the parts rest after the last one is set down, before measuring."""
@@ -125,13 +136,17 @@ def run_line(
     view: ViewOptions | None = None,
     max_sim_s: float = 600.0,
     realtime_factor: float = 0.0,
+    backend: str = "local",
     progress: Callable[[str], None] | None = print,
 ) -> LineResult:
     """Move ``parts`` parts (poses drawn from ``seed``, else seed 0) from the input area to
     the output slots with two arms and the conveyor, and measure where they ended up.
 
-    The endpoint runs on the local bus; every robot is served on its own connection; one
-    in-process node per robot drives it through its controllers' actions. ``video`` writes
+    The endpoint runs on the local bus (``backend`` "local"), or is a rospy node ("ros1",
+    on the master at ROS_MASTER_URI, else a private roscore) whose topics, and so every
+    robot's joint states, TF and action traffic, are real ROS 1 topics; every robot is
+    served on its own connection; one node per robot (on the endpoint's graph) drives it
+    through its controllers' actions. ``video`` writes
     a .gif (or .mp4), ``record`` a bag of every sim topic, ``view`` a live browser view;
     ``json`` prints the summary as the last line; ``realtime_factor`` paces the run (0: as
     fast as possible). A failed step ends the run with ``error``
@@ -142,9 +157,18 @@ def run_line(
     say = progress or (lambda _text: None)
     began = time.perf_counter()
     error: str | None = None
+    if backend not in BACKENDS:
+        raise AppError(f"unknown backend {backend!r}; choose one of {', '.join(BACKENDS)}")
     with ExitStack() as stack:
-        bus = LocalBus()
+        bus: Backend
+        if backend == "local":
+            bus, where = LocalBus(), "local bus"
+        else:
+            master = stack.enter_context(DemoMaster())
+            bus = make_backend("ros1", node_name=unique_node_name("simbridge_line"))
+            where = f"ros1 backend, ROS master {master.describe()}"
         endpoint = stack.enter_context(EndpointThread(EndpointOptions(port=0), bus))
+        loop = endpoint.loop
         session = SimulationSession(
             line_scene(task, scene),
             f"127.0.0.1:{endpoint.port}",
@@ -159,20 +183,20 @@ def run_line(
             say(f"[line] live view at {stack.enter_context(LiveView(world, view)).url}")
         sim = _SimThread(world, max_sim_s, video_path, realtime_factor)
         alive = lambda: sim.alive  # noqa: E731
-        arm_in = ArmCell(bus, f"/{ARMS[0]}", alive=alive)
-        arm_out = ArmCell(bus, f"/{ARMS[1]}", alive=alive)
-        conveyor = ConveyorCell(bus, f"/{CONVEYOR}", alive=alive)
+        arm_in = ArmCell(bus, f"/{ARMS[0]}", loop=loop, alive=alive)
+        arm_out = ArmCell(bus, f"/{ARMS[1]}", loop=loop, alive=alive)
+        conveyor = ConveyorCell(bus, f"/{CONVEYOR}", loop=loop, alive=alive)
         cells: dict[str, RobotNode] = {ARMS[0]: arm_in, ARMS[1]: arm_out, CONVEYOR: conveyor}
         for cell in cells.values():
             stack.callback(cell.close)
-        node = Node(bus, "/line_supervisor")
+        node = Node(bus, "/line_supervisor", loop=loop)
         stack.callback(node.close)
         stack.callback(sim.stop)
         sim.start()
         for cell in cells.values():
             cell.wait_ready(10.0)
         say(
-            f"[line] endpoint on port {endpoint.port} (local bus); {len(task.parts)} parts; "
+            f"[line] endpoint on port {endpoint.port} ({where}); {len(task.parts)} parts; "
             f"robots {', '.join(cells)}, each on its own connection"
         )
         supervisor = LineSupervisor(
@@ -233,6 +257,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         "controllers' actions.",
     )
     parser.add_argument("--seed", type=int, help="draw the part poses from this seed (default 0)")
+    parser.add_argument(
+        "--backend",
+        choices=BACKENDS,
+        default="local",
+        help="local (default): the embedded bus; ros1: real ROS 1 topics and actions on the "
+        "master at ROS_MASTER_URI (else a private roscore)",
+    )
     parser.add_argument("--parts", type=int, default=3, help=f"parts to move, 1 to {MAX_PARTS}")
     parser.add_argument("--json", action="store_true", help="print a JSON summary last")
     parser.add_argument("--video", metavar="PATH", help="write a .gif (or .mp4 with ffmpeg)")
@@ -258,6 +289,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             record=RecordOptions(Path(args.record)) if args.record else None,
             view=ViewOptions(port=args.view_port) if args.view else None,
             realtime_factor=realtime,
+            backend=args.backend,
         )
     except SimbridgeError as exc:
         print(f"simbridge demo line: {exc}", file=sys.stderr)
