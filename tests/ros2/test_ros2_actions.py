@@ -335,3 +335,19 @@ def test_server_that_leaves_mid_goal_ends_it_with_an_error(ros: Connector) -> No
     assert time.monotonic() - left < 20  # discovery_wait (5 s) after the server is gone
     assert goal.status == LOST
     assert "left the graph" in goal.text
+
+
+def test_stopping_the_endpoint_cancels_running_goals() -> None:
+    require_ros2()
+    action = unique_action()
+    with server(action, 0.2) as srv:
+        proc, port = start_endpoint("--idle-timeout", "0")
+        try:
+            raw = RawClient(port)
+            wait_ready(raw, action)
+            raw.send(ActionGoal(1, action, FIB, goal_cdr(60)).encode())
+            raw.expect(lambda e: command(e, ActionFeedback, 1), timeout=20)
+        finally:
+            proc.stop()
+            raw.close()
+        assert srv.expect_json("canceled", timeout=20) == 60

@@ -210,7 +210,17 @@ class Ros2Actions:
             goal.status_seen(status)
 
     async def close(self) -> None:
-        """Destroy every action client (before the node goes)."""
+        """Cancel every goal still running (the endpoint is stopping) and destroy every
+        action client, before the node goes."""
+
+        def cancel_all() -> None:  # rclpy thread; rcl writes each request at once
+            for goal in list(self.goals.values()):
+                goal._r_abandon()
+
+        try:
+            await asyncio.wait_for(self.on_rclpy(cancel_all), 2.0)
+        except Exception as exc:  # the executor may be gone already
+            _log.debug("cancelling goals at close: %s", exc)
         clients = [client for client, _cls in self._clients.values()]
         self._clients.clear()
         self._ready_since.clear()
@@ -321,7 +331,10 @@ class _Ros2Goal(BackendActionGoal):
         if self._gone:
             return
         self._gone = True
-        self._actions.on_rclpy(self._r_abandon)
+        try:
+            self._actions.on_rclpy(self._r_abandon)
+        except EndpointError:  # the backend is closed: the node and its goals are gone
+            return
 
     def _deliver(self, fn: Callable[..., None], *args: Any) -> None:
         if not self._gone:
