@@ -351,3 +351,27 @@ def test_stopping_the_endpoint_cancels_running_goals() -> None:
             proc.stop()
             raw.close()
         assert srv.expect_json("canceled", timeout=20) == 60
+
+
+def test_two_clients_share_an_action_and_keep_their_own_goals(
+    endpoint: tuple[Ros2Process, int],
+) -> None:
+    """Goal ids are per client (both use 1); one client leaving cancels only its goal."""
+    action = unique_action()
+    with server(action, 0.1) as srv:
+        first, second = RawClient(endpoint[1]), RawClient(endpoint[1])
+        try:
+            wait_ready(first, action)
+            wait_ready(second, action)
+            first.send(ActionGoal(1, action, FIB, goal_cdr(60)).encode())
+            first.expect(lambda e: command(e, ActionFeedback, 1), timeout=20)
+            second.send(ActionGoal(1, action, FIB, goal_cdr(8)).encode())
+            second.expect(lambda e: command(e, ActionStatus, 1), timeout=20)
+            first.close()
+            assert srv.expect_json("canceled", timeout=20) == 60
+            result = second.expect(lambda e: command(e, ActionResult, 1), timeout=30)
+            assert result.command.status == STATUS_SUCCEEDED
+            assert sequence(result.command.result, "Result")[-1] == 21
+        finally:
+            first.close()
+            second.close()
