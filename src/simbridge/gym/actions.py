@@ -88,11 +88,17 @@ class JointDelta(ActionAdapter):
         self.joints = tuple(joints)
         self.max_delta = max_delta
         self.space = _box([-max_delta] * len(self.joints), [max_delta] * len(self.joints))
+        self._actuators = np.zeros(0, np.intp)
+
+    def bind(self, world: World) -> None:
+        """Check the joints have drives; remember their actuators."""
+        super().bind(world)
+        self._actuators = world.drives.actuators(self.joints)
 
     def apply(self, world: World, action: NDArray[np.float32]) -> None:
         """Move each joint's position target by its entry of `action`."""
-        for joint, delta in zip(self.joints, action, strict=True):
-            world.drives.set_position(joint, world.drives.target(joint).position + float(delta))
+        drives = world.drives
+        drives.set_positions(self._actuators, drives.positions(self._actuators) + action)
 
 
 def damped_least_squares(jacobian: FloatArray, error: FloatArray, damping: float) -> FloatArray:
@@ -145,10 +151,12 @@ class EndEffectorDelta(ActionAdapter):
         self._dofs: slice | list[int] = []
         self._qpos: slice | list[int] = []
         self._jacp = self._jacr = np.zeros((3, 0))
+        self._actuators = np.zeros(0, np.intp)
 
     def bind(self, world: World) -> None:
-        """Resolve the body and the joints' dof/qpos addresses."""
+        """Resolve the body, the joints' dof/qpos addresses and their actuators."""
         super().bind(world)
+        self._actuators = world.drives.actuators(self.joints)
         body = mujoco.mj_name2id(world.model, mujoco.mjtObj.mjOBJ_BODY, self.body)
         if body < 0:
             raise GymError(f"EndEffectorDelta: no body {self.body!r} in the model")
@@ -162,9 +170,10 @@ class EndEffectorDelta(ActionAdapter):
         """Joint increments moving the body by `delta` (m) from the state in `world.data`."""
         model, data = world.model, world.data
         jacp, jacr = self._jacp, self._jacr
-        mujoco.mj_jacBody(model, data, jacp, jacr, self._body_id)
-        if self.orientation is None:
+        if self.orientation is None:  # the rotational Jacobian is not needed
+            mujoco.mj_jacBody(model, data, jacp, None, self._body_id)
             return damped_least_squares(jacp[:, self._dofs], delta, self.damping)
+        mujoco.mj_jacBody(model, data, jacp, jacr, self._body_id)
         rotation = data.xmat[self._body_id].reshape(3, 3)
         error = np.concatenate([delta, orientation_error(rotation, self.orientation)])
         jacobian = np.vstack([jacp[:, self._dofs], jacr[:, self._dofs]])
@@ -173,8 +182,7 @@ class EndEffectorDelta(ActionAdapter):
     def apply(self, world: World, action: NDArray[np.float32]) -> None:
         """Aim the joints at measured position + the least-squares step for `action`."""
         targets = world.data.qpos[self._qpos] + self.joint_step(world, action.astype(np.float64))
-        for joint, target in zip(self.joints, targets.tolist(), strict=True):
-            world.drives.set_position(joint, target)
+        world.drives.set_positions(self._actuators, targets)
 
     def solve(self, world: World, position: FloatArray, iterations: int = 200) -> bool:
         """Teleport the joints kinematically so the body reaches `position` (and the held

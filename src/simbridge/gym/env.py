@@ -89,8 +89,21 @@ class SceneEnv(Env[Observation, NDArray[np.float32]]):
         self._action_shape = action.space.shape
         self._action_low, self._action_high = action.space.low, action.space.high
         self.observation_space: spaces.Dict = spaces.Dict(self._spaces())  # type: ignore[assignment]
-        self.goal = np.zeros(task.goal_space.shape, np.float64)
+        self._goal = np.zeros(task.goal_space.shape, np.float64)
+        self._goal32 = self._goal.astype(np.float32)
+        # views on the data's memory, kept: no pybind property lookups on every step
+        self._qpos_all, self._qvel_all = self.world.data.qpos, self.world.data.qvel
         self._renderer: OffscreenRenderer | None = None
+
+    @property
+    def goal(self) -> NDArray[np.float64]:
+        """The episode's goal (the task drew it at reset; the ROS side may set it)."""
+        return self._goal
+
+    @goal.setter
+    def goal(self, value: NDArray[np.float64]) -> None:
+        self._goal = np.asarray(value, np.float64)
+        self._goal32 = self._goal.astype(np.float32)
 
     @property
     def dt(self) -> float:
@@ -127,7 +140,7 @@ class SceneEnv(Env[Observation, NDArray[np.float32]]):
         super().reset(seed=seed)
         world = self.world
         world.reset()
-        self.goal = np.asarray(self.task.reset(world, self.np_random), np.float64)
+        self.goal = self.task.reset(world, self.np_random)
         world.drives.hold_current()
         self.action.reset(world)
         mujoco.mj_forward(world.model, world.data)
@@ -189,26 +202,21 @@ class SceneEnv(Env[Observation, NDArray[np.float32]]):
     ) -> tuple[Observation, float, bool, bool, dict[str, Any]]:
         """Observation, reward, terminated, truncated (always False: time limits are a
         wrapper's job) and info after the physics ran."""
-        world, goal = self.world, self.goal
-        reward = float(self.task.reward(world, goal, action))
+        reward, success, terminated = self.task.evaluate(self.world, self._goal, action)
         if not math.isfinite(reward):
             raise GymError(f"task {type(self.task).__name__} returned reward {reward}")
-        success = self.task.success(world, goal)
-        terminated = bool(self.task.terminated(world, goal))
         return self.observe(), reward, terminated, False, {"is_success": success}
 
     def observe(self, readings: Mapping[str, NDArray[Any]] | None = None) -> Observation:
         """The observation for the world's current state; `readings` replace sensor entries
         by key (the ROS side passes the ranges and images it received)."""
-        readings = readings or {}
-        data = self.world.data
         obs: Observation = {}
         if self.joints:
-            obs["joint_pos"] = data.qpos[self._qpos].astype(np.float32)
-            obs["joint_vel"] = data.qvel[self._dofs].astype(np.float32)
-        obs.update(self.task.observe(self.world, self.goal))
-        obs["goal"] = self.goal.astype(np.float32)
+            obs["joint_pos"] = self._qpos_all[self._qpos].astype(np.float32)
+            obs["joint_vel"] = self._qvel_all[self._dofs].astype(np.float32)
+        obs.update(self.task.observe(self.world, self._goal))
+        obs["goal"] = self._goal32.copy()
         for sensor in self.sensors:
-            reading = readings.get(sensor.key)
+            reading = None if readings is None else readings.get(sensor.key)
             obs[sensor.key] = sensor.read(self.world) if reading is None else reading
         return obs

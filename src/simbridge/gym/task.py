@@ -18,10 +18,11 @@ class Task(ABC):
     """A task on a `World`: subclass it with a reset distribution, reward and success test.
 
     The environment calls `bind` once after the world is built, `reset` at the start of
-    every episode (after the world went back to its initial state) and `reward`,
-    `success` and `terminated` after every step. Everything the task reads comes from the
-    world (joint state, body poses), so the same code runs wherever the world's state
-    comes from. `observe` adds entries (e.g. an object's pose) to the observation dict.
+    every episode (after the world went back to its initial state) and `evaluate` (by
+    default `reward`, `success` and `terminated`) after every step. Everything the task
+    reads comes from the world (joint state, body poses), so the same code runs wherever
+    the world's state comes from. `observe` adds entries (e.g. an object's pose) to the
+    observation dict.
     """
 
     goal_space: spaces.Box
@@ -59,3 +60,15 @@ class Task(ABC):
     def terminated(self, world: World, goal: NDArray[np.float64]) -> bool:
         """Whether the episode ends here (default: on success)."""
         return self.success(world, goal)
+
+    def evaluate(
+        self, world: World, goal: NDArray[np.float64], action: NDArray[np.float32]
+    ) -> tuple[float, bool, bool]:
+        """(reward, success, terminated) after a step: what the environment calls. The
+        default asks `reward`, `success` and `terminated`; override it to share work
+        between them (Reach measures its distance once)."""
+        return (
+            float(self.reward(world, goal, action)),
+            bool(self.success(world, goal)),
+            bool(self.terminated(world, goal)),
+        )

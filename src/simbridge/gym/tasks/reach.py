@@ -82,6 +82,8 @@ class ReachTask(Task):
         self.tolerance, self.joint_noise = tolerance, joint_noise
         self._body = -1
         self._mocap = -1
+        self._ee_data: mujoco.MjData | None = None
+        self._ee = np.zeros(3)
 
     def extensions(self) -> Sequence[ModelExtension]:
         """Adds the goal marker."""
@@ -90,6 +92,7 @@ class ReachTask(Task):
     def bind(self, world: World) -> None:
         """Find the end effector and the goal marker."""
         self._body = int(world.model.body(self.end_effector).id)
+        self._ee_data, self._ee = world.data, world.data.xpos[self._body]  # a view, kept
         marker = mujoco.mj_name2id(world.model, mujoco.mjtObj.mjOBJ_BODY, GOAL_MARKER)
         self._mocap = int(world.model.body_mocapid[marker]) if marker >= 0 else -1
 
@@ -118,13 +121,24 @@ class ReachTask(Task):
 
     def observe(self, world: World, goal: NDArray[np.float64]) -> dict[str, NDArray[np.float32]]:
         """The end effector's position and the goal relative to it."""
-        ee = world.data.xpos[self._body]
-        return {"ee_pos": ee.astype(np.float32), "goal_delta": (goal - ee).astype(np.float32)}
+        ee = self._ee if self._ee_data is world.data else world.data.xpos[self._body]
+        both = np.empty((2, 3), np.float32)  # one array, two views: fewer allocations
+        both[0] = ee
+        np.subtract(goal, ee, out=both[1], casting="same_kind")
+        return {"ee_pos": both[0], "goal_delta": both[1]}
 
     def distance(self, world: World, goal: NDArray[np.float64]) -> float:
         """End effector to goal (m)."""
-        offset = world.data.xpos[self._body] - goal
-        return math.sqrt(float(offset @ offset))
+        ee = self._ee if self._ee_data is world.data else world.data.xpos[self._body]
+        x, y, z = (ee - goal).tolist()
+        return math.sqrt(x * x + y * y + z * z)
+
+    def evaluate(
+        self, world: World, goal: NDArray[np.float64], action: NDArray[np.float32]
+    ) -> tuple[float, bool, bool]:
+        """Minus the distance, and success = termination = within tolerance (one distance)."""
+        distance = self.distance(world, goal)
+        return -distance, distance < self.tolerance, distance < self.tolerance
 
     def reward(self, world: World, goal: NDArray[np.float64], action: NDArray[np.float32]) -> float:
         """Minus the distance to the goal."""

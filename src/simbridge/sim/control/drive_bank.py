@@ -4,10 +4,12 @@ from __future__ import annotations
 
 import math
 import xml.etree.ElementTree as ET
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import mujoco
+import numpy as np
+from numpy.typing import NDArray
 
 from simbridge.errors import SimError
 from simbridge.sim.control.drive import DriveMode, DriveSpec
@@ -45,19 +47,26 @@ class DriveTarget:
 
 
 class DriveBank:
-    """Targets and gains of every driven joint; writes `data.ctrl` whenever a target changes."""
+    """Targets and gains of every driven joint; writes `data.ctrl` whenever a target changes.
+
+    Targets live in arrays indexed by actuator, so a learning env can aim many joints with
+    one `set_positions` call (a few NumPy operations) instead of one call per joint.
+    """
 
     def __init__(
         self, model: mujoco.MjModel, data: mujoco.MjData, specs: Mapping[str, DriveSpec]
     ) -> None:
         self.model, self.data = model, data
         self._specs: dict[str, DriveSpec] = {}
-        self._targets: dict[str, DriveTarget] = {}
-        self._gains: dict[str, tuple[float, float]] = {}
         self._ctrl = data.ctrl  # a view on data's memory: no pybind property per write
         self._actuator: dict[str, int] = {}
         self._qpos: dict[str, int] = {}
-        self._range: dict[str, tuple[float, float] | None] = {}
+        size = model.nu
+        self._position, self._velocity, self._effort = (np.zeros(size) for _ in range(3))
+        self._low, self._high = np.full(size, -np.inf), np.full(size, np.inf)
+        # ctrl = effort where _is_effort, else _kp * position + _kd * velocity (0, 0: NONE)
+        self._kp, self._kd = np.zeros(size), np.zeros(size)
+        self._is_effort = np.zeros(size, np.bool_)
         for name, spec in specs.items():
             try:
                 act = model.actuator(name).id
@@ -66,10 +75,9 @@ class DriveBank:
                 raise SimError(f"joint '{name}' has no drive actuator in the model") from None
             self._actuator[name] = act
             self._qpos[name] = int(jnt.qposadr[0])
-            low, high = (float(v) for v in jnt.range)
-            self._range[name] = (low, high) if model.jnt_limited[jnt.id] else None
+            if model.jnt_limited[jnt.id]:
+                self._low[act], self._high[act] = (float(v) for v in jnt.range)
             self.set_spec(name, spec)
-            self._targets[name] = DriveTarget()
 
     @property
     def joints(self) -> list[str]:
@@ -83,6 +91,10 @@ class DriveBank:
             )
         return self._actuator[joint]
 
+    def actuators(self, joints: Sequence[str]) -> NDArray[np.intp]:
+        """The actuator indices of `joints`, for `set_positions`."""
+        return np.array([self._check(joint) for joint in joints], np.intp)
+
     def spec(self, joint: str) -> DriveSpec:
         """The drive settings of `joint`."""
         self._check(joint)
@@ -90,8 +102,10 @@ class DriveBank:
 
     def target(self, joint: str) -> DriveTarget:
         """The current target of `joint`."""
-        self._check(joint)
-        return self._targets[joint]
+        act = self._check(joint)
+        return DriveTarget(
+            float(self._position[act]), float(self._velocity[act]), float(self._effort[act])
+        )
 
     def set_spec(self, joint: str, spec: DriveSpec) -> None:
         """Change mode and gains of `joint` (the force limit keeps what the model declared
@@ -105,46 +119,53 @@ class DriveBank:
             if limited:
                 self.model.actuator_forcerange[act] = (-spec.force_limit, spec.force_limit)
         self._specs[joint] = spec
-        self._gains[joint] = (kp, kd)
-        if joint in self._targets:
-            self._write(joint)
+        self._kp[act], self._kd[act] = kp, kd  # (0, 0) in EFFORT and NONE modes
+        self._is_effort[act] = spec.mode is DriveMode.EFFORT
+        self._write(act)
 
-    def _write(self, joint: str) -> None:
-        spec, target = self._specs[joint], self._targets[joint]
-        if spec.mode is DriveMode.EFFORT:
-            ctrl = target.effort
-        elif spec.mode is DriveMode.NONE:
-            ctrl = 0.0
+    def _write(self, act: int) -> None:
+        if self._is_effort[act]:
+            self._ctrl[act] = self._effort[act]
         else:
-            kp, kd = self._gains[joint]
-            ctrl = kp * target.position + kd * target.velocity
-        self._ctrl[self._actuator[joint]] = ctrl
+            position, velocity = self._position[act], self._velocity[act]
+            self._ctrl[act] = self._kp[act] * position + self._kd[act] * velocity
 
     def set_position(self, joint: str, position: float, velocity: float = 0.0) -> None:
         """Aim `joint` at `position` (clamped to its limits) moving at `velocity`."""
-        self._check(joint)
-        limits = self._range[joint]
-        if limits is not None:
-            position = min(max(position, limits[0]), limits[1])
-        self._targets[joint] = DriveTarget(position, velocity, self._targets[joint].effort)
-        self._write(joint)
+        act = self._check(joint)
+        self._position[act] = min(max(position, self._low[act]), self._high[act])
+        self._velocity[act] = velocity
+        self._write(act)
+
+    def positions(self, actuators: NDArray[np.intp]) -> NDArray[np.float64]:
+        """The position targets of `actuators` (from `actuators(joints)`), a new array."""
+        return self._position[actuators]
+
+    def set_positions(self, actuators: NDArray[np.intp], positions: NDArray[np.float64]) -> None:
+        """`set_position` (target velocity 0) of many joints at once: `actuators` from
+        `actuators(joints)`, `positions` in the same order."""
+        clamped = np.minimum(np.maximum(positions, self._low[actuators]), self._high[actuators])
+        self._position[actuators] = clamped
+        self._velocity[actuators] = 0.0
+        ctrl = self._kp[actuators] * clamped
+        self._ctrl[actuators] = np.where(self._is_effort[actuators], self._effort[actuators], ctrl)
 
     def set_velocity(self, joint: str, velocity: float) -> None:
         """Set the target velocity (VELOCITY mode, or the feed-forward of POSITION mode)."""
-        self._check(joint)
-        old = self._targets[joint]
-        self._targets[joint] = DriveTarget(old.position, velocity, old.effort)
-        self._write(joint)
+        act = self._check(joint)
+        self._velocity[act] = velocity
+        self._write(act)
 
     def set_effort(self, joint: str, effort: float) -> None:
         """Set the commanded force or torque (EFFORT mode)."""
-        self._check(joint)
-        old = self._targets[joint]
-        self._targets[joint] = DriveTarget(old.position, old.velocity, effort)
-        self._write(joint)
+        act = self._check(joint)
+        self._effort[act] = effort
+        self._write(act)
 
     def hold_current(self) -> None:
         """Make every position target the joint's current position, velocity targets zero."""
         for joint, adr in self._qpos.items():
-            self._targets[joint] = DriveTarget(float(self.data.qpos[adr]), 0.0, 0.0)
-            self._write(joint)
+            act = self._actuator[joint]
+            self._position[act] = self.data.qpos[adr]
+            self._velocity[act] = self._effort[act] = 0.0
+            self._write(act)
