@@ -67,6 +67,8 @@ def test_vector_rejects_wrong_action_shapes() -> None:
     vec.reset(seed=0)
     with pytest.raises(GymError, match="shape"):
         vec.step(np.zeros((3, 3), np.float32))
+    with pytest.raises(GymError, match="finite"):
+        vec.step(np.array([[0.0, 0.0, 0.0], [0.0, np.nan, 0.0]], np.float32))
     vec.close()
 
 

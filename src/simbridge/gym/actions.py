@@ -19,6 +19,7 @@ from numpy.typing import NDArray
 
 from simbridge.errors import GymError
 from simbridge.sim.control import DiffDriveController, DiffDriveLimits, DriveMode
+from simbridge.sim.control.drive_bank import Actuators
 from simbridge.sim.ros import measure_wheels
 from simbridge.sim.world import World
 
@@ -88,7 +89,7 @@ class JointDelta(ActionAdapter):
         self.joints = tuple(joints)
         self.max_delta = max_delta
         self.space = _box([-max_delta] * len(self.joints), [max_delta] * len(self.joints))
-        self._actuators = np.zeros(0, np.intp)
+        self._actuators: Actuators = slice(0, 0)
 
     def bind(self, world: World) -> None:
         """Check the joints have drives; remember their actuators."""
@@ -151,7 +152,7 @@ class EndEffectorDelta(ActionAdapter):
         self._dofs: slice | list[int] = []
         self._qpos: slice | list[int] = []
         self._jacp = self._jacr = np.zeros((3, 0))
-        self._actuators = np.zeros(0, np.intp)
+        self._actuators: Actuators = slice(0, 0)
 
     def bind(self, world: World) -> None:
         """Resolve the body, the joints' dof/qpos addresses and their actuators."""

@@ -12,6 +12,8 @@ resets that world and returns its first observation with reward 0.
 
 from __future__ import annotations
 
+import itertools
+import math
 import os
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
@@ -33,7 +35,6 @@ __all__ = ["EnvFactory", "SceneVectorEnv"]
 EnvFactory = Callable[..., SceneEnv]
 """Builds one `SceneEnv`; must accept `world=` (a world to reuse) and `render_mode=`."""
 
-_Result = tuple[Observation, float, bool, dict[str, Any]]
 VectorStep = tuple[
     Observation, NDArray[np.float64], NDArray[np.bool_], NDArray[np.bool_], dict[str, Any]
 ]
@@ -74,11 +75,16 @@ class SceneVectorEnv(VectorEnv[Observation, NDArray[np.float32], NDArray[Any]]):
         if any(isinstance(s, CameraImage) for s in first.sensors):
             threads = 1
         self._threads = max(1, min(threads or os.cpu_count() or 1, num_envs))
+        # chunks of consecutive worlds, one per thread; the calling thread takes the first
+        edges = np.linspace(0, num_envs, self._threads + 1).round().astype(int).tolist()
+        self._bounds = list(itertools.pairwise(edges))
         self._pool = (
-            ThreadPoolExecutor(self._threads, thread_name_prefix="simbridge-gym")
+            ThreadPoolExecutor(self._threads - 1, thread_name_prefix="simbridge-gym")
             if self._threads > 1
             else None
         )
+        space = first.action_space
+        self._action_low, self._action_high = space.low, space.high
         self._elapsed = np.zeros(num_envs, np.int64)
         self._autoreset = np.zeros(num_envs, np.bool_)
 
@@ -111,41 +117,46 @@ class SceneVectorEnv(VectorEnv[Observation, NDArray[np.float32], NDArray[Any]]):
 
     def step(self, actions: NDArray[Any]) -> VectorStep:
         """One step of every world (worlds whose episode ended last step are reset instead)."""
-        actions = np.asarray(actions)
-        if actions.shape != self.action_space.shape:
-            raise GymError(
-                f"actions must have shape {self.action_space.shape}, got {actions.shape}"
-            )
-        clipped = [env.clip_action(action) for env, action in zip(self.envs, actions, strict=True)]
-        results: list[_Result | None] = [None] * self.num_envs
-        resetting = self._autoreset.copy()
+        clipped = self._clip(actions)
+        count = self.num_envs
+        observations: list[Observation] = [{}] * count
+        rewards = np.zeros(count, np.float64)
+        terminated = np.zeros(count, np.bool_)
+        infos: list[dict[str, Any]] = [{}] * count
+        resetting = self._autoreset
+        envs = self.envs
 
-        def run(chunk: list[int]) -> None:
-            for i in chunk:
-                env = self.envs[i]
+        def run(start: int, stop: int) -> None:
+            for i in range(start, stop):
+                env = envs[i]
                 if resetting[i]:
-                    obs, info = env.reset()
-                    results[i] = (obs, 0.0, False, info)
-                else:
-                    env.simulate(env.action.controls(env.world, clipped[i], env.frame_skip))
-                    obs, reward, terminated, _, info = env.finish_step(clipped[i])
-                    results[i] = (obs, reward, terminated, info)
+                    observations[i], infos[i] = env.reset()
+                    continue
+                action = clipped[i]
+                env.simulate(env.action.controls(env.world, action, env.frame_skip))
+                observations[i], rewards[i], terminated[i], _, infos[i] = env.finish_step(action)
 
-        chunks = [c.tolist() for c in np.array_split(np.arange(self.num_envs), self._threads)]
-        if self._pool is None or len(chunks) == 1:
-            run(list(range(self.num_envs)))
-        else:
-            list(self._pool.map(run, chunks))
-        done = [result for result in results if result is not None]
-        observations = [result[0] for result in done]
-        rewards = np.array([result[1] for result in done], np.float64)
-        terminated = np.array([result[2] for result in done], np.bool_)
-        infos = self._batch_infos([result[3] for result in done])
+        bounds = self._bounds
+        futures = [] if self._pool is None else [self._pool.submit(run, *b) for b in bounds[1:]]
+        run(*bounds[0])  # the calling thread steps the first chunk meanwhile
+        for future in futures:
+            future.result()
         self._elapsed = np.where(resetting, 0, self._elapsed + 1)
         limit = self.max_episode_steps
         truncated = ~resetting & (limit is not None) & (self._elapsed >= (limit or 0))
         self._autoreset = terminated | truncated
-        return self._stack(observations), rewards, terminated, truncated, infos
+        return self._stack(observations), rewards, terminated, truncated, self._batch_infos(infos)
+
+    def _clip(self, actions: NDArray[Any]) -> NDArray[np.float32]:
+        """Every world's action at once, as `SceneEnv.clip_action` clips one."""
+        array = np.asarray(actions, dtype=np.float32)
+        if array.shape != self.action_space.shape:
+            raise GymError(
+                f"actions must have shape {self.action_space.shape}, got {np.shape(actions)}"
+            )
+        if not math.isfinite(float(array.sum())):
+            raise GymError(f"actions must be finite, got {actions!r}")
+        return np.minimum(np.maximum(array, self._action_low), self._action_high)
 
     def _batch_infos(self, infos: list[dict[str, Any]]) -> dict[str, Any]:
         """Gymnasium's vector info layout (key -> array, "_key" -> mask), in one pass when

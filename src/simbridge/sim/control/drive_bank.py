@@ -15,7 +15,10 @@ from simbridge.errors import SimError
 from simbridge.sim.control.drive import DriveMode, DriveSpec
 from simbridge.sim.urdf.document import fmt
 
-__all__ = ["DriveBank", "DriveTarget", "add_drive_actuator"]
+__all__ = ["Actuators", "DriveBank", "DriveTarget", "add_drive_actuator"]
+
+Actuators = slice | NDArray[np.intp]
+"""Some drives' actuator indices (`DriveBank.actuators`)."""
 
 
 def add_drive_actuator(actuators: ET.Element, joint: str, force_limit: float | None) -> None:
@@ -91,9 +94,13 @@ class DriveBank:
             )
         return self._actuator[joint]
 
-    def actuators(self, joints: Sequence[str]) -> NDArray[np.intp]:
-        """The actuator indices of `joints`, for `set_positions`."""
-        return np.array([self._check(joint) for joint in joints], np.intp)
+    def actuators(self, joints: Sequence[str]) -> Actuators:
+        """The actuators of `joints`, for `positions` and `set_positions`: a slice when they
+        are consecutive (NumPy reads and writes views then, no index arrays)."""
+        ids = [self._check(joint) for joint in joints]
+        if ids and ids == list(range(ids[0], ids[0] + len(ids))):
+            return slice(ids[0], ids[0] + len(ids))
+        return np.array(ids, np.intp)
 
     def spec(self, joint: str) -> DriveSpec:
         """The drive settings of `joint`."""
@@ -137,18 +144,21 @@ class DriveBank:
         self._velocity[act] = velocity
         self._write(act)
 
-    def positions(self, actuators: NDArray[np.intp]) -> NDArray[np.float64]:
+    def positions(self, actuators: Actuators) -> NDArray[np.float64]:
         """The position targets of `actuators` (from `actuators(joints)`), a new array."""
-        return self._position[actuators]
+        return self._position[actuators].copy()
 
-    def set_positions(self, actuators: NDArray[np.intp], positions: NDArray[np.float64]) -> None:
+    def set_positions(self, actuators: Actuators, positions: NDArray[np.float64]) -> None:
         """`set_position` (target velocity 0) of many joints at once: `actuators` from
         `actuators(joints)`, `positions` in the same order."""
-        clamped = np.minimum(np.maximum(positions, self._low[actuators]), self._high[actuators])
+        clamped = np.maximum(positions, self._low[actuators])
+        np.minimum(clamped, self._high[actuators], out=clamped)
         self._position[actuators] = clamped
         self._velocity[actuators] = 0.0
         ctrl = self._kp[actuators] * clamped
-        self._ctrl[actuators] = np.where(self._is_effort[actuators], self._effort[actuators], ctrl)
+        if self._is_effort.any():  # EFFORT drives take their effort whatever the position
+            ctrl = np.where(self._is_effort[actuators], self._effort[actuators], ctrl)
+        self._ctrl[actuators] = ctrl
 
     def set_velocity(self, joint: str, velocity: float) -> None:
         """Set the target velocity (VELOCITY mode, or the feed-forward of POSITION mode)."""
