@@ -70,6 +70,7 @@ class DriveBank:
         # ctrl = effort where _is_effort, else _kp * position + _kd * velocity (0, 0: NONE)
         self._kp, self._kd = np.zeros(size), np.zeros(size)
         self._is_effort = np.zeros(size, np.bool_)
+        self._any_effort = False
         for name, spec in specs.items():
             try:
                 act = model.actuator(name).id
@@ -128,6 +129,7 @@ class DriveBank:
         self._specs[joint] = spec
         self._kp[act], self._kd[act] = kp, kd  # (0, 0) in EFFORT and NONE modes
         self._is_effort[act] = spec.mode is DriveMode.EFFORT
+        self._any_effort = bool(self._is_effort.any())
         self._write(act)
 
     def _write(self, act: int) -> None:
@@ -156,7 +158,7 @@ class DriveBank:
         self._position[actuators] = clamped
         self._velocity[actuators] = 0.0
         ctrl = self._kp[actuators] * clamped
-        if self._is_effort.any():  # EFFORT drives take their effort whatever the position
+        if self._any_effort:  # EFFORT drives take their effort whatever the position
             ctrl = np.where(self._is_effort[actuators], self._effort[actuators], ctrl)
         self._ctrl[actuators] = ctrl
 

@@ -80,7 +80,7 @@ class World:
         specs = {name: spec for r in built.robots for name, spec in r.drives.items()}
         self.drives = DriveBank(self.model, self.data, specs)
         self.follower = TrajectoryFollower(self.drives)
-        self.rng = np.random.default_rng(self.scene.physics.seed)
+        self._rng: np.random.Generator | None = None
         self._callbacks: dict[int, _Callback] = {}
         self._reset_callbacks: list[StepCallback] = []
         self._next_id = 0
@@ -120,6 +120,13 @@ class World:
         return World(self._built, self.model)
 
     # ---- state -----------------------------------------------------------------------------
+
+    @property
+    def rng(self) -> np.random.Generator:
+        """The scene's random generator, seeded from `physics.seed` at every reset."""
+        if self._rng is None:
+            self._rng = np.random.default_rng(self.scene.physics.seed)
+        return self._rng
 
     @property
     def time(self) -> float:
@@ -330,7 +337,7 @@ class World:
         self._derived_stale = False
         self.drives.hold_current()
         self.follower.cancel()
-        self.rng = np.random.default_rng(self.scene.physics.seed)
+        self._rng = None  # reseeded when next used: a Generator costs tens of microseconds
         for cb in self._callbacks.values():
             if cb.schedule is not None:
                 cb.schedule.reset()
