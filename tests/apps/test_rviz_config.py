@@ -106,7 +106,7 @@ def test_cli_writes_a_config(tmp_path: Path, capsys: pytest.CaptureFixture[str])
 def test_pick_and_place_demo_feeds_rviz(monkeypatch: pytest.MonkeyPatch) -> None:
     """The demo sets the arm's description and publishes its joints and TF (what the
     shipped config shows), on the bus like on any graph."""
-    from simbridge.apps.pick_and_place import run_pick_and_place, runner
+    from simbridge.apps.pick_and_place import demo, run_pick_and_place
     from simbridge.endpoint import LocalBus
 
     buses: list[LocalBus] = []
@@ -128,7 +128,7 @@ def test_pick_and_place_demo_feeds_rviz(monkeypatch: pytest.MonkeyPatch) -> None
             publisher.publish = counted  # type: ignore[method-assign]
             return publisher
 
-    monkeypatch.setattr(runner, "LocalBus", WatchedBus)
+    monkeypatch.setattr(demo, "LocalBus", WatchedBus)
     result = run_pick_and_place("local", progress=None)
     assert result.success
     description = buses[0].get_param("/robot_description")

@@ -123,7 +123,7 @@ def screenshot_until(
     tmp_path: Path,
     accept: Callable[[np.ndarray], bool],
     *,
-    timeout: float = 90.0,
+    timeout: float = 120.0,
     name: str = "view.png",
     size: tuple[int, int] = (900, 700),
 ) -> np.ndarray:
