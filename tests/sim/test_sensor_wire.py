@@ -1,13 +1,19 @@
 """The sensors' precompiled serialization gives the generic path's bytes, in both ROS
-generations: ROS 1 binary of the ROS 1 message, and CDR of its ROS 2 translation."""
+generations: ROS 1 binary of the ROS 1 message, and CDR of its ROS 2 translation; and
+the sensor publisher, which skips the steps where no sensor is due, keeps every tick."""
 
 from __future__ import annotations
 
 import mujoco
 import pytest
 
+from simbridge.assets import robot_urdf
+from simbridge.connector import Connector
+from simbridge.endpoint import EndpointOptions, EndpointThread
 from simbridge.messages import Translator, default_registry, ros2_registry
+from simbridge.sim.ros.sensor_link import SensorPublisher
 from simbridge.sim.ros.sensor_wire import SensorWire
+from simbridge.sim.scene import parse_scene
 from simbridge.sim.sensors import (
     Imu,
     ImuConfig,
@@ -16,8 +22,10 @@ from simbridge.sim.sensors import (
     Odometry,
     OdometryConfig,
     Sensor,
+    SensorSuite,
 )
 from simbridge.sim.sensors.rosmsg import Publication
+from simbridge.sim.world import World
 
 SCENE = """
 <mujoco>
@@ -88,3 +96,46 @@ def test_other_kinds_are_left_to_the_codec() -> None:
     assert (
         SensorWire().encode(Publication("/s", "std_msgs/String", message), ("ros1", True)) is None
     )
+
+
+def test_sensor_publisher_keeps_exact_rates_while_skipping_idle_steps() -> None:
+    """The publisher polls its sensors only on the steps one is due, yet publishes on
+    exactly the steps a suite polled after every step does, also after a world reset."""
+    scene = parse_scene(
+        {
+            "physics": {"timestep": 0.002},
+            "robots": [{"urdf": str(robot_urdf("niryo_one"))}],
+            "sensors": [
+                {"type": "imu", "name": "imu", "body": "base_link", "topic": "/imu", "rate": 50},
+                {"type": "lidar_2d", "name": "laser", "body": "base_link", "topic": "/scan",
+                 "rate": 15, "samples": 20},
+            ],
+        },
+        robot_urdf("niryo_one").parent,
+    )  # fmt: skip
+    world, reference = World.from_scene(scene), World.from_scene(scene)
+    expected: list[tuple[str, float]] = []
+    suite = SensorSuite.from_config(reference.model, scene.sensors)
+    reference.add_step_callback(
+        lambda w: expected.extend((p.topic, w.time) for p in suite.poll(w.model, w.data, w.refresh))
+    )
+    reference.add_reset_callback(lambda w: suite.reset())
+    got: list[tuple[str, float]] = []
+    with EndpointThread(EndpointOptions(port=0)) as endpoint:
+        connector = Connector("127.0.0.1", endpoint.port).connect(wait=5)
+        try:
+            sensors = SensorPublisher(
+                world, connector, SensorSuite.from_config(world.model, scene.sensors)
+            )
+            sensors.always_on = True
+            sensors.start()
+            connector.publish = lambda topic, msg: got.append((topic, world.time))  # type: ignore[method-assign]
+            for w in (world, reference):
+                w.step(500)  # 1 s
+                w.reset()
+                w.step(250)
+            sensors.close()
+        finally:
+            connector.close()
+    assert sum(topic == "/imu" for topic, _ in got) > 50 + 25
+    assert got == expected

@@ -61,6 +61,8 @@ class SensorPublisher:
         self.always_on = False
         """Measure every output even without subscribers (set while recording)."""
         self.observers: list[SensorObserver] = []
+        self._next_due = (0, 0.0)
+        """(step, at timestep) before which no sensor is due: `poll` skips until then."""
 
     def add_observer(self, observer: SensorObserver) -> None:
         """Also measure what `observer` wants, and show it every batch of messages."""
@@ -76,14 +78,33 @@ class SensorPublisher:
             if lazy:
                 self._lazy[topic] = publisher
         self._callback = self.world.add_step_callback(lambda world: self.poll())
-        self.world.add_reset_callback(lambda world: self.suite.reset())
+        self.world.add_reset_callback(lambda world: self._restart())
+
+    def _restart(self) -> None:
+        self.suite.reset()
+        self._next_due = (0, 0.0)
 
     def publisher(self, topic: str) -> Publisher:
         """The connector publisher of a lazy output (its `subscriber_count` drives laziness)."""
         return self._lazy[topic]
 
     def poll(self) -> None:
-        """Publish every message due at the current sim time, for outputs someone reads."""
+        """Publish every message due at the current sim time, for outputs someone reads.
+
+        Between two sensor ticks it returns at once (no per-sensor schedule checks)."""
+        world = self.world
+        step, timestep = world.step_count, world.timestep
+        next_step, at_timestep = self._next_due
+        if step < next_step and timestep == at_timestep:
+            return
+        try:
+            self._poll()
+        finally:
+            sensors = self.suite.sensors
+            nearest = min((s.schedule.next_step(timestep) for s in sensors), default=step + 1)
+            self._next_due = (nearest, timestep)
+
+    def _poll(self) -> None:
         for topic, publisher in self._lazy.items():
             wanted = self.always_on or publisher.has_subscribers
             self.suite.set_wanted(topic, wanted or any(o.wants(topic) for o in self.observers))
