@@ -18,7 +18,11 @@ def run_endpoint(args: argparse.Namespace) -> int:
     from simbridge.endpoint import EndpointOptions, EndpointServer, make_backend
 
     backend = make_backend(
-        args.backend, node_name=args.node_name, ros_args=args.ros_args, protocol=args.protocol
+        args.backend,
+        node_name=args.node_name,
+        ros_args=args.ros_args,
+        protocol=args.protocol,
+        ros1_transport=args.ros1_transport,
     )
     if args.msg_path:
         from simbridge.messages import registry_for
@@ -97,6 +101,12 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     )
     ep.add_argument("--backend", choices=["local", "ros1", "ros2"], default="local")
     ep.add_argument("--node-name", default="/simbridge_endpoint", help="ROS node name (ros1, ros2)")
+    ep.add_argument(
+        "--ros1-transport",
+        choices=["native", "rospy"],
+        default="native",
+        help="ros1 topic data path: the endpoint's own TCPROS on its loop, or rospy's threads",
+    )
     ep.add_argument(
         "--protocol",
         type=str.upper,

@@ -40,12 +40,14 @@ def make_backend(
     node_name: str = "/simbridge_endpoint",
     ros_args: tuple[str, ...] = (),
     protocol: str | None = None,
+    ros1_transport: str = "native",
 ) -> Backend:
     """The backend called `name` ("local", "ros1" or "ros2").
 
     `ros_args` are ROS arguments: `a:=b` for ros1; for ros2, rcl's `--ros-args` items
     (ROS 1 style `a:=b` ones are translated). `protocol` ("ROS1" or "ROS2") picks the
     local bus's serialization; other backends have their own and refuse a different one.
+    `ros1_transport` ("native" or "rospy") picks the ros1 backend's topic data path.
     """
     if name == "local":
         if protocol == "ROS2":
@@ -63,7 +65,15 @@ def make_backend(
             Ros1Options,
         )
 
-        return Ros1Backend(Ros1Options(node_name=node_name.lstrip("/"), ros_args=ros_args))
+        if ros1_transport not in ("native", "rospy"):
+            raise EndpointError(f"ros1 transport {ros1_transport!r} is not one of native, rospy")
+        return Ros1Backend(
+            Ros1Options(
+                node_name=node_name.lstrip("/"),
+                ros_args=ros_args,
+                transport="native" if ros1_transport == "native" else "rospy",
+            )
+        )
     if name == "ros2":
         from simbridge.endpoint.backends.ros2 import (  # noqa: PLC0415 - rclpy is optional
             Ros2Backend,

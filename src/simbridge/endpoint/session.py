@@ -81,6 +81,10 @@ _MAX_REMEMBERED = 1024
 _MAX_ERROR_TEXT = 1000
 """Longest `__error` text (and log line) sent; every echoed name is already shortened."""
 
+_BLOCK_LIMIT = 2.0
+"""Seconds a subscription may push back on its ROS publishers while its client is not
+reading, before its messages are dropped (past its queue_size) instead."""
+
 FIRST_SRV_ID = 1001
 """Ids of endpoint-initiated service requests start here, as in the original endpoint."""
 
@@ -130,6 +134,7 @@ class ClientSession(asyncio.BufferedProtocol):
         """The socket's descriptor, for scatter-gather writes while the transport is idle."""
         self._flush_scheduled = False
         self._paused = False
+        self._paused_at = 0.0
         self._control: deque[bytes] = deque()
         self._backlogged: dict[str, _Outbox] = {}
         self._closing = False
@@ -194,10 +199,22 @@ class ClientSession(asyncio.BufferedProtocol):
 
     def pause_writing(self) -> None:
         self._paused = True
+        self._paused_at = time.monotonic()
 
     def resume_writing(self) -> None:
         self._paused = False
         self._drain_backlog()
+        if not self._paused:
+            for subscription, _ in list(self.subscriptions.values()):
+                subscription.unblocked()
+
+    def _blocked(self, outbox: _Outbox) -> bool:
+        """Whether the backend should stop taking `outbox`'s topic from the graph: the
+        client is not reading and its queue is half full, for at most _BLOCK_LIMIT seconds
+        (past that the client is slow, not momentarily busy, and drops are its own)."""
+        if not self._paused or len(outbox.queue) * 2 < outbox.size:
+            return False
+        return time.monotonic() - self._paused_at < _BLOCK_LIMIT
 
     def get_buffer(self, sizehint: int) -> memoryview:
         if self.proto.closed:
@@ -519,6 +536,7 @@ class ClientSession(asyncio.BufferedProtocol):
             subscription = backend.subscribe(
                 command.topic, msg_type, lambda payload: deliver(outbox, payload)
             )
+            subscription.throttle(lambda: self._blocked(outbox))
             self.subscriptions[command.topic] = (subscription, outbox)
         elif isinstance(command, RosService):
             self._check_room(command.topic, self.ros_services)

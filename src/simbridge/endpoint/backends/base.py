@@ -70,6 +70,15 @@ class BackendSubscription(abc.ABC):
     def close(self) -> None:
         """Stop delivering messages."""
 
+    def throttle(self, blocked: Callable[[], bool]) -> bool:
+        """Stop taking messages from the graph while `blocked()` is true, so the graph's
+        publisher is pushed back on instead of messages being dropped; `unblocked()`
+        says when to ask again. Returns False when the backend cannot (the default)."""
+        return False
+
+    def unblocked(self) -> None:  # noqa: B027 - optional hook
+        """The consumer caught up after `blocked()` was true."""
+
 
 class BackendServiceServer(abc.ABC):
     """A service advertised in the graph whose implementation is a handler."""

@@ -1,20 +1,22 @@
 """The ROS 1 backend: the endpoint joins a real ROS 1 master as a rospy node.
 
-Payloads cross rospy as raw bytes (see ros1_raw): nothing is decoded. rospy
-runs its own threads; every callback hops back to the endpoint's event loop
-with `call_soon_threadsafe`, and sim-implemented services run their async
-handler on the loop while the rospy service thread waits for the answer.
+rospy registers the node, its topics and services with the master and serves its
+slave API, parameters and /rosout. Topic data moves, by default, over the endpoint's
+own TCPROS connections on its event loop (ros1_native: no rospy thread and no
+thread hand-off per message); with `Ros1Options(transport="rospy")` it crosses rospy
+as raw bytes instead (see ros1_raw), each callback hopping back to the loop with
+`call_soon_threadsafe`. Nothing is decoded either way. Sim-implemented services run
+their async handler on the loop while a rospy service thread waits for the answer.
 """
 
 from __future__ import annotations
 
-import abc
 import asyncio
 import logging
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Literal
 
 import rosgraph
 import rosgraph.names
@@ -29,6 +31,7 @@ from simbridge.endpoint.backends.base import (
     ServiceHandler,
     TopicInfo,
 )
+from simbridge.endpoint.backends.ros1_native import NativeData
 from simbridge.endpoint.backends.ros1_node import NodeIdentity, join_graph, on_node_shutdown
 from simbridge.endpoint.backends.ros1_raw import (
     RawMessage,
@@ -36,6 +39,7 @@ from simbridge.endpoint.backends.ros1_raw import (
     raw_message_class,
     raw_service_class,
 )
+from simbridge.endpoint.backends.ros1_registration import Registration, Ros1Publisher
 from simbridge.endpoint.backends.ros1_rejoin import remember_param
 from simbridge.endpoint.backends.ros1_rosout import RosoutForwarder
 from simbridge.endpoint.backends.ros1_types import Ros1Types
@@ -52,7 +56,9 @@ class Ros1Options:
     """How the endpoint joins the ROS 1 graph.
 
     `ros_args` are ROS command-line arguments (`__name:=x`, `__master:=uri`,
-    `_tcp_port:=10000`), e.g. `ros_args(sys.argv)` under roslaunch.
+    `_tcp_port:=10000`), e.g. `ros_args(sys.argv)` under roslaunch. `transport`
+    picks the topic data path: "native" (the endpoint's own TCPROS on its event loop)
+    or "rospy" (rospy's threads). `max_message_size` bounds one received message.
     """
 
     node_name: str = "simbridge_endpoint"
@@ -61,6 +67,8 @@ class Ros1Options:
     service_handler_timeout: float = 30.0
     forward_logs: bool = True
     service_threads: int = 16
+    transport: Literal["native", "rospy"] = "native"
+    max_message_size: int = 1 << 30
 
 
 class Ros1Backend(Backend):
@@ -82,7 +90,8 @@ class Ros1Backend(Backend):
         self._executor: ThreadPoolExecutor | None = None
         self._identity: NodeIdentity | None = None
         self._forwarder: RosoutForwarder | None = None
-        self._live: set[_Registration] = set()
+        self._live: set[Registration] = set()
+        self._native: NativeData | None = None
         self._lost_watchers: list[Callable[[str], None]] = []
 
     @property
@@ -108,6 +117,10 @@ class Ros1Backend(Backend):
         self._executor = ThreadPoolExecutor(
             max_workers=opts.service_threads, thread_name_prefix="simbridge-ros1-call"
         )
+        if opts.transport == "native":
+            native = NativeData(opts.max_message_size)
+            await native.start()
+            self._native = native
         on_node_shutdown(self._node_shut_down)
         if opts.forward_logs:
             self._forwarder = RosoutForwarder()
@@ -118,6 +131,9 @@ class Ros1Backend(Backend):
         """Unregister every publisher, subscription and service this backend made."""
         for registration in list(self._live):
             registration.close()
+        if self._native is not None:
+            self._native.close()
+            self._native = None
         if self._executor is not None:
             self._executor.shutdown(wait=False, cancel_futures=True)
             self._executor = None
@@ -125,6 +141,11 @@ class Ros1Backend(Backend):
             logging.getLogger("simbridge").removeHandler(self._forwarder)
             self._forwarder = None
         self._loop = None
+
+    def stats(self) -> dict[str, int]:
+        """The native data path's counters (drops towards slow ROS subscribers and
+        refused or failed TCPROS connections); none with the rospy transport."""
+        return self._native.stats() if self._native is not None else {}
 
     def watch_lost(self, callback: Callable[[str], None]) -> None:
         """Call `callback(reason)` on the event loop when the node is shut down for good.
@@ -154,7 +175,13 @@ class Ros1Backend(Backend):
         _check_name(topic, "topic")
         cls = self._topic_class(topic, msg_type)
         try:
-            publisher = Ros1Publisher(topic, cls, max(queue_size, 0), latch, loop, live=self._live)
+            publisher: Ros1Publisher
+            if self._native is not None:
+                publisher = self._native.advertise(topic, cls, queue_size, latch, self._live)
+            else:
+                publisher = _RospyPublisher(
+                    topic, cls, max(queue_size, 0), latch, loop, live=self._live
+                )
         except (rospy.ROSException, ValueError) as exc:
             raise EndpointError(f"cannot advertise {topic!r} as {msg_type}: {exc}") from exc
         _log.info("publishing %s [%s] for the sim (latch=%s)", topic, msg_type, latch)
@@ -168,7 +195,11 @@ class Ros1Backend(Backend):
         _check_name(topic, "topic")
         cls = self._topic_class(topic, msg_type)
         try:
-            subscription = _Ros1Subscription(topic, cls, loop, callback, self._live)
+            subscription: BackendSubscription
+            if self._native is not None:
+                subscription = self._native.subscribe(topic, cls, callback, self._live)
+            else:
+                subscription = _Ros1Subscription(topic, cls, loop, callback, self._live)
         except (rospy.ROSException, ValueError) as exc:
             raise EndpointError(f"cannot subscribe to {topic!r} as {msg_type}: {exc}") from exc
         _log.info("subscribed to %s [%s] for the sim", topic, msg_type)
@@ -247,11 +278,7 @@ class Ros1Backend(Backend):
         cls = raw_message_class(self._types.message(msg_type))
         resolved = rospy.resolve_name(topic)
         for other in self._live:
-            if (
-                isinstance(other, Ros1Publisher | _Ros1Subscription)
-                and other.topic == resolved
-                and other.msg_type != cls._type
-            ):
+            if other.topic == resolved and other.msg_type != cls._type:
                 raise EndpointError(
                     f"{resolved} is already used as {other.msg_type} by this endpoint; "
                     f"it cannot also be {cls._type} (one type per topic)"
@@ -273,29 +300,6 @@ def _check_name(name: str, what: str) -> None:
         )
 
 
-class _Registration(abc.ABC):
-    """Something registered with the master that close() must undo, once."""
-
-    def __init__(self, live: set[_Registration]) -> None:
-        self._live = live
-        self._closed = False
-        live.add(self)
-
-    @property
-    def closed(self) -> bool:
-        return self._closed
-
-    def close(self) -> None:
-        if not self._closed:
-            self._closed = True
-            self._live.discard(self)
-            self._unregister()
-
-    @abc.abstractmethod
-    def _unregister(self) -> None:
-        """Undo the registration in rospy."""
-
-
 class _PeerListener(rospy.SubscribeListener):  # type: ignore[misc]
     """Tells a publisher, from rospy's threads, that a subscriber connected or left."""
 
@@ -309,7 +313,7 @@ class _PeerListener(rospy.SubscribeListener):  # type: ignore[misc]
         self._changed()
 
 
-class Ros1Publisher(_Registration, BackendPublisher):
+class _RospyPublisher(Ros1Publisher):
     """A rospy Publisher of raw bytes."""
 
     def __init__(
@@ -320,7 +324,7 @@ class Ros1Publisher(_Registration, BackendPublisher):
         latch: bool,
         loop: asyncio.AbstractEventLoop,
         *,
-        live: set[_Registration],
+        live: set[Registration],
     ) -> None:
         self._cls = cls
         self._loop = loop
@@ -382,7 +386,7 @@ class Ros1Publisher(_Registration, BackendPublisher):
         _log.info("stopped publishing %s", self.topic)
 
 
-class _Ros1Subscription(_Registration, BackendSubscription):
+class _Ros1Subscription(Registration, BackendSubscription):
     """A rospy Subscriber whose raw payloads are delivered on the event loop."""
 
     def __init__(
@@ -391,7 +395,7 @@ class _Ros1Subscription(_Registration, BackendSubscription):
         cls: type[RawMessage],
         loop: asyncio.AbstractEventLoop,
         callback: MessageCallback,
-        live: set[_Registration],
+        live: set[Registration],
     ) -> None:
         self._loop = loop
         self._callback = callback
@@ -416,7 +420,7 @@ class _Ros1Subscription(_Registration, BackendSubscription):
         _log.info("unsubscribed from %s", self.topic)
 
 
-class _Ros1ServiceServer(_Registration, BackendServiceServer):
+class _Ros1ServiceServer(Registration, BackendServiceServer):
     """A rospy Service whose implementation is an async handler on the event loop."""
 
     def __init__(
@@ -427,7 +431,7 @@ class _Ros1ServiceServer(_Registration, BackendServiceServer):
         handler: ServiceHandler,
         timeout: float,
         *,
-        live: set[_Registration],
+        live: set[Registration],
     ) -> None:
         self._service = service
         self._response_class = cls._response_class

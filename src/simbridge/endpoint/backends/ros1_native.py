@@ -1,0 +1,217 @@
+"""The ROS 1 backend's native data path: topics over the endpoint's own TCPROS I/O.
+
+rospy still registers each publisher and subscriber with the master (so its slave
+API, `rostopic info`, rejoin after a master restart and name resolution keep
+working), but no message crosses rospy: subscribers of the endpoint's topics
+connect to `TopicServer`, and the endpoint's subscriptions read their publishers
+with `SubscribedTopic` connections, all on the event loop.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+from collections.abc import Callable
+
+import rosgraph.network
+import rospy
+
+from simbridge.endpoint.backends.base import BackendSubscription, MessageCallback
+from simbridge.endpoint.backends.ros1_raw import RawMessage, RawMessageType
+from simbridge.endpoint.backends.ros1_registration import Registration, Ros1Publisher
+from simbridge.endpoint.backends.ros1_tcpros_hook import (
+    install,
+    route_publication,
+    route_subscription,
+    unroute,
+)
+from simbridge.endpoint.backends.ros1_tcpros_pub import PublishedTopic, TopicServer
+from simbridge.endpoint.backends.ros1_tcpros_sub import Sink, SubscribedTopic
+from simbridge.errors import EndpointError
+
+__all__ = ["NativeData"]
+
+_log = logging.getLogger("simbridge.endpoint.ros1")
+
+
+class NativeData:
+    """The endpoint's TCPROS server and subscriber connections for one backend."""
+
+    def __init__(self, max_message: int) -> None:
+        self._max_message = max_message
+        self._server: TopicServer | None = None
+        self._host = ""
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._subscribed: dict[str, SubscribedTopic] = {}
+
+    async def start(self) -> None:
+        """Listen where rospy's own TCPROS server would and route rospy's negotiation here."""
+        callerid = rospy.get_caller_id()
+        self._loop = asyncio.get_running_loop()
+        self._server = TopicServer(callerid, self._max_message)
+        await self._server.start(rosgraph.network.get_bind_address())
+        self._host = rosgraph.network.get_host_name()
+        install()
+
+    def close(self) -> None:
+        """Close the server and every connection (registrations are closed before)."""
+        for name in list(self._subscribed):
+            unroute(name, publication=False)
+            self._subscribed.pop(name).close()
+        if self._server is not None:
+            for name in list(self._server.topics):
+                unroute(name, publication=True)
+            self._server.close()
+            self._server = None
+
+    def stats(self) -> dict[str, int]:
+        """Counters for `__stats`: drops towards slow ROS subscribers, refused and failed
+        connections."""
+        server = self._server
+        failed = sum(topic.errors for topic in self._subscribed.values())
+        return {
+            "ros1_dropped_to_ros": server.dropped if server else 0,
+            "ros1_refused_connections": server.refused if server else 0,
+            "ros1_failed_connections": failed,
+        }
+
+    def _started(self) -> tuple[TopicServer, asyncio.AbstractEventLoop]:
+        if self._server is None or self._loop is None:
+            raise EndpointError("the ROS 1 native data path is not started")
+        return self._server, self._loop
+
+    def advertise(
+        self,
+        topic: str,
+        cls: type[RawMessage],
+        queue_size: int,
+        latch: bool,
+        live: set[Registration],
+    ) -> NativePublisher:
+        """Publish `topic` from the endpoint's server; rospy registers it."""
+        server, _ = self._started()
+        name = rospy.resolve_name(topic)
+        info_topic = server.publication(name, _info(cls), latch, queue_size)
+        route_publication(name, self._host, server.port)
+        try:
+            registration = rospy.Publisher(name, cls, queue_size=max(queue_size, 0), latch=latch)
+        except BaseException:
+            self._release(info_topic)
+            raise
+        return NativePublisher(self, info_topic, registration, live)
+
+    def _release(self, topic: PublishedTopic) -> None:
+        server = self._server
+        if server is None:
+            return
+        server.release(topic)
+        if topic.name not in server.topics:
+            unroute(topic.name, publication=True)
+
+    def subscribe(
+        self, topic: str, cls: type[RawMessage], callback: MessageCallback, live: set[Registration]
+    ) -> NativeSubscription:
+        """Receive `topic` on the loop; rospy registers the subscriber and relays the
+        master's publisher lists to the topic's connections."""
+        _, loop = self._started()
+        name = rospy.resolve_name(topic)
+        subscribed = self._subscribed.get(name)
+        if subscribed is None:
+            subscribed = SubscribedTopic(name, _info(cls), rospy.get_caller_id(), self._max_message)
+            self._subscribed[name] = subscribed
+            route_subscription(name, loop, subscribed)
+        sink = Sink(callback)
+        subscribed.sinks.append(sink)
+        try:
+            registration = rospy.Subscriber(name, cls)
+        except BaseException:
+            self._leave(subscribed, sink)
+            raise
+        return NativeSubscription(self, subscribed, sink, registration, live)
+
+    def _leave(self, topic: SubscribedTopic, sink: Sink) -> None:
+        if sink in topic.sinks:
+            topic.sinks.remove(sink)
+        if not topic.sinks and self._subscribed.get(topic.name) is topic:
+            del self._subscribed[topic.name]
+            unroute(topic.name, publication=False)
+            topic.close()
+
+
+def _info(cls: type[RawMessage]) -> RawMessageType:
+    return RawMessageType(cls._type, cls._md5sum, cls._full_text)
+
+
+class NativePublisher(Ros1Publisher):
+    """A topic published through the endpoint's TCPROS server."""
+
+    def __init__(
+        self,
+        data: NativeData,
+        topic: PublishedTopic,
+        registration: rospy.Publisher,
+        live: set[Registration],
+    ) -> None:
+        self._data = data
+        self._topic = topic
+        self._registration = registration
+        self._watchers: list[Callable[[int], None]] = []
+        self.topic = topic.name
+        self.msg_type = topic.info.name
+        super().__init__(live)
+
+    def publish(self, payload: bytes) -> None:
+        if self.closed:
+            raise EndpointError(f"publisher of {self.topic!r} is closed")
+        self._topic.publish(payload)
+
+    def subscriber_count(self) -> int:
+        return len(self._topic.connections)
+
+    def watch_subscribers(self, callback: Callable[[int], None]) -> bool:
+        """Call `callback(count)` now and whenever a subscriber connects or leaves."""
+        self._watchers.append(callback)
+        self._topic.watchers.append(callback)
+        callback(self.subscriber_count())
+        return True
+
+    def _unregister(self) -> None:
+        for callback in self._watchers:
+            if callback in self._topic.watchers:
+                self._topic.watchers.remove(callback)
+        self._registration.unregister()
+        self._data._release(self._topic)
+        _log.info("stopped publishing %s", self.topic)
+
+
+class NativeSubscription(Registration, BackendSubscription):
+    """One consumer of a topic received over the endpoint's TCPROS connections."""
+
+    def __init__(
+        self,
+        data: NativeData,
+        topic: SubscribedTopic,
+        sink: Sink,
+        registration: rospy.Subscriber,
+        live: set[Registration],
+    ) -> None:
+        self._data = data
+        self._subscribed = topic
+        self._sink = sink
+        self._registration = registration
+        self.topic = topic.name
+        self.msg_type = topic.info.name
+        super().__init__(live)
+
+    def throttle(self, blocked: Callable[[], bool]) -> bool:
+        """Stop reading from the publishers while `blocked()` (TCP pushes back on them)."""
+        self._sink.blocked = blocked
+        return True
+
+    def unblocked(self) -> None:
+        self._subscribed.unblocked()
+
+    def _unregister(self) -> None:
+        self._registration.unregister()
+        self._data._leave(self._subscribed, self._sink)
+        _log.info("unsubscribed from %s", self.topic)

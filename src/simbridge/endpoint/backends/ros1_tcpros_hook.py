@@ -1,0 +1,122 @@
+"""Route the rospy node's topic negotiation for the endpoint's topics to its own TCPROS I/O.
+
+rospy keeps the node's XML-RPC slave API (registration, requestTopic, publisherUpdate,
+parameters, services, rosout, master-restart rejoin): only the data path moves. Its
+TCPROS protocol handler is wrapped, once per process, by one that answers
+`requestTopic` for an endpoint-published topic with the endpoint's own server address,
+and turns rospy's `create_transport` for an endpoint-subscribed topic into an asyncio
+connection on the endpoint's loop. Every other topic (rospy's own /rosout, say) goes
+to rospy's handler unchanged. These calls arrive on rospy's threads, once per
+connection, never per message.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import threading
+from typing import Any
+
+from rospy.impl.registration import RegManager, get_registration_listeners
+from rospy.impl.tcpros import get_tcpros_handler
+
+from simbridge.endpoint.backends.ros1_tcpros_sub import SubscribedTopic
+from simbridge.errors import EndpointError
+
+__all__ = ["install", "route_publication", "route_subscription", "unroute"]
+
+_TCPROS = "TCPROS"
+
+_lock = threading.Lock()
+_publications: dict[str, tuple[str, int]] = {}
+_subscriptions: dict[str, tuple[asyncio.AbstractEventLoop, SubscribedTopic]] = {}
+
+
+class _Handler:
+    """rospy's protocol-handler interface, in front of rospy's own TCPROS handler."""
+
+    def __init__(self, inner: Any) -> None:
+        self.inner = inner
+
+    def supports(self, protocol: str) -> bool:
+        return bool(self.inner.supports(protocol))
+
+    def get_supported(self) -> list[list[str]]:
+        supported: list[list[str]] = self.inner.get_supported()
+        return supported
+
+    def shutdown(self) -> None:
+        self.inner.shutdown()
+
+    def init_publisher(self, resolved_name: str, protocol: list[Any]) -> tuple[int, str, list[Any]]:
+        with _lock:
+            address = _publications.get(resolved_name)
+        if address is None:
+            result: tuple[int, str, list[Any]] = self.inner.init_publisher(resolved_name, protocol)
+            return result
+        if not protocol or protocol[0] != _TCPROS:
+            return 0, f"protocol {protocol!r} is not TCPROS", []
+        host, port = address
+        return 1, f"ready on {host}:{port}", [_TCPROS, host, port]
+
+    def create_transport(
+        self, resolved_name: str, pub_uri: str, protocol_params: list[Any]
+    ) -> tuple[int, str, int]:
+        with _lock:
+            route = _subscriptions.get(resolved_name)
+        if route is None:
+            result: tuple[int, str, int] = self.inner.create_transport(
+                resolved_name, pub_uri, protocol_params
+            )
+            return result
+        if (
+            not isinstance(protocol_params, list)
+            or len(protocol_params) != 3
+            or protocol_params[0] != _TCPROS
+        ):
+            return 0, f"invalid TCPROS parameters {protocol_params!r}", 0
+        _, host, port = protocol_params
+        loop, topic = route
+        try:
+            loop.call_soon_threadsafe(topic.connect, pub_uri, str(host), int(port))
+        except RuntimeError:  # the loop is closed: the endpoint is going away
+            return 0, "the endpoint is shutting down", 0
+        return 1, f"connecting {resolved_name} to {host}:{port}", int(port)
+
+
+def install() -> None:
+    """Put the routing handler in front of rospy's TCPROS handler (once; the node must exist)."""
+    for listener in get_registration_listeners().listeners:
+        if isinstance(listener, RegManager):
+            handlers: list[Any] = listener.handler.protocol_handlers
+            break
+    else:
+        raise EndpointError("this process has no registered rospy node")
+    with _lock:
+        for index, handler in enumerate(handlers):
+            if isinstance(handler, _Handler):
+                return
+            if handler is get_tcpros_handler():
+                handlers[index] = _Handler(handler)
+                return
+    raise EndpointError("rospy's node has no TCPROS handler to route through")
+
+
+def route_publication(name: str, host: str, port: int) -> None:
+    """Send subscribers of topic `name` to the endpoint's server at host:port."""
+    with _lock:
+        _publications[name] = (host, port)
+
+
+def route_subscription(name: str, loop: asyncio.AbstractEventLoop, topic: SubscribedTopic) -> None:
+    """Connect topic `name` to its publishers with `topic`'s connections on `loop`."""
+    with _lock:
+        _subscriptions[name] = (loop, topic)
+
+
+def unroute(name: str, *, publication: bool) -> None:
+    """Give topic `name` back to rospy (the endpoint no longer publishes/subscribes it)."""
+    with _lock:
+        if publication:
+            _publications.pop(name, None)
+        else:
+            _subscriptions.pop(name, None)

@@ -1,0 +1,306 @@
+"""The ROS 1 backend's native TCPROS data path against a real roscore and real rospy:
+header checks, drops past queue_size (counted), TCP back-pressure towards a ROS
+publisher while the consumer is blocked, and the rospy transport still selectable."""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import socket
+import struct
+import threading
+import time
+import xmlrpc.client
+from collections.abc import Awaitable, Callable
+from typing import Any, TypeVar
+
+import pytest
+from tests.endpoint.rawclient import RawClient
+from tests.ros1support import RosMaster, require_ros, shared_master
+
+from simbridge.endpoint import EndpointOptions, EndpointThread
+from simbridge.protocol import (
+    CommandReceived,
+    MessageReceived,
+    StatsReply,
+    StatsRequest,
+    TopicListReply,
+    TopicListRequest,
+    encode_frame,
+)
+from simbridge.protocol.tcpros import TcprosDecoder, encode_header
+
+require_ros(module_level=True)
+
+import rospy  # noqa: E402
+
+from simbridge.endpoint.backends.ros1 import Ros1Backend, Ros1Options, Ros1Publisher  # noqa: E402
+from simbridge.endpoint.backends.ros1_raw import raw_message_class  # noqa: E402
+from simbridge.endpoint.backends.ros1_types import Ros1Types  # noqa: E402
+from simbridge.messages import default_registry  # noqa: E402
+
+pytestmark = [
+    pytest.mark.ros1,
+    pytest.mark.timeout(120),
+    pytest.mark.filterwarnings("ignore:notifyAll:DeprecationWarning"),
+    pytest.mark.filterwarnings("ignore:The publisher should be created:SyntaxWarning"),
+]
+
+T = TypeVar("T")
+STRING = Ros1Types(default_registry()).message("std_msgs/String")
+
+
+@pytest.fixture(scope="module")
+def master() -> RosMaster:
+    require_ros()
+    return shared_master()
+
+
+def with_backend(
+    scenario: Callable[[Ros1Backend], Awaitable[T]], options: Ros1Options | None = None
+) -> T:
+    async def main() -> T:
+        backend = Ros1Backend(options)
+        await backend.start()
+        try:
+            return await scenario(backend)
+        finally:
+            await backend.close()
+
+    return asyncio.run(main())
+
+
+async def until(predicate: Callable[[], bool], timeout: float, what: str) -> None:
+    deadline = time.monotonic() + timeout
+    while not predicate():
+        if time.monotonic() > deadline:
+            raise AssertionError(f"timed out waiting for {what}")
+        await asyncio.sleep(0.02)
+
+
+def ros_string(text: str) -> bytes:
+    raw = text.encode()
+    return struct.pack("<I", len(raw)) + raw
+
+
+def tcpros_address(topic: str) -> tuple[str, int]:
+    """Ask this process's node, over its real XML-RPC slave API, where `topic` is served."""
+    node: Any = xmlrpc.client.ServerProxy(rospy.core.get_node_uri())
+    code, message, params = node.requestTopic("/sb_test", topic, [["TCPROS"]])
+    assert code == 1, message
+    assert params[0] == "TCPROS"
+    return str(params[1]), int(params[2])
+
+
+def read_header(sock: socket.socket) -> dict[str, str]:
+    decoder = TcprosDecoder(1 << 20)
+    while decoder.header is None:
+        data = sock.recv(65536)
+        assert data, "the server closed without a header"
+        decoder.feed(data)
+    return decoder.header
+
+
+def subscriber_header(topic: str, md5sum: str = STRING.md5sum) -> bytes:
+    fields = {"callerid": "/raw_sub", "topic": topic, "md5sum": md5sum, "type": STRING.name}
+    return encode_header(fields)
+
+
+def test_requesttopic_names_the_native_server_and_its_header_is_rospys(master: RosMaster) -> None:
+    async def scenario(backend: Ros1Backend) -> tuple[dict[str, str], int]:
+        backend.advertise("/sb/native/hdr", "std_msgs/String", queue_size=1, latch=True)
+        host, port = await asyncio.to_thread(tcpros_address, "/sb/native/hdr")
+        assert port != rospy.impl.tcpros_base.get_tcpros_server_address()[1]
+        with socket.create_connection((host, port), timeout=5) as sock:
+            sock.sendall(subscriber_header("/sb/native/hdr"))
+            header = await asyncio.to_thread(read_header, sock)
+        return header, port
+
+    header, _ = with_backend(scenario)
+    assert header == {
+        "callerid": rospy.get_caller_id(),
+        "latching": "1",
+        "md5sum": STRING.md5sum,
+        "message_definition": STRING.definition,
+        "topic": "/sb/native/hdr",
+        "type": "std_msgs/String",
+    }
+
+
+@pytest.mark.parametrize(
+    ("sent", "reason"),
+    [
+        (subscriber_header("/sb/native/bad", md5sum="0" * 32), "datatype/md5sum"),
+        (subscriber_header("/sb/native/nobody"), "is not a publisher of"),
+        (encode_header({"topic": "/sb/native/bad"}), "missing required 'md5sum'"),
+        (struct.pack("<I", 5) + b"\x09\x00\x00\x00a", "bad connection header"),
+    ],
+)
+def test_bad_subscribers_get_an_error_header_and_the_server_lives_on(
+    master: RosMaster, sent: bytes, reason: str
+) -> None:
+    async def scenario(backend: Ros1Backend) -> tuple[dict[str, str], list[bytes]]:
+        publisher = backend.advertise("/sb/native/bad", "std_msgs/String", queue_size=1, latch=True)
+        publisher.publish(ros_string("still here"))
+        host, port = await asyncio.to_thread(tcpros_address, "/sb/native/bad")
+        with socket.create_connection((host, port), timeout=5) as sock:
+            sock.sendall(sent)
+            refused = await asyncio.to_thread(read_header, sock)
+        assert backend.stats()["ros1_refused_connections"] >= 1
+        received: list[bytes] = []
+        backend.subscribe("/sb/native/bad", "std_msgs/String", received.append)
+        await until(lambda: bool(received), 10, "the latched message after the bad peer")
+        return refused, received
+
+    refused, received = with_backend(scenario)
+    assert reason in refused["error"]
+    assert received == [ros_string("still here")]
+
+
+def test_a_subscriber_that_does_not_read_loses_only_past_queue_size(master: RosMaster) -> None:
+    """Drops happen only beyond the registration's queue_size, are counted, and keep the
+    newest messages, in order."""
+    queue_size = 5
+    count = 400
+
+    async def scenario(backend: Ros1Backend) -> tuple[list[int], int]:
+        publisher = backend.advertise(
+            "/sb/native/slow", "std_msgs/String", queue_size=queue_size, latch=False
+        )
+        assert isinstance(publisher, Ros1Publisher)
+        host, port = await asyncio.to_thread(tcpros_address, "/sb/native/slow")
+        sock = socket.socket()
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+        sock.connect((host, port))
+        sock.sendall(subscriber_header("/sb/native/slow"))
+        await until(lambda: publisher.subscriber_count() == 1, 10, "the raw subscriber")
+        for i in range(count):  # 64 KiB each: far more than the socket buffers hold
+            publisher.publish(ros_string(f"{i:08d}" + "x" * 65536))
+            await asyncio.sleep(0)
+        dropped = backend.stats()["ros1_dropped_to_ros"]
+        publisher.close()  # closes the connection once everything queued is written
+        decoder = TcprosDecoder(1 << 20)
+        got: list[bytes] = []
+        sock.settimeout(10)
+        while True:
+            data = await asyncio.to_thread(sock.recv, 1 << 20)
+            if not data:
+                break
+            got += decoder.feed(data)
+        sock.close()
+        return [int(m[4:12]) for m in got], dropped
+
+    indices, dropped = with_backend(scenario)
+    assert dropped > 0
+    assert indices == sorted(indices)
+    assert indices[-1] == count - 1  # the newest is kept
+    assert len(indices) + dropped == count
+
+
+def test_blocked_consumer_pushes_back_on_a_rospy_publisher_without_loss(
+    master: RosMaster,
+) -> None:
+    """While the consumer says it is blocked the endpoint stops reading, so rospy's
+    (unqueued, synchronous) publisher waits in TCP instead of anything being dropped."""
+    count = 300
+    cls = raw_message_class(STRING)
+    blocked = threading.Event()
+
+    async def scenario(backend: Ros1Backend) -> tuple[list[int], int]:
+        received: list[int] = []
+        subscription = backend.subscribe(
+            "/sb/native/bp", "std_msgs/String", lambda p: received.append(int(p[4:12]))
+        )
+        assert subscription.throttle(blocked.is_set)
+        publisher = rospy.Publisher("/sb/native/bp", cls, queue_size=None)
+        await until(lambda: publisher.get_num_connections() == 1, 10, "the connection")
+        blocked.set()
+        done = threading.Event()
+
+        def publish_all() -> None:
+            for i in range(count):
+                publisher.publish(cls(ros_string(f"{i:08d}" + "y" * 32768)))
+            done.set()
+
+        thread = threading.Thread(target=publish_all, daemon=True)
+        thread.start()
+        await until(lambda: len(received) > 0, 10, "the first messages")
+        await asyncio.sleep(1.0)
+        while_blocked = len(received)
+        assert not done.is_set(), "the publisher was never pushed back on"
+        blocked.clear()  # the consumer caught up: reading resumes on its own
+        await until(lambda: len(received) == count, 30, "every message")
+        thread.join(10)
+        publisher.unregister()
+        subscription.close()
+        return received, while_blocked
+
+    received, while_blocked = with_backend(scenario)
+    assert while_blocked < count
+    assert received == list(range(count))
+
+
+def test_slow_client_is_pushed_back_on_rather_than_dropped(master: RosMaster) -> None:
+    """Through the endpoint: a client that stops reading for a moment, with a small
+    queue_size, still gets every message of a rospy publisher, and nothing is dropped."""
+    count = 120
+    cls = raw_message_class(STRING)
+    options = EndpointOptions(port=0, write_high_water=64 * 1024, idle_timeout=0)
+    with EndpointThread(options, Ros1Backend()) as ep:
+        client = RawClient(ep.port)
+        client.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 32 * 1024)
+        body = {"topic": "/sb/native/client", "message_name": "std_msgs/String", "queue_size": 4}
+        client.send(encode_frame("__subscribe", json.dumps(body).encode()))
+        client.send(TopicListRequest().encode())
+        client.expect(
+            lambda e: isinstance(e, CommandReceived) and isinstance(e.command, TopicListReply)
+        )
+        publisher = rospy.Publisher("/sb/native/client", cls, queue_size=None)
+        deadline = time.monotonic() + 10
+        while publisher.get_num_connections() == 0:
+            assert time.monotonic() < deadline, "the endpoint never connected"
+            time.sleep(0.02)
+        thread = threading.Thread(
+            target=lambda: [
+                publisher.publish(cls(ros_string(f"{i:08d}" + "z" * 65536))) for i in range(count)
+            ],
+            daemon=True,
+        )
+        thread.start()
+        time.sleep(0.5)  # not reading: the endpoint's buffers and queue fill up
+        got: list[int] = []
+        deadline = time.monotonic() + 60
+        while len(got) < count and time.monotonic() < deadline:
+            client.poll(0.1)
+            for event in client.events:
+                if isinstance(event, MessageReceived) and event.topic == "/sb/native/client":
+                    got.append(int(event.payload[4:12]))
+            client.events = [e for e in client.events if not isinstance(e, MessageReceived)]
+        thread.join(10)
+        client.send(StatsRequest().encode())
+        stats = client.expect(
+            lambda e: isinstance(e, CommandReceived) and isinstance(e.command, StatsReply)
+        ).command
+        publisher.unregister()
+        client.close()
+    assert got == list(range(count))
+    assert stats.stats["session"]["dropped_total"] == 0
+
+
+def test_rospy_transport_is_still_selectable(master: RosMaster) -> None:
+    async def scenario(backend: Ros1Backend) -> list[bytes]:
+        received: list[bytes] = []
+        backend.subscribe("/sb/native/rospy", "std_msgs/String", received.append)
+        publisher = backend.advertise(
+            "/sb/native/rospy", "std_msgs/String", queue_size=0, latch=False
+        )
+        assert isinstance(publisher, Ros1Publisher)
+        await until(lambda: publisher.subscriber_count() > 0, 10, "the loopback connection")
+        assert backend.stats() == {}
+        _, port = await asyncio.to_thread(tcpros_address, "/sb/native/rospy")
+        assert port == rospy.impl.tcpros_base.get_tcpros_server_address()[1]  # rospy's own
+        publisher.publish(ros_string("via rospy"))
+        await until(lambda: bool(received), 10, "the message")
+        return received
+
+    assert with_backend(scenario, Ros1Options(transport="rospy")) == [ros_string("via rospy")]
