@@ -148,3 +148,57 @@ def test_several_browsers_and_one_going_away_leave_the_physics_at_pace(
     finally:
         for browser in browsers:
             browser.close()
+
+
+def _on_a_box(world: World, points: np.ndarray, tolerance: float = 0.01) -> np.ndarray:
+    """Which points lie on the surface of one of the world's box geoms (walls, boxes)."""
+    model, data = world.model, world.data
+    hit = np.zeros(len(points), dtype=bool)
+    for geom in range(model.ngeom):
+        if int(model.geom_type[geom]) != 6:  # mjGEOM_BOX
+            continue
+        local = (points - data.geom_xpos[geom]) @ data.geom_xmat[geom].reshape(3, 3)
+        outside = np.abs(local) - model.geom_size[geom]
+        distance = np.where(
+            (outside <= 0).all(axis=1),
+            -outside.max(axis=1),  # inside: depth to the nearest face
+            np.linalg.norm(np.maximum(outside, 0.0), axis=1),
+        )
+        hit |= distance < tolerance
+    return hit
+
+
+def test_lidar_returns_land_on_the_room_in_world_coordinates() -> None:
+    """The feed turns the sensors' own messages (LaserScan, PointCloud2) into world points:
+    in the mobile robot's walled room each lies on a wall, a box or the floor (within 1 cm
+    of a box geom's surface or of z = 0), and most reach the walls' inner faces."""
+    from simbridge.apps.mobile_robot.runner import SCENE_PATH
+    from simbridge.sim.sensors import SensorSuite
+
+    world = World.from_scene(SCENE_PATH)
+    suite = SensorSuite.from_config(
+        world.model,
+        [
+            {"type": "lidar_2d", "name": "flat", "body": "laser_link", "topic": "/scan",
+             "samples": 360, "range_max": 8.0, "ignore_bodies": ["base_link", "camera_link"]},
+            {"type": "lidar_3d", "name": "spin", "body": "base_link", "xyz": [0, 0, 0.4],
+             "channels": 8, "samples": 180, "range_max": 8.0, "topic": "/points"},
+        ],
+    )  # fmt: skip
+    view = LiveView(world, ViewOptions(port=0))
+    try:
+        feed = view.watch_sensors(suite)
+        assert set(feed.lidars) == {"/scan", "/points"}
+        world.refresh()
+        publications = [p for s in suite.sensors for p in s.measure(world.model, world.data)]
+        feed.observe(publications, world.data)
+        for topic, least in (("/scan", 300), ("/points", 500)):
+            points = feed.points[topic].astype(np.float64)
+            assert len(points) > least, topic
+            on_wall = np.abs(np.max(np.abs(points[:, :2]), axis=1) - 2.0) < 0.01
+            on_surface = (np.abs(points[:, 2]) < 0.01) | _on_a_box(world, points)
+            assert on_surface.mean() > 0.99, f"{topic}: returns off the room's surfaces"
+            assert on_wall.mean() > 0.3, f"{topic}: most beams reach a wall"
+    finally:
+        view.close()
+        suite.close()

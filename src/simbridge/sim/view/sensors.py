@@ -1,4 +1,5 @@
-"""Sensor readings in the view: lidar returns as points, camera images in a panel.
+"""Sensor readings in the view: lidar returns (2D scans and 3D point clouds) as points,
+camera images in a panel.
 
 The readings are the messages the simulation's own sensors publish (the same code the ROS
 side runs): `SensorFeed.observe` is shown each batch of publications on the physics
@@ -18,7 +19,8 @@ import numpy as np
 from numpy.typing import NDArray
 from PIL import Image
 
-from simbridge.sim.sensors import Camera, Lidar2D, Publication, SensorSuite
+from simbridge.sim.sensors import Camera, Lidar2D, Lidar3D, Publication, SensorSuite
+from simbridge.sim.sensors.lidar3d import POINT_DTYPE
 
 if TYPE_CHECKING:
     import viser
@@ -46,7 +48,9 @@ class SensorFeed:
     ) -> None:
         self.server = server
         self.point_size = point_size
-        self.lidars = {s.topic: s for s in suite.sensors if isinstance(s, Lidar2D)}
+        self.lidars: dict[str, Lidar2D | Lidar3D] = {
+            s.topic: s for s in suite.sensors if isinstance(s, Lidar2D | Lidar3D)
+        }
         cameras = [s for s in suite.sensors if isinstance(s, Camera)]
         self.cameras = {c.compressed_topic: c for c in cameras} | {
             c.image_topic: c for c in cameras
@@ -95,12 +99,19 @@ class SensorFeed:
                 self.images[camera.name] = publication.message
 
     @staticmethod
-    def _returns(lidar: Lidar2D, scan: Any, data: mujoco.MjData) -> NDArray[np.float32]:
-        ranges = np.asarray(scan.ranges, dtype=np.float64)
-        hit = np.isfinite(ranges)
-        angles = lidar.angles[hit]
-        local = np.stack([np.cos(angles), np.sin(angles), np.zeros_like(angles)], axis=1)
-        local *= ranges[hit, None]
+    def _returns(
+        lidar: Lidar2D | Lidar3D, message: Any, data: mujoco.MjData
+    ) -> NDArray[np.float32]:
+        """A LaserScan's or PointCloud2's returns in world coordinates."""
+        if isinstance(lidar, Lidar3D):
+            records = np.frombuffer(bytes(np.asarray(message.data, np.uint8)), POINT_DTYPE)
+            local = np.stack([records["x"], records["y"], records["z"]], axis=1).astype(float)
+        else:
+            ranges = np.asarray(message.ranges, dtype=np.float64)
+            hit = np.isfinite(ranges)
+            angles = lidar.angles[hit]
+            local = np.stack([np.cos(angles), np.sin(angles), np.zeros_like(angles)], axis=1)
+            local *= ranges[hit, None]
         pose = lidar.world_pose(data)  # the frame the scan was taken in: it is fresh now
         return (pose.position + local @ pose.rotation.T).astype(np.float32)
 
