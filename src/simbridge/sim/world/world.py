@@ -367,17 +367,19 @@ class World:
     def _run_callbacks(self, step: int, timestep: float) -> None:
         """Call the callbacks due at `step`, then note the next step any can be due."""
         self._next_due = -1
-        every_step = False
+        nearest = _NEVER
         for cb in list(self._callbacks.values()):
-            if cb.schedule is None:
-                every_step = True
+            schedule = cb.schedule
+            if schedule is None:
                 cb.fn(self)
-            elif cb.schedule.due(step, timestep):
+                nearest = step + 1
+                continue
+            if schedule.due(step, timestep):
                 cb.fn(self)
+            ahead = schedule.next_step(timestep)
+            nearest = min(nearest, ahead)
         if self._next_due == -1:  # else a callback added one or reset: check next step
-            schedules = [cb.schedule for cb in self._callbacks.values() if cb.schedule]
-            nearest = min((s.next_step(timestep) for s in schedules), default=_NEVER)
-            self._next_due = step + 1 if every_step else nearest
+            self._next_due = nearest
             self._due_timestep = timestep
 
     def run(
