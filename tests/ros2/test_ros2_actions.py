@@ -72,6 +72,11 @@ def command(event: object, cls: type, goal_id: int | None = None) -> bool:
     )
 
 
+def tails(*procs: Ros2Process) -> str:
+    """The last output lines of the endpoint and servers, for a failed wait's message."""
+    return "\n".join("".join(p.output[-15:]) for p in procs)
+
+
 def unique_action() -> str:
     return f"/fib_{os.getpid()}_{time.monotonic_ns() % 10**9}"
 
@@ -237,9 +242,11 @@ def ros(endpoint: tuple[Ros2Process, int]) -> Iterator[Connector]:
         yield connector
 
 
-def test_connector_goal_feedback_result(ros: Connector) -> None:
+def test_connector_goal_feedback_result(
+    ros: Connector, endpoint: tuple[Ros2Process, int]
+) -> None:
     action = unique_action()
-    with server(action):
+    with server(action) as srv:
         client = action_client(ros, action, FIB)
         assert isinstance(client, Ros2ActionClient)
         assert client.wait_for_server(30)
@@ -248,7 +255,7 @@ def test_connector_goal_feedback_result(ros: Connector) -> None:
             REG.new("test_msgs/FibonacciGoal", order=6),
             on_feedback=lambda fb: feedback.append([int(v) for v in fb.sequence]),
         )
-        assert goal.wait(30), goal.text
+        assert goal.wait(60), (goal.status, goal.text, feedback, tails(endpoint[0], srv))
         assert goal.status == SUCCEEDED
         assert goal.ros2_status == STATUS_SUCCEEDED
         assert [int(v) for v in goal.result.sequence] == [0, 1, 1, 2, 3, 5, 8]
@@ -258,7 +265,7 @@ def test_connector_goal_feedback_result(ros: Connector) -> None:
         assert not client.goals
 
 
-def test_connector_cancel(ros: Connector) -> None:
+def test_connector_cancel(ros: Connector, endpoint: tuple[Ros2Process, int]) -> None:
     action = unique_action()
     with server(action, 0.2) as srv:
         client = Ros2ActionClient(ros, action, FIB)
@@ -267,9 +274,9 @@ def test_connector_cancel(ros: Connector) -> None:
         goal = client.send_goal(
             REG.new("test_msgs/FibonacciGoal", order=40), on_feedback=lambda _fb: got_feedback.set()
         )
-        assert got_feedback.wait(30)
+        assert got_feedback.wait(60), (goal.status, goal.text, tails(endpoint[0], srv))
         goal.cancel()
-        assert goal.wait(30)
+        assert goal.wait(60), (goal.status, goal.text, tails(endpoint[0], srv))
         assert goal.status == PREEMPTED
         assert goal.ros2_status == STATUS_CANCELED
         assert len(goal.result.sequence) < 41

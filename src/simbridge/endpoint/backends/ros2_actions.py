@@ -43,7 +43,7 @@ MAX_ACTION_CLIENTS = 256
 
 _RUNNING = (STATUS_EXECUTING, STATUS_CANCELING)
 _ENDED = (STATUS_SUCCEEDED, STATUS_CANCELED, STATUS_ABORTED)
-_SETTLE = 0.5
+_SETTLE = 1.0
 """How long after first seeing a server the first goal waits. We see the server when our
 side matched; its response writer matches our reader on the server's own schedule, and
 rmw_fastrtps drops a response whose reader is not matched within 100 ms."""
