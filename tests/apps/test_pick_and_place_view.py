@@ -1,5 +1,6 @@
-"""Pick and place with the live view and a recording: the page's demo button runs the
-task again with the next seed in a new world, and --record writes the arm's motion."""
+"""Pick and place with the live view and a recording: the page's demo button, clicked in
+headless Chromium, runs the task again with the next seed in a new world, and --record
+writes the arm's motion."""
 
 from __future__ import annotations
 
@@ -18,10 +19,11 @@ from simbridge.sim.record.player import recorded_messages
 pytest.importorskip("viser")
 
 from simbridge.sim.view import ViewOptions
-from tests.sim.viser_client import ViserClient
+from tests.sim.browser import CHROMIUM, open_page
 
 
-def test_the_pages_button_runs_again_with_a_new_seed() -> None:
+@pytest.mark.skipif(CHROMIUM is None, reason="Debian's chromium is not installed")
+def test_the_pages_button_runs_again_with_a_new_seed(tmp_path: Path) -> None:
     with PickAndPlaceDemo(progress=None, view=ViewOptions(port=0)) as demo:
         first = demo.run(PickAndPlaceTask())
         assert first.success
@@ -33,8 +35,12 @@ def test_the_pages_button_runs_again_with_a_new_seed() -> None:
         server = threading.Thread(target=demo.serve, args=(stop,))
         server.start()
         try:
-            with ViserClient(view.port) as browser:
-                browser.click(view.buttons[AGAIN_LABEL])
+            with open_page(view.url, tmp_path / "chrome") as browser:
+                # viser takes a page's clicks once it reported its camera (connected)
+                deadline = time.monotonic() + 90
+                while not view.server.get_clients() and time.monotonic() < deadline:
+                    time.sleep(0.1)
+                browser.click_button(AGAIN_LABEL)  # the mouse, in headless Chromium
                 deadline = time.monotonic() + 60
                 while len(demo.results) < 2 and time.monotonic() < deadline:
                     time.sleep(0.05)

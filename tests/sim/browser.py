@@ -24,7 +24,7 @@ import numpy as np
 from PIL import Image
 from websockets.sync.client import connect
 
-__all__ = ["CHROMIUM", "Browser", "keep_screenshot", "screenshot_until"]
+__all__ = ["CHROMIUM", "Browser", "keep_screenshot", "open_page", "screenshot_until"]
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 
@@ -100,6 +100,32 @@ class Browser:
         pixels = np.asarray(Image.open(io.BytesIO(png)).convert("RGB")).astype(int)
         return pixels, png
 
+    def click_button(self, label: str, timeout: float = 60.0) -> None:
+        """Click the page's button labelled `label` with the mouse (once it is shown)."""
+        find = (
+            "(() => { const b = [...document.querySelectorAll('button')].find("
+            f"e => e.textContent.trim() === {json.dumps(label)});"
+            " if (!b) return null; b.scrollIntoView({block: 'center'});"
+            " const r = b.getBoundingClientRect(); return [r.x + r.width / 2, r.y + r.height / 2];"
+            " })()"
+        )
+        deadline = time.monotonic() + timeout
+        last = None
+        while True:  # until the button is shown and stays put (panels animate open)
+            found = self.call("Runtime.evaluate", expression=find, returnByValue=True)
+            point = found.get("result", {}).get("value")
+            if point and point == last:
+                break
+            if time.monotonic() > deadline:
+                raise AssertionError(f"the page shows no button {label!r} (or it keeps moving)")
+            last = point
+            time.sleep(0.5)
+        x, y = point
+        for kind in ("mousePressed", "mouseReleased"):
+            self.call(
+                "Input.dispatchMouseEvent", type=kind, x=x, y=y, button="left", clickCount=1
+            )
+
     def close(self) -> None:
         """End the browser and every process it started."""
         if self.socket is not None:
@@ -110,7 +136,8 @@ class Browser:
 
 
 @contextlib.contextmanager
-def open_page(url: str, profile: Path, size: tuple[int, int]) -> Iterator[Browser]:
+def open_page(url: str, profile: Path, size: tuple[int, int] = (900, 700)) -> Iterator[Browser]:
+    """A `Browser` on `url`, closed on exit."""
     browser = Browser(url, profile, size)
     try:
         yield browser

@@ -15,7 +15,7 @@ import yaml
 from simbridge.sim.scene import load_scene
 from simbridge.sim.view import LiveView, ViewOptions, visual_shapes
 from simbridge.sim.world import World
-from tests.sim.browser import CHROMIUM, screenshot_until
+from tests.sim.browser import CHROMIUM, open_page
 
 pytest.importorskip("viser")
 
@@ -96,18 +96,40 @@ def test_pause_in_the_page_stops_the_sim_clock(running: tuple[World, LiveView]) 
 
 
 @pytest.mark.skipif(CHROMIUM is None, reason="Debian's chromium is not installed")
-def test_headless_chromium_draws_the_robot(running: tuple[World, LiveView], tmp_path: Path) -> None:
-    _, view = running
+def test_headless_chromium_draws_the_robot_and_its_pause_button_stops_the_clock(
+    running: tuple[World, LiveView], tmp_path: Path
+) -> None:
+    world, view = running
 
     def robot_red(pixels: np.ndarray) -> np.ndarray:
         r, g, b = pixels[..., 0], pixels[..., 1], pixels[..., 2]
         # the robot's own red, not the pale red of the page still loading
-        return (r > 120) & (g < 0.45 * r) & (b < 0.45 * r)
+        return np.asarray((r > 120) & (g < 0.45 * r) & (b < 0.45 * r), dtype=bool)
 
-    pixels = screenshot_until(view.url, tmp_path, lambda p: robot_red(p).sum() > 500)
-    red = robot_red(pixels)
-    assert red.sum() > 500, f"only {red.sum()} red pixels: the robot is not drawn"
-    rows, cols = np.nonzero(red)
-    # the camera looks at the robot: it is drawn around the middle of the page
-    assert 0.2 * pixels.shape[1] < cols.mean() < 0.8 * pixels.shape[1]
-    assert 0.15 * pixels.shape[0] < rows.mean() < 0.85 * pixels.shape[0]
+    with open_page(view.url, tmp_path / "chrome") as browser:
+        deadline = time.monotonic() + 120
+        while True:
+            time.sleep(1.0)
+            pixels, _ = browser.shoot()
+            red = robot_red(pixels)
+            if red.sum() > 500 or time.monotonic() > deadline:
+                break
+        assert red.sum() > 500, f"only {red.sum()} red pixels: the robot is not drawn"
+        rows, cols = np.nonzero(red)
+        # the camera looks at the robot: it is drawn around the middle of the page
+        assert 0.2 * pixels.shape[1] < cols.mean() < 0.8 * pixels.shape[1]
+        assert 0.15 * pixels.shape[0] < rows.mean() < 0.85 * pixels.shape[0]
+        assert not world.paused
+        browser.click_button("Pause")  # the mouse, in the page
+        deadline = time.monotonic() + 30
+        while not world.paused and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert world.paused, "the page's Pause button paused the world"
+        held = world.time
+        time.sleep(0.5)
+        assert world.time == held, "the sim clock stopped"
+        browser.click_button("Resume")  # the same button, relabelled
+        deadline = time.monotonic() + 30
+        while world.paused and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert not world.paused
