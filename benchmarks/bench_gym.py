@@ -4,6 +4,8 @@ Speed: env steps per second of Reach-v0 alone, in a `SceneVectorEnv` of 8 and 32
 and with camera observations (84x84, 128x128), beside `mujoco.mj_step` on the same model
 in the same state (the ceiling), each the best of three short rounds taken in turn.
 `of_ceiling` compares physics steps (env steps x frame_skip) with the ceiling.
+The single env is what `gymnasium.make` returns, its default wrappers (TimeLimit,
+OrderEnforcing, PassiveEnvChecker) included.
 
 Learning: augmented random search (NumPy, a linear policy reading "goal_delta") on a
 vector of 16 Reach-v0 worlds until a 32-episode evaluation reaches 90% success or the
