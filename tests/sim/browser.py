@@ -1,6 +1,7 @@
 """Debian's headless Chromium for view tests, driven over the DevTools protocol: open a
-page, then take screenshots until one shows what the test waits for (the page may need a
-while to receive the scene on a loaded machine), all bounded in time. The browser runs
+page, take screenshots until one shows what the test waits for (the page may need a
+while to receive the scene on a loaded machine), query the page and click its buttons
+with the mouse, all bounded in time. The browser runs
 in its own process group, killed whole at the end (its helper processes included)."""
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ import signal
 import subprocess
 import time
 import urllib.request
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -24,7 +25,7 @@ import numpy as np
 from PIL import Image
 from websockets.sync.client import connect
 
-__all__ = ["CHROMIUM", "Browser", "keep_screenshot", "open_page", "screenshot_until"]
+__all__ = ["CHROMIUM", "Browser", "keep_screenshot", "open_page"]
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 
@@ -143,27 +144,6 @@ def open_page(url: str, profile: Path, size: tuple[int, int] = (900, 700)) -> It
         yield browser
     finally:
         browser.close()
-
-
-def screenshot_until(
-    url: str,
-    tmp_path: Path,
-    accept: Callable[[np.ndarray], bool],
-    *,
-    timeout: float = 120.0,
-    name: str = "view.png",
-    size: tuple[int, int] = (900, 700),
-) -> np.ndarray:
-    """Open `url` and take a screenshot every second until `accept(pixels)` or `timeout`
-    seconds; the last one is written to tmp_path/`name` and its pixels returned."""
-    deadline = time.monotonic() + timeout
-    with open_page(url, tmp_path / "chrome", size) as browser:
-        while True:
-            time.sleep(1.0)
-            pixels, png = browser.shoot()
-            if accept(pixels) or time.monotonic() > deadline:
-                (tmp_path / name).write_bytes(png)
-                return pixels
 
 
 def keep_screenshot(shot: Path, name: str) -> None:

@@ -6,6 +6,7 @@ subscribes here. The screenshot is the README's (docs/view.png)."""
 from __future__ import annotations
 
 import threading
+import time
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -17,7 +18,7 @@ from simbridge.connector import ConnectorOptions
 from simbridge.endpoint import EndpointOptions, EndpointThread, LocalBus
 from simbridge.sim.ros import SimulationSession
 from simbridge.sim.view import LIDAR_RGB, LiveView, ViewOptions
-from tests.sim.browser import CHROMIUM, keep_screenshot, screenshot_until
+from tests.sim.browser import CHROMIUM, keep_screenshot, open_page
 
 pytest.importorskip("viser")
 
@@ -61,9 +62,19 @@ def test_chromium_shows_lidar_points_camera_images_contacts_and_frames(
     assert not feed.points
     view.tf.checkbox.value = True  # type: ignore[misc]
     view.contacts.checkbox.value = True  # type: ignore[misc]
-    pixels = screenshot_until(
-        view.url, tmp_path, lambda p: _lidar_pixels(p).sum() > 300, size=(1000, 760)
-    )
+    images = "[...document.querySelectorAll('img')].map(i => [i.naturalWidth, i.naturalHeight])"
+    with open_page(view.url, tmp_path / "chrome", size=(1000, 760)) as browser:
+        deadline = time.monotonic() + 120
+        while True:
+            time.sleep(1.0)
+            pixels, png = browser.shoot()
+            shown = browser.call("Runtime.evaluate", expression=images, returnByValue=True)
+            sizes = shown.get("result", {}).get("value") or []
+            drawn = _lidar_pixels(pixels).sum() > 300 and [320, 240] in sizes
+            if drawn or time.monotonic() > deadline:
+                break
+    (tmp_path / "view.png").write_bytes(png)
+    assert [320, 240] in sizes, f"the page shows no 320x240 camera image (images: {sizes})"
     cyan = _lidar_pixels(pixels)
     assert cyan.sum() > 300, f"only {cyan.sum()} lidar-coloured pixels: no points drawn"
     scan = next(iter(feed._drawn.values()))
