@@ -63,3 +63,15 @@ def test_record_writes_the_arms_motion(tmp_path: Path) -> None:
     sim_s = result.sim_time
     assert topics["/joint_states"] == pytest.approx(50 * sim_s, abs=2)
     assert topics["/tf"] > 0
+
+
+def test_cli_forwards_record_and_bridge_refuses_a_view(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from simbridge.cli import main
+
+    bag = tmp_path / "cli.mcap"
+    assert main(["demo", "pick-and-place", "--record", str(bag), "--realtime", "0"]) == 0
+    assert Counter(topic for topic, *_ in recorded_messages(bag))["/joint_states"] > 100
+    assert main(["demo", "bridge", "--view"]) == 2
+    assert "need a simulation" in capsys.readouterr().err
