@@ -103,34 +103,42 @@ class TcprosDecoder:
         Raises TcprosError when a length is over its limit or the header is malformed.
         """
         buffer = self._buffer
-        buffer += data
+        if buffer:
+            buffer += data
+            source: bytes | bytearray = buffer
+        else:
+            source = bytes(data)  # common case: parse the chunk as it came, no buffer copy
         messages: list[bytes] = []
         offset = 0
-        available = len(buffer)
-        while available - offset >= 4:
-            (size,) = _U32.unpack_from(buffer, offset)
-            if self.header is None:
-                if size > MAX_HEADER_SIZE:
+        available = len(source)
+        unpack = _U32.unpack_from
+        limit = self._max_message
+        with memoryview(source) as view:  # released before the buffer is resized
+            while available - offset >= 4:
+                (size,) = unpack(source, offset)
+                if self.header is None:
+                    if size > MAX_HEADER_SIZE:
+                        raise TcprosError(
+                            f"connection header of {size} bytes is over the limit of "
+                            f"{MAX_HEADER_SIZE} bytes"
+                        )
+                elif size > limit:
                     raise TcprosError(
-                        f"connection header of {size} bytes is over the limit of "
-                        f"{MAX_HEADER_SIZE} bytes"
+                        f"message of {size} bytes is over the limit of {limit} bytes"
                     )
-            elif size > self._max_message:
-                raise TcprosError(
-                    f"message of {size} bytes is over the limit of {self._max_message} bytes"
-                )
-            if available - offset - 4 < size:
-                break
-            start = offset + 4
-            offset = start + size
-            with memoryview(buffer) as view:
-                body = bytes(view[start:offset])
-            if self.header is None:
-                self.header = decode_header(body)
-            else:
-                messages.append(body)
-        if offset:
-            del buffer[:offset]
+                start = offset + 4
+                if available - start < size:
+                    break
+                offset = start + size
+                if self.header is None:
+                    self.header = decode_header(bytes(view[start:offset]))
+                else:
+                    messages.append(bytes(view[start:offset]))
+        if source is buffer:
+            if offset:
+                del buffer[:offset]
+        elif offset < available:
+            buffer += source[offset:]
         return messages
 
     @property

@@ -178,16 +178,21 @@ def test_a_subscriber_that_does_not_read_loses_only_past_queue_size(master: RosM
             publisher.publish(ros_string(f"{i:08d}" + "x" * 65536))
             await asyncio.sleep(0)
         dropped = backend.stats()["ros1_dropped_to_ros"]
-        publisher.close()  # closes the connection once everything queued is written
         decoder = TcprosDecoder(1 << 20)
         got: list[bytes] = []
-        sock.settimeout(10)
-        while True:
-            data = await asyncio.to_thread(sock.recv, 1 << 20)
-            if not data:
-                break
+        sock.setblocking(False)
+        deadline = time.monotonic() + 30
+        while not got or int(got[-1][4:12]) != count - 1:
+            assert time.monotonic() < deadline, f"the newest message never came; got {len(got)}"
+            try:
+                data = sock.recv(1 << 20)
+            except BlockingIOError:
+                await asyncio.sleep(0.01)  # the endpoint's loop writes what it holds
+                continue
+            assert data, "the endpoint closed the connection"
             got += decoder.feed(data)
         sock.close()
+        publisher.close()
         return [int(m[4:12]) for m in got], dropped
 
     indices, dropped = with_backend(scenario)

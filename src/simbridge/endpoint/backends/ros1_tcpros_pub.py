@@ -11,12 +11,14 @@ from __future__ import annotations
 
 import asyncio
 import logging
+import os
 import socket
+import struct
 from collections import deque
 from collections.abc import Callable
 
 from simbridge.endpoint.backends.ros1_raw import RawMessageType
-from simbridge.protocol.tcpros import TcprosDecoder, TcprosError, encode_header, frame
+from simbridge.protocol.tcpros import TcprosDecoder, TcprosError, encode_header
 
 __all__ = ["PublishedTopic", "TopicServer"]
 
@@ -31,6 +33,14 @@ unbounded in count, as in rospy, but not in bytes)."""
 
 _WRITE_ALONE = 64 << 10
 """Frames at least this big are written alone rather than joined with others."""
+
+WRITE_HIGH_WATER = 1 << 20
+"""Bytes asyncio may buffer for one connection before the endpoint holds messages itself."""
+
+_IOV_MAX = 1024
+"""Most buffers one writev takes (Linux's IOV_MAX)."""
+
+_U32 = struct.Struct("<I")
 
 _FLUSH_AT = 256 << 10
 """Bytes queued in one loop iteration that are written at once rather than at its end."""
@@ -49,17 +59,18 @@ class PublishedTopic:
         self.queue_size = queue_size
         self.refs = 0
         self.connections: list[_SubscriberConnection] = []
-        self.latched: bytes | None = None
+        self.latched: tuple[bytes, bytes] | None = None
+        """The length prefix and payload of the last message, when latching."""
         self.dropped = 0
         self.watchers: list[Callable[[int], None]] = []
 
     def publish(self, payload: bytes) -> None:
         """Send one serialized message to every connected subscriber."""
-        data = frame(payload)
+        prefix = _U32.pack(len(payload))
         if self.latch:
-            self.latched = data
+            self.latched = (prefix, payload)
         for connection in self.connections:
-            connection.send(data)
+            connection.send(prefix, payload)
 
     def header(self, callerid: str) -> bytes:
         """The header this publisher answers a subscriber with."""
@@ -82,7 +93,7 @@ class PublishedTopic:
     def add(self, connection: _SubscriberConnection) -> None:
         self.connections.append(connection)
         if self.latched is not None:
-            connection.send(self.latched)
+            connection.send(*self.latched)
         self._changed()
 
     def remove(self, connection: _SubscriberConnection) -> None:
@@ -177,7 +188,8 @@ class _SubscriberConnection(asyncio.Protocol):
         self._topic: PublishedTopic | None = None
         self._pending: list[bytes] = []
         self._pending_bytes = 0
-        self._held: deque[bytes] = deque()
+        self._fd = -1
+        self._held: deque[tuple[bytes, bytes]] = deque()
         self._held_bytes = 0
         self._paused = False
         self._timer: asyncio.TimerHandle | None = None
@@ -187,6 +199,11 @@ class _SubscriberConnection(asyncio.Protocol):
         assert isinstance(transport, asyncio.Transport)
         self._transport = transport
         self._server._connections.add(self)
+        # Resume only once asyncio holds nothing, so the next messages go out with one
+        # writev from their own bytes; the kernel's socket buffer keeps the link busy.
+        transport.set_write_buffer_limits(high=WRITE_HIGH_WATER, low=0)
+        sock = transport.get_extra_info("socket")
+        self._fd = sock.fileno() if sock is not None else -1
         peer = transport.get_extra_info("peername")
         self.peer = f"{peer[0]}:{peer[1]}" if isinstance(peer, tuple) else str(peer)
         loop = asyncio.get_running_loop()
@@ -253,61 +270,85 @@ class _SubscriberConnection(asyncio.Protocol):
             self._transport.write(encode_header({"error": reason}))
             self._transport.close()
 
-    def send(self, data: bytes) -> None:
-        """Queue one framed message; it leaves at the end of this loop iteration."""
+    def send(self, prefix: bytes, payload: bytes) -> None:
+        """Queue one message (its length prefix and bytes); it leaves at the end of this
+        loop iteration, or held while the subscriber is not reading."""
         if self._paused:
-            self._hold(data)
+            self._hold(prefix, payload)
             return
         if not self._pending:
             self._server.schedule(self)
-        self._pending.append(data)
-        self._pending_bytes += len(data)
+        self._pending.append(prefix)
+        self._pending.append(payload)
+        self._pending_bytes += len(prefix) + len(payload)
         if self._pending_bytes >= _FLUSH_AT:
             self.flush()  # the transport pauses us if its buffer is full
 
-    def _hold(self, data: bytes) -> None:
+    def _hold(self, prefix: bytes, payload: bytes) -> None:
         topic = self._topic
         assert topic is not None
         limit = topic.queue_size
         held = self._held
+        size = len(prefix) + len(payload)
         while held and (
-            (limit > 0 and len(held) >= limit) or self._held_bytes + len(data) > MAX_HELD_BYTES
+            (limit > 0 and len(held) >= limit) or self._held_bytes + size > MAX_HELD_BYTES
         ):
-            self._held_bytes -= len(held.popleft())
+            old_prefix, old_payload = held.popleft()
+            self._held_bytes -= len(old_prefix) + len(old_payload)
             topic.dropped += 1
             self._server.dropped += 1
-        held.append(data)
-        self._held_bytes += len(data)
+        held.append((prefix, payload))
+        self._held_bytes += size
 
     def flush(self) -> None:
-        """Write what was queued in one go (large frames on their own, without a copy)."""
+        """Write what was queued: with one scatter-gather syscall straight from the
+        messages' bytes while the transport holds nothing, the rest through the transport
+        (small pieces joined, large ones on their own)."""
         pending, self._pending = self._pending, []
         self._pending_bytes = 0
         transport = self._transport
         if transport is None or transport.is_closing() or not pending:
             return
-        small: list[bytes] = []
-        for data in pending:
-            if len(data) >= _WRITE_ALONE:
-                if small:
-                    transport.write(b"".join(small))
-                    small = []
-                transport.write(data)
-            else:
-                small.append(data)
+        sent = 0
+        if self._fd >= 0 and not transport.get_write_buffer_size():
+            try:
+                sent = os.writev(self._fd, pending[:_IOV_MAX])
+            except (BlockingIOError, InterruptedError):
+                sent = 0
+            except OSError:
+                sent = 0  # the transport sees the error on its own write and reports it
+        small: list[bytes | memoryview] = []
+        for chunk in pending:
+            if sent >= len(chunk):
+                sent -= len(chunk)
+                continue
+            rest: bytes | memoryview = memoryview(chunk)[sent:] if sent else chunk
+            sent = 0
+            if len(rest) < _WRITE_ALONE:
+                small.append(rest)
+                continue
+            if small:
+                transport.write(b"".join(small))
+                small = []
+            transport.write(rest)
         if small:
-            transport.write(small[0] if len(small) == 1 else b"".join(small))
+            transport.write(b"".join(small))
 
     def pause_writing(self) -> None:
         self._paused = True
 
     def resume_writing(self) -> None:
         self._paused = False
-        transport = self._transport
-        while self._held and not self._paused and transport is not None:
-            data = self._held.popleft()
-            self._held_bytes -= len(data)
-            transport.write(data)
+        held = self._held
+        while held and not self._paused:
+            prefix, payload = held.popleft()
+            self._held_bytes -= len(prefix) + len(payload)
+            self._pending.append(prefix)
+            self._pending.append(payload)
+            self._pending_bytes += len(prefix) + len(payload)
+            if self._pending_bytes >= _FLUSH_AT:
+                self.flush()
+        self.flush()
 
     def close(self) -> None:
         if self._transport is not None:
