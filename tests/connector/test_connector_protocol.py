@@ -58,7 +58,7 @@ def test_registrations_and_messages_arrive_in_order(endpoint: FakeEndpoint, make
     assert isinstance(events[0], KeepaliveReceived)  # Unity sends one right after connecting
     assert commands(events) == [
         Publish("/chatter", "std_msgs/String", 5, True),
-        Subscribe("/in", "std_msgs/Int32"),
+        Subscribe("/in", "std_msgs/Int32", 1000),  # the connector's default queue_size
         RosService("/add", "rospy_tutorials/AddTwoInts"),
         UnityService("/sim_reset", "std_srvs/Empty"),
     ]

@@ -231,6 +231,17 @@ def test_hostile_json_is_a_protocol_error(body: bytes, needle: str) -> None:
         decode_command("__subscribe", body, sender="client")
 
 
+def test_subscribe_carries_its_queue_size() -> None:
+    # The endpoint's send queue for the client is this long; it was once left out, so a
+    # Connector asking for 310 got the default 100 and lost images it meant to keep.
+    command = Subscribe("/img", "sensor_msgs/Image", 310)
+    body = command.encode()[8 + len(Subscribe.NAME) :]
+    assert json.loads(body)["queue_size"] == 310
+    assert decode_command("__subscribe", body, sender="client") == command
+    # The default keeps the bytes Unity's ROS-TCP-Connector sends.
+    assert b"queue_size" not in Subscribe("/odom", "nav_msgs/Odometry").encode()
+
+
 def test_queue_size_is_capped() -> None:
     body = b'{"topic": "/a", "message_name": "x/Y", "queue_size": 1000000000}'
     assert decode_command("__subscribe", body, sender="client") == Subscribe("/a", "x/Y", 1_000_000)

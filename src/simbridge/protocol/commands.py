@@ -228,7 +228,10 @@ class Subscribe(Command):
     queue_size: int = DEFAULT_SUBSCRIBE_QUEUE
 
     def to_json(self) -> dict[str, Any]:
-        return {"topic": self.topic, "message_name": self.message_name}
+        obj: dict[str, Any] = {"topic": self.topic, "message_name": self.message_name}
+        if self.queue_size != DEFAULT_SUBSCRIBE_QUEUE:  # the default: Unity's exact bytes
+            obj["queue_size"] = self.queue_size
+        return obj
 
     @classmethod
     def from_json(cls, obj: dict[str, Any]) -> Command:
