@@ -26,6 +26,7 @@ from simbridge.sim.world import World
 __all__ = [
     "ActionAdapter",
     "CombinedAction",
+    "DampedLeastSquares",
     "EndEffectorDelta",
     "GripperCommand",
     "JointDelta",
@@ -102,24 +103,38 @@ class JointDelta(ActionAdapter):
         drives.set_positions(self._actuators, drives.positions(self._actuators) + action)
 
 
-def damped_least_squares(jacobian: FloatArray, error: FloatArray, damping: float) -> FloatArray:
-    """Joint step dq = J^T (J J^T + damping^2 I)^-1 error (well behaved near singularities).
+class DampedLeastSquares:
+    """Joint step dq = J^T (J J^T + damping^2 I)^-1 error for (rows x cols) Jacobians (well
+    behaved near singularities), with its work arrays kept between calls.
 
     Every product and the small symmetric solve are MuJoCo's own routines (`mju_*`): a
     microsecond each, where NumPy's `@` on these tiny matrices goes through BLAS and costs
     several, and `np.linalg.solve` tens, on every env step.
     """
-    jac = np.ascontiguousarray(jacobian, np.float64)
-    rows, cols = jac.shape
-    system = np.empty((rows, rows))
-    mujoco.mju_mulMatMatT(system, jac, jac)
-    system.flat[:: rows + 1] += damping**2
-    mujoco.mju_cholFactor(system, 0.0)
-    solution = np.empty(rows)
-    mujoco.mju_cholSolve(solution, system, np.ascontiguousarray(error, np.float64))
-    step = np.empty(cols)
-    mujoco.mju_mulMatTVec(step, jac, solution)
-    return step
+
+    def __init__(self, rows: int, cols: int, damping: float) -> None:
+        self.jacobian = np.zeros((rows, cols))
+        self.system = np.zeros((rows, rows))
+        self.solution = np.zeros(rows)
+        self.damping_diagonal = damping**2 * np.eye(rows)
+
+    def solve(self, jacobian: FloatArray, error: FloatArray) -> FloatArray:
+        """dq (a new array) for `jacobian` (any layout) and `error`."""
+        jac, system = self.jacobian, self.system
+        jac[...] = jacobian
+        mujoco.mju_mulMatMatT(system, jac, jac)
+        system += self.damping_diagonal
+        mujoco.mju_cholFactor(system, 0.0)
+        mujoco.mju_cholSolve(self.solution, system, np.ascontiguousarray(error, np.float64))
+        step = np.empty(jac.shape[1])
+        mujoco.mju_mulMatTVec(step, jac, self.solution)
+        return step
+
+
+def damped_least_squares(jacobian: FloatArray, error: FloatArray, damping: float) -> FloatArray:
+    """Joint step dq = J^T (J J^T + damping^2 I)^-1 error (see `DampedLeastSquares`)."""
+    rows, cols = np.shape(jacobian)
+    return DampedLeastSquares(rows, cols, damping).solve(jacobian, error)
 
 
 def orientation_error(current: FloatArray, desired: FloatArray) -> FloatArray:
@@ -159,6 +174,9 @@ class EndEffectorDelta(ActionAdapter):
         self._qpos: slice | list[int] = []
         self._jacp = self._jacr = np.zeros((3, 0))
         self._actuators: Actuators = slice(0, 0)
+        self._solver = DampedLeastSquares(3, len(self.joints), damping)
+        self._data: mujoco.MjData | None = None
+        self._qpos_all = np.zeros(0)
 
     def bind(self, world: World) -> None:
         """Resolve the body, the joints' dof/qpos addresses and their actuators."""
@@ -172,6 +190,7 @@ class EndEffectorDelta(ActionAdapter):
         self._qpos = index_of([int(world.model.joint(j).qposadr[0]) for j in self.joints])
         self._jacp = np.zeros((3, world.model.nv))
         self._jacr = np.zeros((3, world.model.nv))
+        self._data, self._qpos_all = world.data, world.data.qpos  # a view, kept
 
     def joint_step(self, world: World, delta: FloatArray) -> FloatArray:
         """Joint increments moving the body by `delta` (m) from the state in `world.data`."""
@@ -179,7 +198,7 @@ class EndEffectorDelta(ActionAdapter):
         jacp, jacr = self._jacp, self._jacr
         if self.orientation is None:  # the rotational Jacobian is not needed
             mujoco.mj_jacBody(model, data, jacp, None, self._body_id)
-            return damped_least_squares(jacp[:, self._dofs], delta, self.damping)
+            return self._solver.solve(jacp[:, self._dofs], delta)
         mujoco.mj_jacBody(model, data, jacp, jacr, self._body_id)
         rotation = data.xmat[self._body_id].reshape(3, 3)
         error = np.concatenate([delta, orientation_error(rotation, self.orientation)])
@@ -188,7 +207,9 @@ class EndEffectorDelta(ActionAdapter):
 
     def apply(self, world: World, action: NDArray[np.float32]) -> None:
         """Aim the joints at measured position + the least-squares step for `action`."""
-        targets = world.data.qpos[self._qpos] + self.joint_step(world, action.astype(np.float64))
+        data = world.data
+        qpos = self._qpos_all if data is self._data else data.qpos
+        targets = qpos[self._qpos] + self.joint_step(world, action.astype(np.float64))
         world.drives.set_positions(self._actuators, targets)
 
     def solve(self, world: World, position: FloatArray, iterations: int = 200) -> bool:
