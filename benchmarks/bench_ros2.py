@@ -5,7 +5,8 @@ its own, localhost only (ros2_env). Ceiling: a raw rclpy publisher process -> a 
 rclpy subscriber process (`publish(bytes)`, `raw=True`). Through the endpoint: a
 Connector in this process -> `simbridge endpoint --backend ros2` (a subprocess) ->
 the same subscriber process (sim -> ros), and the same publisher process -> the
-endpoint -> the Connector (ros -> sim). QoS is reliable with a history as deep as
+endpoint -> the Connector (ros -> sim). The endpoint's memory budget fits the image
+burst, so a lagging Connector costs time, not messages. QoS is reliable with a history as deep as
 the run, so loss should be zero. Payloads: geometry_msgs/Twist and a 640x480 rgb8
 sensor_msgs/Image. Latency: Twists sent by the Connector, echoed back by an rclpy
 node (raw), timed per message at a modest rate: sim -> ROS 2 -> sim.
@@ -313,6 +314,14 @@ def _latency(env: dict[str, str], script: Path, port: int) -> dict[str, Any]:
             "max_ms": rtts[-1] * 1e3 if rtts else float("nan")}  # fmt: skip
 
 
+def _memory_mb() -> str:
+    """The endpoint's budget: one client's share (an eighth) holds the largest burst with
+    a fifth to spare, so a Connector that falls behind (a loaded machine) gets every
+    message late rather than some dropped (the default 1 GiB holds ~140 images)."""
+    burst = max(p.count * len(p.data) for p in PAYLOADS) * 1.2 / 2**20
+    return str(max(1024, 8 * int(burst + 1)))
+
+
 def run() -> dict[str, list[dict[str, Any]]]:
     """Ceiling and endpoint rows per payload (each with its share of the ceiling), then
     the latency row. Bounded: a few thousand messages per row, each receiver stops
@@ -324,7 +333,7 @@ def run() -> dict[str, list[dict[str, Any]]]:
     with tempfile.TemporaryDirectory() as tmp:
         script = Path(tmp, "bench_ros2_node.py")
         script.write_text(_NODE_SCRIPT % {"idle": IDLE_END})
-        endpoint, port = start_endpoint("--idle-timeout", "0")
+        endpoint, port = start_endpoint("--idle-timeout", "0", "--max-memory-mb", _memory_mb())
         try:
             for i, p in enumerate(PAYLOADS):
                 data = Path(tmp, f"payload{i}.bin")
