@@ -162,6 +162,20 @@ class DriveBank:
             ctrl = np.where(self._is_effort[actuators], self._effort[actuators], ctrl)
         self._ctrl[actuators] = ctrl
 
+    def set_targets(
+        self, actuators: Actuators, positions: NDArray[np.float64], velocities: NDArray[np.float64]
+    ) -> None:
+        """`set_position` of many joints at once, with target velocities (a trajectory
+        follower's step): `actuators` from `actuators(joints)`, arrays in the same order."""
+        clamped = np.maximum(positions, self._low[actuators])
+        np.minimum(clamped, self._high[actuators], out=clamped)
+        self._position[actuators] = clamped
+        self._velocity[actuators] = velocities
+        ctrl = self._kp[actuators] * clamped + self._kd[actuators] * velocities
+        if self._any_effort:
+            ctrl = np.where(self._is_effort[actuators], self._effort[actuators], ctrl)
+        self._ctrl[actuators] = ctrl
+
     def set_velocity(self, joint: str, velocity: float) -> None:
         """Set the target velocity (VELOCITY mode, or the feed-forward of POSITION mode)."""
         act = self._check(joint)

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import math
 
-from simbridge.sim.control.drive_bank import DriveBank
-from simbridge.sim.control.trajectory import Trajectory
+from simbridge.sim.control.drive_bank import Actuators, DriveBank
+from simbridge.sim.control.trajectory import Trajectory, Vector
 
 __all__ = ["TrajectoryFollower"]
 
@@ -17,6 +17,9 @@ class TrajectoryFollower:
         self.drives = drives
         self._active: Trajectory | None = None
         self._start = 0.0
+        self._actuators: Actuators = slice(0, 0)
+        self.desired: tuple[Vector, Vector] | None = None
+        """The positions and velocities the last `update` aimed at (None before any)."""
 
     @property
     def active(self) -> Trajectory | None:
@@ -30,7 +33,9 @@ class TrajectoryFollower:
             self.drives.target(joint)  # raises SimError for undriven joints
         current = {j: self.drives.target(j).position for j in trajectory.joints}
         self._active = trajectory.starting_from(current)
+        self._actuators = self.drives.actuators(trajectory.joints)
         self._start = now
+        self.desired = None
 
     def cancel(self) -> None:
         """Stop following; drives keep their last targets."""
@@ -45,9 +50,8 @@ class TrajectoryFollower:
         done = t >= traj.duration
         # At the end, hold the last point at rest (sampling exactly at the end time would
         # give the last segment's velocity, and the drives would keep chasing it).
-        positions, velocities = traj.sample(math.inf if done else t)
-        for joint, pos, vel in zip(traj.joints, positions, velocities, strict=True):
-            self.drives.set_position(joint, float(pos), float(vel))
+        self.desired = positions, velocities = traj.sample(math.inf if done else t)
+        self.drives.set_targets(self._actuators, positions, velocities)
         if done:
             self._active = None
             return False

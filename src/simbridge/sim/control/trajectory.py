@@ -7,9 +7,11 @@ points carry positions only, cubic Hermite when they also carry velocities.
 from __future__ import annotations
 
 import bisect
+import itertools
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from numpy.typing import NDArray
@@ -81,35 +83,14 @@ class Trajectory:
         first = TrajectoryPoint(0.0, start, (0.0,) * len(self.joints))
         return Trajectory(self.joints, (first, *self.points))
 
+    @cached_property
+    def _table(self) -> _SampleTable:
+        """Point times and per-segment polynomial coefficients, built on the first sample."""
+        return _SampleTable.of(self.points, len(self.joints))
+
     def sample(self, t: float) -> tuple[Vector, Vector]:
         """Positions and velocities at time `t` after the start (held at the ends)."""
-        pts = self.points
-        if len(pts) == 1 or t < pts[0].time or t > pts[-1].time:
-            held = pts[0] if t < pts[0].time else pts[-1]
-            return np.array(held.positions), np.zeros(len(self.joints))
-        i = min(bisect.bisect_right([p.time for p in pts], t) - 1, len(pts) - 2)
-        a, b = pts[i], pts[i + 1]
-        h = b.time - a.time
-        s = (t - a.time) / h
-        p0, p1 = np.array(a.positions), np.array(b.positions)
-        if a.velocities is None or b.velocities is None:
-            return p0 + s * (p1 - p0), (p1 - p0) / h
-        v0, v1 = np.array(a.velocities) * h, np.array(b.velocities) * h
-        h00, h10, h01, h11 = (
-            2 * s**3 - 3 * s**2 + 1,
-            s**3 - 2 * s**2 + s,
-            -2 * s**3 + 3 * s**2,
-            s**3 - s**2,
-        )
-        d00, d10, d01, d11 = (
-            6 * s**2 - 6 * s,
-            3 * s**2 - 4 * s + 1,
-            -6 * s**2 + 6 * s,
-            3 * s**2 - 2 * s,
-        )
-        pos = h00 * p0 + h10 * v0 + h01 * p1 + h11 * v1
-        vel = (d00 * p0 + d10 * v0 + d01 * p1 + d11 * v1) / h
-        return pos, vel
+        return self._table.sample(t)
 
     @staticmethod
     def from_lists(
@@ -128,3 +109,53 @@ class Trajectory:
             for i, (t, pos) in enumerate(zip(times, positions, strict=True))
         )
         return Trajectory(tuple(joints), points)
+
+
+class _SampleTable:
+    """A trajectory's segments as cubics in the time since the segment's start, so a sample
+    is one bisect over cached times and one small matrix product (no per-step rebuilding).
+
+    Row block `[:n]` of a segment's matrix gives positions, `[n:]` velocities, from the
+    powers (1, tau, tau^2, tau^3); linear segments have zero cubic terms."""
+
+    def __init__(
+        self, times: list[float], held: tuple[Vector, Vector], coefficients: NDArray[np.float64]
+    ) -> None:
+        self.times, self.coefficients = times, coefficients
+        self.first, self.last = held
+        self.zeros = np.zeros(len(self.first))
+        self.end = len(times) - 2  # last segment index
+
+    @staticmethod
+    def of(points: tuple[TrajectoryPoint, ...], joints: int) -> _SampleTable:
+        """The table of `points` (already validated) over `joints` joints."""
+        times = [p.time for p in points]
+        coefficients = np.zeros((max(len(points) - 1, 0), 2 * joints, 4))
+        for i, (a, b) in enumerate(itertools.pairwise(points)):
+            h = b.time - a.time
+            p0, p1 = np.array(a.positions), np.array(b.positions)
+            if a.velocities is None or b.velocities is None:
+                c0, c1, c2, c3 = p0, (p1 - p0) / h, 0.0, 0.0
+            else:  # cubic Hermite with end velocities v0, v1
+                v0, v1 = np.array(a.velocities), np.array(b.velocities)
+                c0, c1 = p0, v0
+                c2 = (3 * (p1 - p0) / h - 2 * v0 - v1) / h
+                c3 = (2 * (p0 - p1) / h + v0 + v1) / (h * h)
+            block = coefficients[i]
+            block[:joints, 0], block[:joints, 1] = c0, c1
+            block[:joints, 2], block[:joints, 3] = c2, c3
+            block[joints:, 0], block[joints:, 1], block[joints:, 2] = c1, 2 * c2, 3 * c3
+        held = (np.array(points[0].positions), np.array(points[-1].positions))
+        return _SampleTable(times, held, coefficients)
+
+    def sample(self, t: float) -> tuple[Vector, Vector]:
+        """Positions and velocities at `t` (new arrays; the end points held at rest)."""
+        times = self.times
+        if self.end < 0 or t < times[0] or t > times[-1]:
+            held = self.first if t < times[0] else self.last
+            return held.copy(), self.zeros.copy()
+        i = min(bisect.bisect_right(times, t) - 1, self.end)
+        tau = t - times[i]
+        values = self.coefficients[i] @ np.array((1.0, tau, tau * tau, tau * tau * tau))
+        n = len(self.first)
+        return values[:n], values[n:]

@@ -12,6 +12,7 @@ from dataclasses import replace
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from simbridge.connector import ActionServer, Connector
 from simbridge.errors import SimError
@@ -64,6 +65,12 @@ class JointTrajectoryController:
         self._path_tol: dict[str, float] = {}
         self._goal_tol: dict[str, float] = {}
         self._goal_time = spec.goal_time
+        # Per followed trajectory (its joints' order): qpos/qvel indices and the
+        # tolerances as (trajectory index, tolerance) arrays, None when there are none.
+        self._qpos: NDArray[np.intp] = np.zeros(0, np.intp)
+        self._dofs: NDArray[np.intp] = np.zeros(0, np.intp)
+        self._path_check: _Check | None = None
+        self._goal_check: _Check | None = None
         self._stamps = StampMaker(connector.registry)
         self._server: ActionServer | None = None
         self._callbacks: list[int] = []
@@ -149,6 +156,9 @@ class JointTrajectoryController:
                 self.world.drives.set_spec(joint, spec.with_changes(mode=DriveMode.POSITION))
         self.follower.start(trajectory, self.world.time)
         self._trajectory, self._start = self.follower.active, self.world.time
+        _names, self._qpos, self._dofs = self.world.joint_indices(trajectory.joints)
+        self._path_check = _tolerance_check(trajectory.joints, self._path_tol)
+        self._goal_check = _tolerance_check(trajectory.joints, self._goal_tol)
 
     def _hold(self) -> None:
         """Stop where the joints are (as the real controller's hold position)."""
@@ -240,41 +250,49 @@ class JointTrajectoryController:
         return list(trajectory.joints), positions, velocities, t
 
     def _update(self) -> None:
-        if self._trajectory is None:
+        trajectory = self._trajectory
+        if trajectory is None:
             return
-        joints, desired, _vel, t = self._sample()
-        duration = self._trajectory.duration
+        t = self.world.time - self._start
+        duration = trajectory.duration
         self.follower.update(self.world.time)
         goal = self._goal
         if goal is None:
             if t >= duration:
                 self._trajectory = None
             return
-        actual = self.world.joint_positions(joints)
-        errors = {j: float(desired[i] - actual[j]) for i, j in enumerate(joints)}
+        # What the follower just aimed at (the last point, at rest, from the end on).
+        assert self.follower.desired is not None
+        errors = self.follower.desired[0] - self.world.data.qpos[self._qpos]
         if t < duration:
-            for joint, tol in self._path_tol.items():
-                if joint in errors and abs(errors[joint]) > tol:
+            path = self._path_check
+            if path is not None:
+                over = np.abs(errors[path[0]]) > path[1]
+                if over.any():
+                    i = int(np.argmax(over))
+                    joint, tol = trajectory.joints[int(path[0][i])], float(path[1][i])
                     text = (
                         f"path tolerance violated: joint {self.names.to_ros[joint]} error "
-                        f"{errors[joint]:.4g} exceeds {tol:g}"
+                        f"{float(errors[path[0][i]]):.4g} exceeds {tol:g}"
                     )
                     self._goal = None
                     self._hold()
                     goal.abort(self._result(PATH_TOLERANCE_VIOLATED, text), text=text)
-                    return
             return
-        velocities = self.world.joint_velocities(joints)
-        within = all(abs(errors[j]) <= tol for j, tol in self._goal_tol.items() if j in errors)
-        stopped = all(abs(v) <= self.spec.stopped_velocity_tolerance for v in velocities.values())
+        check = self._goal_check
+        within = check is None or bool(np.all(np.abs(errors[check[0]]) <= check[1]))
+        stopped = bool(
+            np.all(np.abs(self.world.data.qvel[self._dofs]) <= self.spec.stopped_velocity_tolerance)
+        )
         if within and (stopped or not self._goal_tol):
             self._goal, self._trajectory = None, None
             goal.succeed(self._result(SUCCESSFUL))
         elif t > duration + self._goal_time:
-            worst = max(self._goal_tol, key=lambda j: abs(errors.get(j, 0.0)) - self._goal_tol[j])
+            by_joint = {j: float(e) for j, e in zip(trajectory.joints, errors, strict=True)}
+            worst = max(self._goal_tol, key=lambda j: abs(by_joint.get(j, 0.0)) - self._goal_tol[j])
             text = (
                 f"goal tolerance violated: joint {self.names.to_ros[worst]} error "
-                f"{errors[worst]:.4g} exceeds {self._goal_tol[worst]:g} "
+                f"{by_joint[worst]:.4g} exceeds {self._goal_tol[worst]:g} "
                 f"{t - duration:.3g} s after the trajectory's end"
             )
             self._goal, self._trajectory = None, None
@@ -346,6 +364,18 @@ class JointTrajectoryController:
                 error=error,
             ),
         )
+
+
+_Check = tuple[NDArray[np.intp], NDArray[np.float64]]
+
+
+def _tolerance_check(joints: tuple[str, ...], tolerances: dict[str, float]) -> _Check | None:
+    """(indices into `joints`, tolerances) of the tolerances on `joints`, in the dict's
+    order (the first violated one is reported); None when none applies."""
+    pairs = [(joints.index(j), tol) for j, tol in tolerances.items() if j in joints]
+    if not pairs:
+        return None
+    return np.array([i for i, _ in pairs], np.intp), np.array([t for _, t in pairs])
 
 
 class _InvalidGoalError(SimError):
