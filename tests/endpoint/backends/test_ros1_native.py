@@ -309,3 +309,37 @@ def test_rospy_transport_is_still_selectable(master: RosMaster) -> None:
         return received
 
     assert with_backend(scenario, Ros1Options(transport="rospy")) == [ros_string("via rospy")]
+
+
+def test_native_connections_show_in_getbusinfo(master: RosMaster) -> None:
+    """rqt_graph and `rosnode info` read getBusInfo: the endpoint's own TCPROS connections
+    are listed beside rospy's (here rospy's subscriber and publisher share the node)."""
+    cls = raw_message_class(STRING)
+
+    async def scenario(backend: Ros1Backend) -> list[list[Any]]:
+        publisher = backend.advertise(
+            "/sb/native/out", "std_msgs/String", queue_size=1, latch=False
+        )
+        assert isinstance(publisher, Ros1Publisher)
+        rospy_sub = rospy.Subscriber("/sb/native/out", cls)
+        rospy_pub = rospy.Publisher("/sb/native/in", cls, queue_size=1)
+        backend.subscribe("/sb/native/in", "std_msgs/String", lambda _: None)
+        await until(lambda: publisher.subscriber_count() == 1, 10, "rospy's subscriber")
+        await until(lambda: rospy_pub.get_num_connections() == 1, 10, "the endpoint's subscriber")
+        node: Any = xmlrpc.client.ServerProxy(rospy.core.get_node_uri())
+        code, _, rows = await asyncio.to_thread(node.getBusInfo, "/sb_test")
+        rospy_sub.unregister()
+        rospy_pub.unregister()
+        assert code == 1
+        return [row[1:5] for row in rows if row[4].startswith("/sb/native/")]
+
+    rows = with_backend(scenario)
+    me, uri = rospy.get_caller_id(), rospy.core.get_node_uri()
+    assert sorted(rows) == sorted(
+        [
+            [me, "o", "TCPROS", "/sb/native/out"],  # the endpoint's server -> rospy's subscriber
+            [uri, "i", "TCPROS", "/sb/native/out"],  # rospy's subscriber (its own row)
+            [me, "o", "TCPROS", "/sb/native/in"],  # rospy's publisher (its own row)
+            [uri, "i", "TCPROS", "/sb/native/in"],  # the endpoint's subscriber connection
+        ]
+    )

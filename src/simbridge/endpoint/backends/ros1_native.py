@@ -12,6 +12,7 @@ from __future__ import annotations
 import asyncio
 import logging
 from collections.abc import Callable
+from typing import Any
 
 import rosgraph.network
 import rospy
@@ -20,7 +21,9 @@ from simbridge.endpoint.backends.base import BackendSubscription, MessageCallbac
 from simbridge.endpoint.backends.ros1_raw import RawMessage, RawMessageType
 from simbridge.endpoint.backends.ros1_registration import Registration, Ros1Publisher
 from simbridge.endpoint.backends.ros1_tcpros_hook import (
+    add_bus_info,
     install,
+    remove_bus_info,
     route_publication,
     route_subscription,
     unroute,
@@ -52,9 +55,11 @@ class NativeData:
         await self._server.start(rosgraph.network.get_bind_address())
         self._host = rosgraph.network.get_host_name()
         install()
+        add_bus_info(self.bus_info)
 
     def close(self) -> None:
         """Close the server and every connection (registrations are closed before)."""
+        remove_bus_info(self.bus_info)
         for name in list(self._subscribed):
             unroute(name, publication=False)
             self._subscribed.pop(name).close()
@@ -63,6 +68,20 @@ class NativeData:
                 unroute(name, publication=True)
             self._server.close()
             self._server = None
+
+    def bus_info(self) -> list[list[Any]]:
+        """The endpoint's TCPROS connections as getBusInfo rows (on rospy's XML-RPC thread:
+        every collection is copied before it is walked)."""
+        rows: list[list[Any]] = []
+        server = self._server
+        if server is not None:
+            for topic in list(server.topics.values()):
+                for out in list(topic.connections):
+                    rows.append([out.id, out.callerid, "o", "TCPROS", topic.name, True, out.peer])
+        for subscribed in list(self._subscribed.values()):
+            for uri, conn in list(subscribed.connections.items()):
+                rows.append([conn.id, uri, "i", "TCPROS", subscribed.name, True, uri])
+        return rows
 
     def stats(self) -> dict[str, int]:
         """Counters for `__stats`: drops towards slow ROS subscribers, refused and failed

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import asyncio
 import threading
+from collections.abc import Callable
 from typing import Any
 
 from rospy.impl.registration import RegManager, get_registration_listeners
@@ -22,13 +23,25 @@ from rospy.impl.tcpros import get_tcpros_handler
 from simbridge.endpoint.backends.ros1_tcpros_sub import SubscribedTopic
 from simbridge.errors import EndpointError
 
-__all__ = ["install", "route_publication", "route_subscription", "unroute"]
+__all__ = [
+    "BusInfo",
+    "add_bus_info",
+    "install",
+    "remove_bus_info",
+    "route_publication",
+    "route_subscription",
+    "unroute",
+]
+
+BusInfo = Callable[[], list[list[Any]]]
+"""Rows of the slave API's getBusInfo: [id, peer, direction, "TCPROS", topic, connected, info]."""
 
 _TCPROS = "TCPROS"
 
 _lock = threading.Lock()
 _publications: dict[str, tuple[str, int]] = {}
 _subscriptions: dict[str, tuple[asyncio.AbstractEventLoop, SubscribedTopic]] = {}
+_bus_info: list[BusInfo] = []
 
 
 class _Handler:
@@ -84,21 +97,49 @@ class _Handler:
 
 
 def install() -> None:
-    """Put the routing handler in front of rospy's TCPROS handler (once; the node must exist)."""
+    """Put the routing handler in front of rospy's TCPROS handler and add the endpoint's
+    connections to the node's getBusInfo (once; the node must exist)."""
     for listener in get_registration_listeners().listeners:
         if isinstance(listener, RegManager):
-            handlers: list[Any] = listener.handler.protocol_handlers
+            node: Any = listener.handler
             break
     else:
         raise EndpointError("this process has no registered rospy node")
+    handlers: list[Any] = node.protocol_handlers
     with _lock:
-        for index, handler in enumerate(handlers):
-            if isinstance(handler, _Handler):
-                return
-            if handler is get_tcpros_handler():
-                handlers[index] = _Handler(handler)
-                return
-    raise EndpointError("rospy's node has no TCPROS handler to route through")
+        if not any(isinstance(handler, _Handler) for handler in handlers):
+            for index, handler in enumerate(handlers):
+                if handler is get_tcpros_handler():
+                    handlers[index] = _Handler(handler)
+                    break
+            else:
+                raise EndpointError("rospy's node has no TCPROS handler to route through")
+        if "getBusInfo" not in vars(node):
+            node.getBusInfo = _bus_info_of(node.getBusInfo)
+
+
+def _bus_info_of(rospy_bus_info: Callable[[str], Any]) -> Callable[[str], Any]:
+    """getBusInfo answering rospy's connections and the endpoint's (rqt_graph, rosnode info)."""
+
+    def getBusInfo(caller_id: str) -> Any:  # noqa: N802 - the slave API's name
+        code, message, rows = rospy_bus_info(caller_id)
+        with _lock:
+            sources = list(_bus_info)
+        return code, message, [*rows, *(row for source in sources for row in source())]
+
+    return getBusInfo
+
+
+def add_bus_info(source: BusInfo) -> None:
+    """Report `source()`'s connections in getBusInfo (called on rospy's XML-RPC thread)."""
+    with _lock:
+        _bus_info.append(source)
+
+
+def remove_bus_info(source: BusInfo) -> None:
+    with _lock:
+        if source in _bus_info:
+            _bus_info.remove(source)
 
 
 def route_publication(name: str, host: str, port: int) -> None:

@@ -10,6 +10,7 @@ past that the oldest are dropped and counted, as rospy's publisher queue does.
 from __future__ import annotations
 
 import asyncio
+import itertools
 import logging
 import os
 import socket
@@ -20,7 +21,7 @@ from collections.abc import Callable
 from simbridge.endpoint.backends.ros1_raw import RawMessageType
 from simbridge.protocol.tcpros import TcprosDecoder, TcprosError, encode_header
 
-__all__ = ["PublishedTopic", "TopicServer"]
+__all__ = ["PublishedTopic", "TopicServer", "connection_ids"]
 
 _log = logging.getLogger("simbridge.endpoint.ros1")
 
@@ -41,6 +42,9 @@ _IOV_MAX = 1024
 """Most buffers one writev takes (Linux's IOV_MAX)."""
 
 _U32 = struct.Struct("<I")
+
+connection_ids = itertools.count(1 << 20)
+"""Ids of the endpoint's TCPROS connections in getBusInfo (apart from rospy's own)."""
 
 _FLUSH_AT = 256 << 10
 """Bytes queued in one loop iteration that are written at once rather than at its end."""
@@ -194,6 +198,9 @@ class _SubscriberConnection(asyncio.Protocol):
         self._paused = False
         self._timer: asyncio.TimerHandle | None = None
         self.peer = "?"
+        self.callerid = "?"
+        """The subscriber node, from its header."""
+        self.id = next(connection_ids)
 
     def connection_made(self, transport: asyncio.BaseTransport) -> None:
         assert isinstance(transport, asyncio.Transport)
@@ -259,6 +266,7 @@ class _SubscriberConnection(asyncio.Protocol):
             if sock is not None:
                 sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
         transport.write(topic.header(self._server.callerid))
+        self.callerid = header["callerid"]
         self._topic = topic
         topic.add(self)
         _log.debug("%s subscribed to %s from %s", header["callerid"], name, self.peer)

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 
 from simbridge.endpoint.backends.base import MessageCallback
 from simbridge.endpoint.backends.ros1_raw import RawMessageType
+from simbridge.endpoint.backends.ros1_tcpros_pub import connection_ids
 from simbridge.protocol.tcpros import TcprosDecoder, TcprosError, encode_header
 
 __all__ = ["Sink", "SubscribedTopic"]
@@ -145,6 +146,7 @@ class _PublisherConnection(asyncio.Protocol):
     def __init__(self, topic: SubscribedTopic, pub_uri: str) -> None:
         self.topic = topic
         self.pub_uri = pub_uri
+        self.id = next(connection_ids)
         self._decoder = TcprosDecoder(topic.max_message)
         self._transport: asyncio.Transport | None = None
         self._ready = False
