@@ -19,7 +19,7 @@ from simbridge.errors import SimError
 from simbridge.messages.actionlib import ServerGoal
 from simbridge.sim.control.drive import DriveMode
 from simbridge.sim.control.follower import TrajectoryFollower
-from simbridge.sim.control.trajectory import Trajectory
+from simbridge.sim.control.trajectory import Trajectory, Vector
 from simbridge.sim.ros.convert import StampMaker, duration_seconds, trajectory_from_message
 from simbridge.sim.ros.names import RobotNames, resolve_name
 from simbridge.sim.scene.model import TrajectoryControllerSpec
@@ -70,6 +70,10 @@ class JointTrajectoryController:
         self._qpos: NDArray[np.intp] = np.zeros(0, np.intp)
         self._dofs: NDArray[np.intp] = np.zeros(0, np.intp)
         self._path_check: _Check | None = None
+        self._in_controller: NDArray[np.intp] = np.zeros(0, np.intp)
+        """Where the followed trajectory's joints sit among the controller's."""
+        _names, self._all_qpos, self._all_dofs = world.joint_indices(self.joints)
+        self._actuators = world.drives.actuators(self.joints)
         self._goal_check: _Check | None = None
         self._stamps = StampMaker(connector.registry)
         self._server: ActionServer | None = None
@@ -158,6 +162,7 @@ class JointTrajectoryController:
         self._trajectory, self._start = self.follower.active, self.world.time
         _names, self._qpos, self._dofs = self.world.joint_indices(trajectory.joints)
         self._path_check = _tolerance_check(trajectory.joints, self._path_tol)
+        self._in_controller = np.array([self.joints.index(j) for j in trajectory.joints], np.intp)
         self._goal_check = _tolerance_check(trajectory.joints, self._goal_tol)
 
     def _hold(self) -> None:
@@ -241,14 +246,6 @@ class JointTrajectoryController:
 
     # ---- every step ------------------------------------------------------------------------
 
-    def _sample(self) -> tuple[list[str], Any, Any, float]:
-        """(joints, desired positions, desired velocities, t) of the active trajectory."""
-        trajectory = self._trajectory
-        assert trajectory is not None
-        t = self.world.time - self._start
-        positions, velocities = trajectory.sample(min(t, trajectory.duration))
-        return list(trajectory.joints), positions, velocities, t
-
     def _update(self) -> None:
         trajectory = self._trajectory
         if trajectory is None:
@@ -298,71 +295,63 @@ class JointTrajectoryController:
             self._goal, self._trajectory = None, None
             goal.abort(self._result(GOAL_TOLERANCE_VIOLATED, text), text=text)
 
-    def _points(self) -> tuple[Any, Any, Any, float]:
-        """(desired, actual, error) JointTrajectoryPoints over the controller's joints."""
-        reg = self.connector.registry
-        actual_q = self.world.joint_positions(self.joints)
-        actual_v = self.world.joint_velocities(self.joints)
-        desired_q = dict(actual_q)
-        desired_v = dict.fromkeys(self.joints, 0.0)
+    def _points(self) -> tuple[Any, Any, Any]:
+        """(desired, actual, error) JointTrajectoryPoints over the controller's joints (built
+        only when feedback or state is due, from index arrays: no per-joint dicts)."""
+        data = self.world.data
+        actual_q, actual_v = data.qpos[self._all_qpos], data.qvel[self._all_dofs]
+        desired_v = np.zeros(len(self.joints))
         t = 0.0
-        if self._trajectory is not None:
-            joints, positions, velocities, t = self._sample()
-            for i, joint in enumerate(joints):
-                desired_q[joint], desired_v[joint] = float(positions[i]), float(velocities[i])
+        trajectory = self._trajectory
+        if trajectory is not None:
+            desired_q = actual_q.copy()
+            t = self.world.time - self._start
+            positions, velocities = trajectory.sample(min(t, trajectory.duration))
+            desired_q[self._in_controller] = positions
+            desired_v[self._in_controller] = velocities
         else:
-            for joint in self.joints:
-                desired_q[joint] = self.world.drives.target(joint).position
+            desired_q = self.world.drives.positions(self._actuators)
         stamp = self._stamps.time(max(t, 0.0))
-        duration = reg.msg_class("builtin_interfaces/Duration")(
+        duration = self._stamps.cls("builtin_interfaces/Duration")(
             sec=stamp.sec, nanosec=stamp.nanosec
         )
+        point_class = self._stamps.cls("trajectory_msgs/JointTrajectoryPoint")
 
-        def point(q: dict[str, float], v: dict[str, float]) -> Any:
-            return reg.new(
-                "trajectory_msgs/JointTrajectoryPoint",
-                positions=np.array([q[j] for j in self.joints]),
-                velocities=np.array([v[j] for j in self.joints]),
+        def point(q: Vector, v: Vector) -> Any:
+            return point_class(
+                positions=q,
+                velocities=v,
+                accelerations=np.zeros(0),
+                effort=np.zeros(0),
                 time_from_start=duration,
             )
 
-        error_q = {j: desired_q[j] - actual_q[j] for j in self.joints}
-        error_v = {j: desired_v[j] - actual_v[j] for j in self.joints}
         return (
             point(desired_q, desired_v),
             point(actual_q, actual_v),
-            point(error_q, error_v),
-            t,
+            point(desired_q - actual_q, desired_v - actual_v),
+        )
+
+    def _message(self, name: str) -> Any:
+        """`name` (the state or the feedback: header, joint names, the three points) now."""
+        desired, actual, error = self._points()
+        return self._stamps.cls(name)(
+            header=self._stamps.header(self.world.time),
+            joint_names=list(self.ros_joints),
+            desired=desired,
+            actual=actual,
+            error=error,
         )
 
     def _publish_feedback(self) -> None:
         goal = self._goal
         if goal is None:
             return
-        desired, actual, error, _t = self._points()
-        goal.publish_feedback(
-            self.connector.registry.new(
-                f"{ACTION}Feedback",
-                header=self._stamps.header(self.world.time),
-                joint_names=self.ros_joints,
-                desired=desired,
-                actual=actual,
-                error=error,
-            )
-        )
+        goal.publish_feedback(self._message(f"{ACTION}Feedback"))
 
     def _publish_state(self) -> None:
-        desired, actual, error, _t = self._points()
         self.connector.publish(
-            self.state_topic,
-            self.connector.registry.new(
-                "control_msgs/JointTrajectoryControllerState",
-                header=self._stamps.header(self.world.time),
-                joint_names=self.ros_joints,
-                desired=desired,
-                actual=actual,
-                error=error,
-            ),
+            self.state_topic, self._message("control_msgs/JointTrajectoryControllerState")
         )
 
 
