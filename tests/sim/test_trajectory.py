@@ -58,6 +58,80 @@ def test_hermite_velocity_is_the_derivative_of_position(ends, h, s) -> None:
     np.testing.assert_allclose(traj.sample(1.0 + h)[0], [p1], atol=1e-12)
 
 
+def _hermite_reference(traj: Trajectory, t: float) -> tuple[list[float], list[float]]:
+    """The textbook per-segment evaluation (Hermite basis in s = (t - t_a) / h, linear
+    without velocities) that the cached polynomial table must reproduce."""
+    pts = traj.points
+    i = max(k for k in range(len(pts) - 1) if pts[k].time <= t)
+    a, b = pts[i], pts[i + 1]
+    h = b.time - a.time
+    s = (t - a.time) / h
+    pos, vel = [], []
+    for j in range(len(traj.joints)):
+        p0, p1 = a.positions[j], b.positions[j]
+        if a.velocities is None or b.velocities is None:
+            pos.append(p0 + s * (p1 - p0))
+            vel.append((p1 - p0) / h)
+            continue
+        m0, m1 = a.velocities[j] * h, b.velocities[j] * h
+        pos.append(
+            (2 * s**3 - 3 * s**2 + 1) * p0
+            + (s**3 - 2 * s**2 + s) * m0
+            + (-2 * s**3 + 3 * s**2) * p1
+            + (s**3 - s**2) * m1
+        )
+        vel.append(
+            ((6 * s**2 - 6 * s) * p0 + (3 * s**2 - 4 * s + 1) * m0) / h
+            + ((-6 * s**2 + 6 * s) * p1 + (3 * s**2 - 2 * s) * m1) / h
+        )
+    return pos, vel
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    steps=st.lists(st.floats(0.05, 3), min_size=1, max_size=6),
+    seed=st.integers(0, 2**32 - 1),
+    cubic=st.booleans(),
+    fractions=st.lists(st.floats(0, 1), min_size=1, max_size=20),
+)
+def test_sampling_matches_the_segment_formulas_anywhere(steps, seed, cubic, fractions) -> None:
+    """Any time, in any segment, in any order (the table keeps no per-call state)."""
+    rng = np.random.default_rng(seed)
+    times = np.concatenate(([0.5], 0.5 + np.cumsum(steps)))
+    positions = rng.uniform(-2, 2, (len(times), 3)).tolist()
+    velocities = rng.uniform(-2, 2, (len(times), 3)).tolist() if cubic else None
+    traj = Trajectory.from_lists(["a", "b", "c"], times.tolist(), positions, velocities)
+    for fraction in fractions:
+        t = float(times[0] + fraction * (times[-1] - times[0]))
+        pos, vel = traj.sample(t)
+        want_pos, want_vel = _hermite_reference(traj, t)
+        np.testing.assert_allclose(pos, want_pos, rtol=1e-9, atol=1e-9)
+        np.testing.assert_allclose(vel, want_vel, rtol=1e-9, atol=1e-8)
+    held, rest = traj.sample(times[-1] + 1.0)
+    np.testing.assert_array_equal(held, positions[-1])
+    np.testing.assert_array_equal(rest, [0.0, 0.0, 0.0])
+    np.testing.assert_array_equal(traj.sample(0.0)[0], positions[0])
+
+
+def test_set_targets_equals_set_position_per_joint(tmp_path: Path) -> None:
+    """The follower's vectorized write gives the targets, clamping and ctrl that one
+    set_position per joint gives."""
+    (tmp_path / "one").mkdir()
+    (tmp_path / "many").mkdir()
+    one, many = arm_world(tmp_path / "one"), arm_world(tmp_path / "many")
+    joints = ["shoulder", "elbow"]
+    for world in (one, many):
+        world.drives.set_spec("elbow", world.drives.spec("elbow").with_changes(damping=37.0))
+    positions, velocities = np.array([0.3, 99.0]), np.array([-0.4, 1.5])  # 99: past the limit
+    for joint, q, v in zip(joints, positions, velocities, strict=True):
+        one.drives.set_position(joint, float(q), float(v))
+    many.drives.set_targets(many.drives.actuators(joints), positions, velocities)
+    for joint in joints:
+        assert many.drives.target(joint) == one.drives.target(joint)
+    assert many.drives.target("elbow").position < 99.0  # clamped
+    np.testing.assert_array_equal(many.data.ctrl, one.data.ctrl)
+
+
 @pytest.mark.parametrize(
     ("joints", "times", "positions", "message"),
     [
