@@ -51,7 +51,9 @@ def _no_leaked_threads() -> Iterator[None]:
 
 @pytest.fixture
 def endpoint() -> Iterator[FakeEndpoint]:
-    with FakeEndpoint(keepalive=0.2, extensions=["keepalive", "error_srv_id", "stats"]) as ep:
+    with FakeEndpoint(
+        keepalive=0.2, extensions=["keepalive", "error_srv_id", "stats", "subscribe_queue"]
+    ) as ep:
         yield ep
 
 

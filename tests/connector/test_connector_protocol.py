@@ -16,6 +16,7 @@ import pytest
 from simbridge.connector import Connector, ConnectorOptions
 from simbridge.errors import ConnectorError, ServiceError
 from simbridge.protocol import (
+    DEFAULT_SUBSCRIBE_QUEUE,
     CommandReceived,
     ErrorMessage,
     KeepaliveReceived,
@@ -438,6 +439,17 @@ def test_stats_are_not_asked_of_an_original_endpoint(make_connector):
         with pytest.raises(ConnectorError, match="does not offer __stats"):
             conn.endpoint_stats()
         assert commands(original.events()) == []
+
+
+def test_original_endpoint_gets_subscribe_without_queue_size(make_connector):
+    """Unity's endpoint passes the JSON fields as arguments: an extra one kills its thread."""
+    with FakeEndpoint(keepalive=None) as original:
+        conn = make_connector(original.port).connect()
+        conn.subscribe("/in", "std_msgs/Int32", lambda _m: None, raw=True, queue_size=7)
+        assert original.wait_for(lambda: commands(original.events()) != [])
+        (sent,) = commands(original.events())
+        assert sent == Subscribe("/in", "std_msgs/Int32", DEFAULT_SUBSCRIBE_QUEUE)
+        assert sent.to_json() == {"topic": "/in", "message_name": "std_msgs/Int32"}
 
 
 def test_topic_list_without_reply_times_out(endpoint: FakeEndpoint, make_connector):

@@ -34,7 +34,6 @@ from simbridge.protocol import (
     RosService,
     SetParam,
     StatsRequest,
-    Subscribe,
     TopicListRequest,
     UnityService,
 )
@@ -279,7 +278,7 @@ class Connector(ConnectorEngine):
                 )
             self._subscriptions[topic] = (*existing, sub)
             if not existing:
-                self._send_command(Subscribe(topic, msg_type, bound))
+                self._send_command(self._subscribe_command(topic, msg_type, bound))
         return sub
 
     def unsubscribe(self, topic: str) -> None:

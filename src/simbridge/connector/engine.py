@@ -33,6 +33,7 @@ from simbridge.connector.stats import StatsCounters
 from simbridge.connector.writer import FrameWriter, OutTopic
 from simbridge.errors import ConnectorError
 from simbridge.protocol import (
+    DEFAULT_SUBSCRIBE_QUEUE,
     KEEPALIVE,
     Command,
     CommandReceived,
@@ -137,6 +138,13 @@ class ConnectorEngine:
         if self._link is not None:
             self._out.put_control(self._framer.command(command))
 
+    def _subscribe_command(self, topic: str, msg_type: str, queue_size: int) -> Subscribe:
+        """`__subscribe` with the queue bound only for an endpoint that announced
+        `subscribe_queue`: the original endpoint's connection thread dies on extra fields."""
+        if "subscribe_queue" not in self._extensions:
+            queue_size = DEFAULT_SUBSCRIBE_QUEUE
+        return Subscribe(topic, msg_type, queue_size)
+
     def _send_extension(self, command: Command, extension: str) -> None:
         """Queue an extension's command now; ConnectorError when not connected or when the
         endpoint did not announce `extension` (the original endpoint's connection thread
@@ -221,7 +229,9 @@ class ConnectorEngine:
                 frames.append(framer.command(self._publish_command(pub)))
             for topic, subs in self._subscriptions.items():
                 frames.append(
-                    framer.command(Subscribe(topic, subs[0].msg_type, subs[0].queue_size))
+                    framer.command(
+                        self._subscribe_command(topic, subs[0].msg_type, subs[0].queue_size)
+                    )
                 )
             for service, srv_type in self._ros_services.items():
                 frames.append(framer.command(RosService(service, srv_type)))

@@ -23,6 +23,7 @@ from simbridge.protocol.actions import (
     ActionStatus,
 )
 from simbridge.protocol.commands import (
+    DEFAULT_SUBSCRIBE_QUEUE,
     EXTENSIONS,
     MAX_COMMAND_SIZE,
     MAX_NAME_LENGTH,
@@ -81,6 +82,7 @@ from simbridge.protocol.framing import (
 __all__ = [
     "ACTIONS_EXTENSION",
     "DEFAULT_MAX_FRAME_SIZE",
+    "DEFAULT_SUBSCRIBE_QUEUE",
     "EXTENSIONS",
     "KEEPALIVE",
     "MAX_COMMAND_SIZE",

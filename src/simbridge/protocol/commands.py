@@ -52,7 +52,15 @@ __all__ = [
 ]
 
 PROTOCOL_VERSION = "v0.7.0"
-EXTENSIONS = ("keepalive", "error_srv_id", "stats", "subscribers", "service_error", "set_param")
+EXTENSIONS = (
+    "keepalive",
+    "error_srv_id",
+    "stats",
+    "subscribers",
+    "service_error",
+    "set_param",
+    "subscribe_queue",
+)
 """simbridge additions an endpoint announces in its handshake metadata (`extensions`)."""
 DEFAULT_SUBSCRIBE_QUEUE = 100
 """Per-client send queue bound for a subscription that names none (simbridge extension)."""
