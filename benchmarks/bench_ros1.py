@@ -386,9 +386,14 @@ def _full_sim_to_ros(env: dict[str, str], script: Path, p: Payload, topic: str) 
     conn = _connector(endpoint.port, p)
     sub = _Node(env, script, "sub", topic, p)
     try:
-        publisher = conn.register_publisher(topic, p.msg_type, queue_size=0)
+        publisher = conn.register_publisher(
+            topic, p.msg_type, queue_size=0, report_subscribers=True
+        )
         sub.wait_ready()
-        time.sleep(0.5)  # the subscriber saw the connection; let the endpoint's side finish too
+        # the subscriber saw the connection; wait until the endpoint's side counts it too
+        deadline = time.monotonic() + 10
+        while not publisher.subscriber_count and time.monotonic() < deadline:
+            time.sleep(0.01)
         for _ in range(p.count):
             publisher.publish(p.data)
         result = sub.result()
