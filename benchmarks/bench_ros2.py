@@ -28,6 +28,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from benchmarks.repeats import REPEATS, best_and_median, load_average
 from simbridge.endpoint.backends.ros2_env import ros2_python
 
 __all__ = ["run"]
@@ -86,6 +87,12 @@ _NODE_SCRIPT = textwrap.dedent(
     """
     import importlib, json, sys, time
     import rclpy
+
+    def _quiet(kind, value, tb):  # stopped with SIGINT by the bench: no traceback
+        if not issubclass(kind, KeyboardInterrupt):
+            sys.__excepthook__(kind, value, tb)
+
+    sys.excepthook = _quiet
     from rclpy.qos import QoSProfile, ReliabilityPolicy, HistoryPolicy
 
     role, topic, msg_type, count = sys.argv[1], sys.argv[2], sys.argv[3], int(sys.argv[4])
@@ -225,8 +232,9 @@ def _sim_to_ros(env: dict[str, str], script: Path, port: int, p: Payload, topic:
     conn = _connector(port, p.count)
     sub = _node(env, script, "sub", topic, p)
     try:
-        publisher = conn.register_publisher(topic, p.msg_type, queue_size=p.count,
-                                            report_subscribers=True)
+        publisher = conn.register_publisher(
+            topic, p.msg_type, queue_size=p.count, report_subscribers=True
+        )
         assert sub.line() == "READY"
         deadline = time.monotonic() + 30
         while (publisher.subscriber_count or 0) < 1 and time.monotonic() < deadline:
@@ -275,10 +283,9 @@ def _ros_to_sim(env: dict[str, str], script: Path, data: Path, port: int, p: Pay
     return _row("ros2 -> sim (endpoint -> connector)", p, len(times), span)
 
 
-def _latency(env: dict[str, str], script: Path, port: int) -> dict[str, Any]:
+def _latency(env: dict[str, str], script: Path, port: int, topic: str) -> dict[str, Any]:
     """Round trips sim -> endpoint -> rclpy echo -> endpoint -> sim, one at a time."""
     p = Payload("Twist 48 B", "geometry_msgs/Twist", _twist(), LATENCY_COUNT)
-    topic = "/bench/latency"
     conn = _connector(port, p.count)
     echo = _node(env, script, "echo", topic, p)
     sent: dict[int, float] = {}
@@ -322,14 +329,16 @@ def _memory_mb() -> str:
     return str(max(1024, 8 * int(burst + 1)))
 
 
-def run() -> dict[str, list[dict[str, Any]]]:
-    """Ceiling and endpoint rows per payload (each with its share of the ceiling), then
-    the latency row. Bounded: a few thousand messages per row, each receiver stops
-    after IDLE_END s without a message."""
+def run(repeats: int = REPEATS) -> dict[str, list[dict[str, Any]]]:
+    """Ceiling and endpoint rows per payload in `repeats` interleaved rounds (each share
+    taken against the same round's ceiling; rows give best and median), then the latency
+    rows. Bounded: a few thousand messages per row, each receiver stops after IDLE_END s
+    without a message."""
     from tests.ros2support import child_env, start_endpoint
 
     env = child_env()
     rows: list[dict[str, Any]] = []
+    latencies: list[dict[str, Any]] = []
     with tempfile.TemporaryDirectory() as tmp:
         script = Path(tmp, "bench_ros2_node.py")
         script.write_text(_NODE_SCRIPT % {"idle": IDLE_END})
@@ -338,21 +347,53 @@ def run() -> dict[str, list[dict[str, Any]]]:
             for i, p in enumerate(PAYLOADS):
                 data = Path(tmp, f"payload{i}.bin")
                 data.write_bytes(p.data)
-                topic = f"/bench/p{i}"
-                group = [
-                    _ceiling(env, script, data, p, topic + "/ceiling"),
-                    _sim_to_ros(env, script, port, p, topic + "/sim_to_ros"),
-                    _ros_to_sim(env, script, data, port, p, topic=topic + "/ros_to_sim"),
-                ]
-                for row in group:
-                    row["of_ceiling"] = row["msg_per_s"] / max(group[0]["msg_per_s"], 1e-9)
-                rows += group
-            latency = _latency(env, script, port)
+                rounds: list[list[dict[str, Any]]] = []
+                load = load_average()
+                for r in range(repeats):
+                    topic = f"/bench/p{i}r{r}"
+                    rounds.append(
+                        [
+                            _ceiling(env, script, data, p, topic + "/ceiling"),
+                            _sim_to_ros(env, script, port, p, topic + "/sim_to_ros"),
+                            _ros_to_sim(env, script, data, port, p, topic=topic + "/ros_to_sim"),
+                        ]
+                    )
+                rows += [_summary(rounds, k, load) for k in range(len(rounds[0]))]
+            load = load_average()
+            latencies = [_latency(env, script, port, f"/bench/latency{r}") for r in range(repeats)]
         finally:
             endpoint.stop()
+    latency: dict[str, Any] = {"messages": latencies[0]["messages"], "load_1min": load}
+    latency["returned_worst"] = min(run["returned"] for run in latencies)
+    for figure in ("p50_ms", "p99_ms", "max_ms"):
+        values = [run[figure] for run in latencies]
+        latency[f"{figure}_best"], latency[f"{figure}_median"] = best_and_median(values, True)
     return {
         "ROS 2 backend against the rclpy ceiling, same run (target: >= 90%, zero loss)": rows,
         "ROS 2 round trip sim -> ROS 2 -> sim (Twist, one at a time at 200 Hz)": [latency],
+    }
+
+
+def _summary(rounds: list[list[dict[str, Any]]], k: int, load: float) -> dict[str, Any]:
+    """Measurement `k` over the rounds: best and median rate, share of the same round's
+    ceiling (measurement 0), the worst loss seen."""
+    runs = [rnd[k] for rnd in rounds]
+    best, median = best_and_median([r["msg_per_s"] for r in runs])
+    shares = [
+        r["msg_per_s"] / max(rnd[0]["msg_per_s"], 1e-9) for r, rnd in zip(runs, rounds, strict=True)
+    ]
+    share_best, share_median = best_and_median(shares)
+    return {
+        "direction": runs[0]["direction"],
+        "payload": runs[0]["payload"],
+        "sent": runs[0]["sent"],
+        "load_1min": load,
+        "msg_per_s_best": best,
+        "msg_per_s_median": median,
+        "mb_per_s_median": median * runs[0]["mb_per_s"] / max(runs[0]["msg_per_s"], 1e-9),
+        "of_ceiling_best": share_best,
+        "of_ceiling_median": share_median,
+        "loss_worst": max(r["loss"] for r in runs),
     }
 
 
