@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import mmap
 import os
+import secrets
 import signal
 import time
 from pathlib import Path
@@ -54,3 +56,20 @@ def test_files_of_a_killed_node_are_cleaned() -> None:
     removed = set(clean_stale_shm(min_age=0))
     assert left_behind <= removed
     assert not any((SHM / f).exists() for f in left_behind)
+
+
+def test_port_segments_nobody_maps_are_removed_and_mapped_ones_kept() -> None:
+    """Fast DDS never deletes its `fastrtps_port<N>` segments; a stale one (mapped by no
+    process) goes, with its mutex, while one a process maps stays."""
+    stale, live = (f"fastrtps_port9{secrets.randbelow(10**6):06d}{i}" for i in range(2))
+    paths = [SHM / name for name in (stale, f"sem.{stale}_mutex", live, f"sem.{live}_mutex")]
+    for path in paths:
+        path.write_bytes(bytes(4096))
+    try:
+        with open(SHM / live, "r+b") as f, mmap.mmap(f.fileno(), 4096):
+            removed = clean_stale_shm(min_age=0)
+            assert {stale, f"sem.{stale}_mutex"} <= set(removed)
+            assert (SHM / live).exists(), "a mapped port segment was removed"
+    finally:
+        for path in paths:
+            path.unlink(missing_ok=True)

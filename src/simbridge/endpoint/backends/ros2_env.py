@@ -151,7 +151,8 @@ def clean_stale_shm(directory: Path = Path("/dev/shm"), min_age: float = 2.0) ->
     """Remove Fast DDS shared-memory files whose owner is gone; returns their names.
 
     A live participant holds an flock on each `<name>_el` file (as `fastdds shm
-    clean` relies on), so files of running processes, anyone's, are left alone.
+    clean` relies on), so files of running processes, anyone's, are left alone; a port
+    segment goes only when no process maps it.
     """
     removed: list[str] = []
     if not directory.is_dir():
@@ -177,4 +178,44 @@ def clean_stale_shm(directory: Path = Path("/dev/shm"), min_age: float = 2.0) ->
                     removed.append(name)
         finally:
             os.close(fd)
+    removed += _clean_stale_ports(directory, now - min_age)
     return removed
+
+
+def _clean_stale_ports(directory: Path, older_than: float) -> list[str]:
+    """Remove this user's Fast DDS port segments (`fastrtps_port<N>` and their mutex) that
+    no running process maps: ports have no lock file, and Fast DDS never deletes them."""
+    mapped = _mapped_shm_files()
+    removed: list[str] = []
+    for port in directory.glob("fastrtps_port*"):
+        if not port.name.removeprefix("fastrtps_port").isdigit():
+            continue
+        names = (port.name, f"sem.{port.name}_mutex")
+        try:
+            stat = port.stat()
+        except FileNotFoundError:
+            continue
+        if stat.st_uid != os.getuid() or stat.st_mtime > older_than:
+            continue
+        if any(str(directory / name) in mapped for name in names):
+            continue  # a live participant listens on it
+        for name in names:
+            with contextlib.suppress(FileNotFoundError):
+                (directory / name).unlink()
+                removed.append(name)
+    return removed
+
+
+def _mapped_shm_files() -> set[str]:
+    """Paths of /dev/shm files mapped by any process whose maps this user can read."""
+    mapped: set[str] = set()
+    for maps in Path("/proc").glob("[0-9]*/maps"):
+        try:
+            text = maps.read_text()
+        except OSError:  # gone, or another user's
+            continue
+        for line in text.splitlines():
+            path = line.partition("/dev/shm/")
+            if path[1]:
+                mapped.add("/dev/shm/" + path[2].removesuffix(" (deleted)"))
+    return mapped
