@@ -5,7 +5,6 @@ from __future__ import annotations
 import asyncio
 import itertools
 import logging
-import os
 import socket
 import struct
 import time
@@ -20,6 +19,7 @@ from simbridge.endpoint.backends.base import (
 )
 from simbridge.endpoint.session_actions import SessionActions
 from simbridge.endpoint.stats import SessionStats
+from simbridge.endpoint.writev import WRITE_ALONE, write_chunks
 from simbridge.errors import EndpointError, ServiceError, SimbridgeError
 from simbridge.protocol import (
     EXTENSIONS,
@@ -69,11 +69,6 @@ _ENTRY_OVERHEAD = 64
 """Bytes a queued message costs beyond its payload (object header, queue slot), charged to
 the memory budget so a million empty messages are not free."""
 
-_IOV_MAX = 1024
-"""Most buffers one writev takes (Linux IOV_MAX)."""
-
-_WRITE_ALONE = 64 * 1024
-"""Chunks at least this big are written without joining them to their neighbours."""
 
 _MAX_REMEMBERED = 1024
 """Unregistered topics remembered (to rate-limit their errors) before forgetting all."""
@@ -287,34 +282,7 @@ class ClientSession(asyncio.BufferedProtocol):
             return
         self.last_sent = time.monotonic()
         self.stats.bytes_out += size
-        sent = 0
-        if self._fd >= 0 and not transport.get_write_buffer_size():
-            # Nothing queued in the transport: one scatter-gather syscall for headers and
-            # payloads, none of them copied or joined (asyncio 3.11 would copy a partly
-            # sent buffer and join writelines).
-            try:
-                sent = os.writev(self._fd, out[:_IOV_MAX])
-            except (BlockingIOError, InterruptedError):
-                sent = 0
-            except OSError:
-                sent = 0  # the transport sees the error on its own write and reports it
-        small: list[bytes | memoryview] = []
-        for chunk in out:
-            if sent >= len(chunk):
-                sent -= len(chunk)
-                continue
-            rest: bytes | memoryview = memoryview(chunk)[sent:] if sent else chunk
-            sent = 0
-            if len(rest) < _WRITE_ALONE:
-                small.append(rest)
-                continue
-            # Large payloads go out as they are: joining would copy them again.
-            if small:
-                transport.write(b"".join(small))
-                small = []
-            transport.write(rest)
-        if small:
-            transport.write(b"".join(small) if len(small) > 1 else small[0])
+        write_chunks(transport, self._fd, out)
 
     def _send_control(self, frame: bytes) -> None:
         """Send a frame that must not be dropped (handshake, service frames, errors)."""
@@ -345,7 +313,7 @@ class ClientSession(asyncio.BufferedProtocol):
         if not self._paused:
             self.stats.frames_out += 1
             size = len(payload)
-            if size < _WRITE_ALONE:
+            if size < WRITE_ALONE:
                 self._write(outbox.prefix + _pack_u32(size) + payload)
             else:
                 self._write(outbox.prefix + _pack_u32(size))

@@ -12,13 +12,13 @@ from __future__ import annotations
 import asyncio
 import itertools
 import logging
-import os
 import socket
 import struct
 from collections import deque
 from collections.abc import Callable
 
 from simbridge.endpoint.backends.ros1_raw import RawMessageType
+from simbridge.endpoint.writev import write_chunks
 from simbridge.protocol.tcpros import TcprosDecoder, TcprosError, encode_header
 
 __all__ = ["PublishedTopic", "TopicServer", "connection_ids"]
@@ -32,14 +32,9 @@ MAX_HELD_BYTES = 512 << 20
 """Bytes one connection may hold while its subscriber is not reading (queue_size 0 is
 unbounded in count, as in rospy, but not in bytes)."""
 
-_WRITE_ALONE = 64 << 10
-"""Frames at least this big are written alone rather than joined with others."""
-
 WRITE_HIGH_WATER = 1 << 20
 """Bytes asyncio may buffer for one connection before the endpoint holds messages itself."""
 
-_IOV_MAX = 1024
-"""Most buffers one writev takes (Linux's IOV_MAX)."""
 
 _U32 = struct.Struct("<I")
 
@@ -317,30 +312,7 @@ class _SubscriberConnection(asyncio.Protocol):
         transport = self._transport
         if transport is None or transport.is_closing() or not pending:
             return
-        sent = 0
-        if self._fd >= 0 and not transport.get_write_buffer_size():
-            try:
-                sent = os.writev(self._fd, pending[:_IOV_MAX])
-            except (BlockingIOError, InterruptedError):
-                sent = 0
-            except OSError:
-                sent = 0  # the transport sees the error on its own write and reports it
-        small: list[bytes | memoryview] = []
-        for chunk in pending:
-            if sent >= len(chunk):
-                sent -= len(chunk)
-                continue
-            rest: bytes | memoryview = memoryview(chunk)[sent:] if sent else chunk
-            sent = 0
-            if len(rest) < _WRITE_ALONE:
-                small.append(rest)
-                continue
-            if small:
-                transport.write(b"".join(small))
-                small = []
-            transport.write(rest)
-        if small:
-            transport.write(b"".join(small))
+        write_chunks(transport, self._fd, pending)
 
     def pause_writing(self) -> None:
         self._paused = True
