@@ -1,6 +1,7 @@
 """The ROS 1 backend's native TCPROS data path against a real roscore and real rospy:
 header checks, drops past queue_size (counted), TCP back-pressure towards a ROS
-publisher while the consumer is blocked, and the rospy transport still selectable."""
+publisher while the consumer is blocked, reconnecting to a publisher the master still
+lists, and the rospy transport still selectable."""
 
 from __future__ import annotations
 
@@ -16,6 +17,7 @@ from typing import Any, TypeVar
 
 import pytest
 from tests.endpoint.rawclient import RawClient
+from tests.endpoint.tcpros_publisher import Plan, RawPublisher
 from tests.ros1support import RosMaster, require_ros, shared_master
 
 from simbridge.endpoint import EndpointOptions, EndpointThread
@@ -36,6 +38,7 @@ import rospy  # noqa: E402
 
 from simbridge.endpoint.backends.ros1 import Ros1Backend, Ros1Options, Ros1Publisher  # noqa: E402
 from simbridge.endpoint.backends.ros1_raw import raw_message_class  # noqa: E402
+from simbridge.endpoint.backends.ros1_tcpros_sub import RETRY_FIRST, RETRY_MAX  # noqa: E402
 from simbridge.endpoint.backends.ros1_types import Ros1Types  # noqa: E402
 from simbridge.messages import default_registry  # noqa: E402
 
@@ -343,3 +346,112 @@ def test_native_connections_show_in_getbusinfo(master: RosMaster) -> None:
             [uri, "i", "TCPROS", "/sb/native/in"],  # the endpoint's subscriber connection
         ]
     )
+
+
+def raw_publisher(
+    master: RosMaster, topic: str, plan: list[Plan], then: Plan = "serve"
+) -> RawPublisher:
+    return RawPublisher(
+        master.uri, topic, STRING.name, STRING.md5sum, STRING.definition, plan=plan, then=then
+    )
+
+
+def listed(backend: Ros1Backend, topic: str) -> frozenset[str]:
+    """The publishers the master last listed to the endpoint's subscription of `topic`."""
+    assert backend._native is not None
+    return backend._native._subscribed[topic].publishers
+
+
+def test_a_dropped_publisher_is_reconnected_while_the_master_lists_it(
+    master: RosMaster,
+) -> None:
+    """A publisher that stays registered but drops the endpoint's connection (then fails
+    the first reconnection) gets messages through again, after growing waits, counted
+    as one reconnect; once it unregisters, a dropped connection is not retried."""
+    topic = "/sb/native/reconnect"
+    fake = raw_publisher(master, topic, ["once", "close", "serve"])
+
+    async def scenario(backend: Ros1Backend) -> tuple[list[str], dict[str, int]]:
+        received: list[str] = []
+        fake.register()  # before subscribing: the registration's own publisher list
+        subscription = backend.subscribe(
+            topic, "std_msgs/String", lambda p: received.append(p[4:].decode())
+        )
+        await until(lambda: "first" in received, 20, "the first connection's message")
+        await until(lambda: fake.serving() == 1, 20, "the reconnection")
+        fake.publish("again")
+        await until(lambda: "again" in received, 20, "a message after reconnecting")
+        stats = backend.stats()
+        await asyncio.to_thread(fake.unregister)
+        await until(lambda: fake.uri not in listed(backend, topic), 20, "the master's update")
+        accepted = len(fake.accepted)
+        fake.drop()
+        await asyncio.sleep(4 * RETRY_FIRST)
+        assert len(fake.accepted) == accepted, "retried a publisher the master no longer lists"
+        assert backend.stats()["ros1_reconnects"] == 1
+        subscription.close()
+        return received, stats
+
+    try:
+        received, stats = with_backend(scenario)
+    finally:
+        fake.close()
+    assert received == ["first", "again"]
+    assert stats["ros1_reconnects"] == 1
+    assert len(fake.accepted) == 3
+    # Backoff: the first retry waits RETRY_FIRST after the drop, the second twice that.
+    assert fake.accepted[1] - fake.closed[0] >= RETRY_FIRST * 0.9
+    assert fake.accepted[2] - fake.closed[1] >= 2 * RETRY_FIRST * 0.9
+
+
+def test_reconnecting_stops_when_the_publisher_unregisters(master: RosMaster) -> None:
+    """A publisher that keeps refusing the reconnections is retried while listed (found
+    through publisherUpdate) and no more once the master says it left."""
+    topic = "/sb/native/reconnect_gone"
+    fake = raw_publisher(master, topic, ["once"], then="close")
+
+    async def scenario(backend: Ros1Backend) -> dict[str, int]:
+        received: list[str] = []
+        subscription = backend.subscribe(
+            topic, "std_msgs/String", lambda p: received.append(p[4:].decode())
+        )
+        await asyncio.to_thread(fake.register)  # after subscribing: a publisherUpdate
+        await until(lambda: received == ["first"], 20, "the first connection's message")
+        await until(lambda: len(fake.accepted) >= 3, 20, "two reconnection attempts")
+        await asyncio.to_thread(fake.unregister)
+        await until(lambda: fake.uri not in listed(backend, topic), 20, "the master's update")
+        accepted = len(fake.accepted)
+        await asyncio.sleep(RETRY_MAX / 2 + 1)  # longer than the wait after 3 attempts
+        assert len(fake.accepted) == accepted, "retried a publisher the master no longer lists"
+        stats = backend.stats()
+        subscription.close()
+        return stats
+
+    try:
+        stats = with_backend(scenario)
+    finally:
+        fake.close()
+    assert stats["ros1_reconnects"] == 0
+
+
+def test_reconnecting_stops_when_the_subscription_ends(master: RosMaster) -> None:
+    topic = "/sb/native/reconnect_unsub"
+    fake = raw_publisher(master, topic, ["once"], then="close")
+
+    async def scenario(backend: Ros1Backend) -> None:
+        received: list[str] = []
+        fake.register()
+        subscription = backend.subscribe(
+            topic, "std_msgs/String", lambda p: received.append(p[4:].decode())
+        )
+        await until(lambda: len(fake.accepted) >= 2, 20, "a reconnection attempt")
+        subscription.close()
+        accepted = len(fake.accepted)
+        await asyncio.sleep(RETRY_MAX / 2 + 1)
+        assert len(fake.accepted) == accepted, "retried after the subscription ended"
+        await asyncio.to_thread(fake.unregister)
+
+    try:
+        with_backend(scenario)
+    finally:
+        fake.close()

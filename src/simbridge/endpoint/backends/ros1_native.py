@@ -46,6 +46,9 @@ class NativeData:
         self._host = ""
         self._loop: asyncio.AbstractEventLoop | None = None
         self._subscribed: dict[str, SubscribedTopic] = {}
+        self._failed_before = 0
+        self._reconnects_before = 0
+        """Counts of the topics no longer subscribed."""
 
     async def start(self) -> None:
         """Listen where rospy's own TCPROS server would and route rospy's negotiation here."""
@@ -85,13 +88,14 @@ class NativeData:
 
     def stats(self) -> dict[str, int]:
         """Counters for `__stats`: drops towards slow ROS subscribers, refused and failed
-        connections."""
+        connections, and dropped connections to publishers made again."""
         server = self._server
-        failed = sum(topic.errors for topic in self._subscribed.values())
+        topics = list(self._subscribed.values())
         return {
             "ros1_dropped_to_ros": server.dropped if server else 0,
             "ros1_refused_connections": server.refused if server else 0,
-            "ros1_failed_connections": failed,
+            "ros1_failed_connections": self._failed_before + sum(t.errors for t in topics),
+            "ros1_reconnects": self._reconnects_before + sum(t.reconnects for t in topics),
         }
 
     def _started(self) -> tuple[TopicServer, asyncio.AbstractEventLoop]:
@@ -155,6 +159,8 @@ class NativeData:
             del self._subscribed[topic.name]
             unroute(topic.name, publication=False)
             topic.close()
+            self._failed_before += topic.errors
+            self._reconnects_before += topic.reconnects
 
 
 def _info(cls: type[RawMessage]) -> RawMessageType:

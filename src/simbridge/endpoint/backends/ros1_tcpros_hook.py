@@ -6,13 +6,16 @@ TCPROS protocol handler is wrapped, once per process, by one that answers
 `requestTopic` for an endpoint-published topic with the endpoint's own server address,
 and turns rospy's `create_transport` for an endpoint-subscribed topic into an asyncio
 connection on the endpoint's loop. Every other topic (rospy's own /rosout, say) goes
-to rospy's handler unchanged. These calls arrive on rospy's threads, once per
-connection, never per message.
+to rospy's handler unchanged. The master's publisher lists for those topics (the
+registration's answer and every publisherUpdate) are passed on too, so a dropped
+connection is retried only while its publisher is listed. These calls arrive on
+rospy's threads, once per connection or update, never per message.
 """
 
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import threading
 from collections.abc import Callable
 from typing import Any
@@ -105,6 +108,7 @@ def install() -> None:
             break
     else:
         raise EndpointError("this process has no registered rospy node")
+    manager: Any = listener
     handlers: list[Any] = node.protocol_handlers
     with _lock:
         if not any(isinstance(handler, _Handler) for handler in handlers):
@@ -116,6 +120,44 @@ def install() -> None:
                 raise EndpointError("rospy's node has no TCPROS handler to route through")
         if "getBusInfo" not in vars(node):
             node.getBusInfo = _bus_info_of(node.getBusInfo)
+        if "publisherUpdate" not in vars(node):
+            node.publisherUpdate = _publisher_update_of(node.publisherUpdate)
+        if "publisher_update" not in vars(manager):
+            manager.publisher_update = _publisher_list_of(manager.publisher_update)
+
+
+def _publisher_update_of(rospy_update: Callable[[str, str, Any], Any]) -> Callable[..., Any]:
+    """The slave API's publisherUpdate, also telling the endpoint's topics (rospy's own
+    passes nothing on when the list is empty: the last publisher left)."""
+
+    def publisherUpdate(caller_id: str, topic: str, publishers: Any) -> Any:  # noqa: N802
+        result = rospy_update(caller_id, topic, publishers)
+        if result[0] == 1:
+            _tell_publishers(topic, publishers)
+        return result
+
+    return publisherUpdate
+
+
+def _publisher_list_of(rospy_update: Callable[[str, list[str]], None]) -> Callable[..., None]:
+    """RegManager.publisher_update (the lists of registrations, updates and rejoins), also
+    telling the endpoint's topics."""
+
+    def publisher_update(resolved_name: str, uris: list[str]) -> None:
+        _tell_publishers(resolved_name, uris)
+        rospy_update(resolved_name, uris)
+
+    return publisher_update
+
+
+def _tell_publishers(name: str, uris: list[str]) -> None:
+    with _lock:
+        route = _subscriptions.get(name)
+    if route is None:
+        return
+    loop, topic = route
+    with contextlib.suppress(RuntimeError):  # a closed loop: the endpoint is going away
+        loop.call_soon_threadsafe(topic.set_publishers, [str(uri) for uri in uris])
 
 
 def _bus_info_of(rospy_bus_info: Callable[[str], Any]) -> Callable[[str], Any]:

@@ -6,6 +6,12 @@ bytes to the topic's callbacks right where they are parsed, with no thread hand-
 When a consumer says it is blocked (its client stopped reading), the topic stops
 reading from its publishers, so TCP pushes back on them instead of messages being
 dropped here; reading resumes when the consumer catches up.
+
+A connection that drops (or cannot be made) while the master still lists its
+publisher is retried with bounded exponential backoff, as rospy's subscriber does;
+retrying stops when the master's publisher list no longer names it or the topic is
+closed. Each episode is logged once when it starts and once when it ends, and
+successful reconnects are counted.
 """
 
 from __future__ import annotations
@@ -32,6 +38,12 @@ CONNECT_TIMEOUT = 10.0
 RECHECK = 0.1
 """While reading is paused, how often to ask the consumers again whether they are blocked."""
 
+RETRY_FIRST = 0.25
+"""Seconds before the first attempt to reconnect to a publisher whose connection dropped."""
+
+RETRY_MAX = 8.0
+"""The longest wait between two reconnection attempts (the wait doubles after each)."""
+
 
 @dataclass(eq=False, slots=True)
 class Sink:
@@ -39,6 +51,17 @@ class Sink:
 
     callback: MessageCallback
     blocked: Callable[[], bool] | None = None
+
+
+@dataclass(eq=False, slots=True)
+class _Retry:
+    """One episode of reconnecting to a listed publisher whose connection dropped."""
+
+    host: str
+    port: int
+    delay: float = RETRY_FIRST
+    attempts: int = 0
+    timer: asyncio.TimerHandle | None = None
 
 
 class SubscribedTopic:
@@ -53,6 +76,11 @@ class SubscribedTopic:
         self.connections: dict[str, _PublisherConnection] = {}
         self.errors = 0
         """Publisher connections that failed (refused, wrong md5sum, unreachable)."""
+        self.reconnects = 0
+        """Dropped publisher connections that were made again."""
+        self.publishers: frozenset[str] = frozenset()
+        """The publishers' XML-RPC URIs, as the master last listed them."""
+        self._retries: dict[str, _Retry] = {}
         self._closed = False
         self._tasks: set[asyncio.Task[None]] = set()
         self._recheck: asyncio.TimerHandle | None = None
@@ -74,14 +102,104 @@ class SubscribedTopic:
         )
 
     def connect(self, pub_uri: str, host: str, port: int) -> None:
-        """Connect to the publisher at `host:port` unless connected to `pub_uri` already."""
+        """Connect to the publisher at `host:port` unless connected to `pub_uri` already
+        (a reconnection waiting for its turn goes now, to the address just negotiated)."""
         if self._closed or pub_uri in self.connections:
             return
-        connection = _PublisherConnection(self, pub_uri)
+        retry = self._retries.get(pub_uri)
+        if retry is not None:
+            if retry.timer is not None:
+                retry.timer.cancel()
+                retry.timer = None
+            retry.host, retry.port = host, port
+            retry.attempts += 1
+        self._open(pub_uri, host, port)
+
+    def _open(self, pub_uri: str, host: str, port: int) -> None:
+        connection = _PublisherConnection(self, pub_uri, host, port)
         self.connections[pub_uri] = connection
-        task = asyncio.get_running_loop().create_task(connection.open(host, port))
+        task = asyncio.get_running_loop().create_task(connection.open())
         self._tasks.add(task)
         task.add_done_callback(self._tasks.discard)
+
+    def set_publishers(self, uris: list[str]) -> None:
+        """The master's current publisher list: stop reconnecting to those not in it."""
+        self.publishers = frozenset(uris)
+        for uri in list(self._retries):
+            if uri not in self.publishers:
+                self._stop_retrying(uri, "the master no longer lists it")
+
+    def lost(self, connection: _PublisherConnection, reason: str) -> None:
+        """`connection` dropped or could not be made: retry it while the master lists
+        its publisher (unless it failed for good: refused, wrong type)."""
+        self.forget(connection)
+        uri = connection.pub_uri
+        if uri in self.connections:  # an older connection: a newer one is on its way
+            return
+        retry = self._retries.get(uri)
+        if self._closed or connection.final:
+            self._stop_retrying(uri, None)
+            return
+        if uri not in self.publishers:
+            if retry is not None:
+                self._stop_retrying(uri, "the master no longer lists it")
+            elif not connection.ready:
+                self.errors += 1
+                _log.warning("cannot receive %s from %s: %s", self.name, uri, reason)
+            return
+        if retry is None:
+            if not connection.ready:
+                self.errors += 1
+            retry = _Retry(connection.host, connection.port)
+            self._retries[uri] = retry
+            _log.warning(
+                "lost %s from %s (%s); reconnecting while the master lists it",
+                self.name,
+                uri,
+                reason,
+            )
+        if retry.timer is None:
+            loop = asyncio.get_running_loop()
+            retry.timer = loop.call_later(retry.delay, self._retry, uri)
+            retry.delay = min(retry.delay * 2, RETRY_MAX)
+
+    def _retry(self, uri: str) -> None:
+        retry = self._retries.get(uri)
+        if retry is None or self._closed:
+            return
+        retry.timer = None
+        if uri not in self.publishers:
+            self._stop_retrying(uri, "the master no longer lists it")
+        elif uri not in self.connections:
+            retry.attempts += 1
+            self._open(uri, retry.host, retry.port)
+
+    def connected(self, connection: _PublisherConnection) -> None:
+        """`connection`'s publisher answered: an episode of reconnecting ends here."""
+        retry = self._retries.pop(connection.pub_uri, None)
+        if retry is not None:
+            self.reconnects += 1
+            _log.info(
+                "reconnected %s to %s after %d attempt(s)",
+                self.name,
+                connection.pub_uri,
+                retry.attempts,
+            )
+
+    def _stop_retrying(self, uri: str, reason: str | None) -> None:
+        retry = self._retries.pop(uri, None)
+        if retry is None:
+            return
+        if retry.timer is not None:
+            retry.timer.cancel()
+        if reason is not None:
+            _log.info(
+                "stopped reconnecting %s to %s after %d attempt(s): %s",
+                self.name,
+                uri,
+                retry.attempts,
+                reason,
+            )
 
     def deliver(self, queue: deque[bytes]) -> bool:
         """Hand the messages in `queue` to every consumer, in order, until one of them
@@ -133,6 +251,8 @@ class SubscribedTopic:
         if self._recheck is not None:
             self._recheck.cancel()
             self._recheck = None
+        for uri in list(self._retries):
+            self._stop_retrying(uri, None)
         for connection in list(self.connections.values()):
             connection.close()
         self.connections.clear()
@@ -143,25 +263,30 @@ class SubscribedTopic:
 class _PublisherConnection(asyncio.Protocol):
     """One connection to a ROS publisher of the topic."""
 
-    def __init__(self, topic: SubscribedTopic, pub_uri: str) -> None:
+    def __init__(self, topic: SubscribedTopic, pub_uri: str, host: str, port: int) -> None:
         self.topic = topic
         self.pub_uri = pub_uri
+        self.host = host
+        self.port = port
         self.id = next(connection_ids)
+        self.ready = False
+        """The publisher's header arrived and matched."""
+        self.final = False
+        """The publisher refused or sent the wrong type: never retried."""
         self._decoder = TcprosDecoder(topic.max_message)
         self._transport: asyncio.Transport | None = None
-        self._ready = False
         self._reading_paused = False
         self._stash: deque[bytes] = deque()
         """Messages received but not yet delivered (at most one read's worth)."""
 
-    async def open(self, host: str, port: int) -> None:
+    async def open(self) -> None:
         loop = asyncio.get_running_loop()
         try:
             await asyncio.wait_for(
-                loop.create_connection(lambda: self, host, port), CONNECT_TIMEOUT
+                loop.create_connection(lambda: self, self.host, self.port), CONNECT_TIMEOUT
             )
         except (OSError, TimeoutError) as exc:
-            self._fail(f"cannot connect to {host}:{port}: {exc}")
+            self.topic.lost(self, f"cannot connect to {self.host}:{self.port}: {exc}")
 
     def connection_made(self, transport: asyncio.BaseTransport) -> None:
         assert isinstance(transport, asyncio.Transport)
@@ -183,13 +308,14 @@ class _PublisherConnection(asyncio.Protocol):
         except TcprosError as exc:
             self._fail(str(exc))
             return
-        if not self._ready:
+        if not self.ready:
             header = self._decoder.header
             if header is None:
                 return
             if not self._check(header):
                 return
-            self._ready = True
+            self.ready = True
+            self.topic.connected(self)
         if messages:
             self._stash.extend(messages)
             if not self._reading_paused:
@@ -228,11 +354,13 @@ class _PublisherConnection(asyncio.Protocol):
             self._pump()
 
     def _fail(self, reason: str) -> None:
+        """The publisher's answer is unusable (an error, another type): give it up."""
+        self.final = True
         self.topic.errors += 1
         if not self.topic.closed:
             _log.warning("cannot receive %s from %s: %s", self.topic.name, self.pub_uri, reason)
         self.close()
-        self.topic.forget(self)
+        self.topic.lost(self, reason)
 
     def close(self) -> None:
         if self._transport is not None:
@@ -240,4 +368,4 @@ class _PublisherConnection(asyncio.Protocol):
 
     def connection_lost(self, exc: Exception | None) -> None:
         self._transport = None
-        self.topic.forget(self)
+        self.topic.lost(self, str(exc) if exc is not None else "the publisher closed it")
