@@ -11,7 +11,7 @@ import textwrap
 import time
 from collections.abc import Awaitable, Callable
 from pathlib import Path
-from typing import TypeVar
+from typing import Literal, TypeVar
 
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -444,7 +444,10 @@ def test_one_type_per_topic(master: RosMaster) -> None:
     with_backend(scenario)
 
 
-def test_watch_subscribers_follows_rostopic_echo(master: RosMaster) -> None:
+@pytest.mark.parametrize("transport", ["native", "rospy"])
+def test_watch_subscribers_follows_rostopic_echo(
+    master: RosMaster, transport: Literal["native", "rospy"]
+) -> None:
     counts: list[int] = []
 
     async def scenario(backend: Ros1Backend) -> None:
@@ -457,7 +460,7 @@ def test_watch_subscribers_follows_rostopic_echo(master: RosMaster) -> None:
             publisher.publish(STRING_HELLO)
             await asyncio.sleep(0.1)
 
-    with_backend(scenario)
+    with_backend(scenario, Ros1Options(transport=transport))
     assert counts == [0, 1, 0]
 
 

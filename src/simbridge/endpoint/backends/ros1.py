@@ -43,6 +43,7 @@ from simbridge.endpoint.backends.ros1_registration import Registration, Ros1Publ
 from simbridge.endpoint.backends.ros1_rejoin import remember_param
 from simbridge.endpoint.backends.ros1_rosout import RosoutForwarder
 from simbridge.endpoint.backends.ros1_types import Ros1Types
+from simbridge.endpoint.backends.subscriber_watch import SubscriberWatch
 from simbridge.errors import EndpointError, MessageError, ServiceError
 from simbridge.messages import MessageRegistry, default_registry
 
@@ -327,15 +328,13 @@ class _RospyPublisher(Ros1Publisher):
         live: set[Registration],
     ) -> None:
         self._cls = cls
-        self._loop = loop
-        self._watchers: list[Callable[[int], None]] = []
-        self._reported = -1
+        self._subscribers = SubscriberWatch(loop, self.subscriber_count, lambda: self.closed)
         self._publisher = rospy.Publisher(
             topic,
             cls,
             queue_size=queue_size,
             latch=latch,
-            subscriber_listener=_PeerListener(self._peers_changed),
+            subscriber_listener=_PeerListener(self._subscribers.changed),
         )
         self.topic: str = self._publisher.resolved_name
         self.msg_type = cls._type
@@ -360,26 +359,7 @@ class _RospyPublisher(Ros1Publisher):
         A subscriber that leaves is noticed when rospy next writes to it (TCPROS has
         no goodbye), so the drop to zero shows up at the next publish.
         """
-        self._watchers.append(callback)
-        self._reported = self.subscriber_count()
-        callback(self._reported)
-        return True
-
-    def _peers_changed(self) -> None:
-        """Runs on a rospy thread."""
-        try:
-            self._loop.call_soon_threadsafe(self._report_count)
-        except RuntimeError:  # the loop is closed: the endpoint is going away
-            return
-
-    def _report_count(self) -> None:
-        if self.closed or not self._watchers:
-            return
-        count = self.subscriber_count()
-        if count != self._reported:
-            self._reported = count
-            for callback in list(self._watchers):
-                callback(count)
+        return self._subscribers.add(callback)
 
     def _unregister(self) -> None:
         self._publisher.unregister()

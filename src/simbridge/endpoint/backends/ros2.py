@@ -47,6 +47,7 @@ from simbridge.endpoint.backends.malloc_tuning import keep_large_buffers
 from simbridge.endpoint.backends.ros2_actions import Ros2Actions
 from simbridge.endpoint.backends.ros2_env import apply_ros2_env
 from simbridge.endpoint.backends.ros2_types import Ros2Types, tcp_type_name
+from simbridge.endpoint.backends.subscriber_watch import SubscriberWatch
 from simbridge.endpoint.typecheck import TypeCheck
 from simbridge.errors import EndpointError, ServiceError
 from simbridge.protocol import ACTIONS_EXTENSION
@@ -473,9 +474,7 @@ class Ros2Publisher(_Entity, BackendPublisher):
         qos: QoSProfile,
         loop: asyncio.AbstractEventLoop,
     ) -> None:
-        self._loop = loop
-        self._watchers: list[Callable[[int], None]] = []
-        self._reported = -1
+        self._subscribers = SubscriberWatch(loop, self.subscriber_count, lambda: self.closed)
         self._last_error_log = 0.0
         try:
             self._publisher = backend.node.create_publisher(
@@ -513,23 +512,11 @@ class Ros2Publisher(_Entity, BackendPublisher):
         return int(self._publisher.get_subscription_count())
 
     def watch_subscribers(self, callback: Callable[[int], None]) -> bool:
-        self._watchers.append(callback)
-        self._reported = self.subscriber_count()
-        callback(self._reported)
-        return True
+        return self._subscribers.add(callback)
 
     def _on_matched(self, _info: Any) -> None:
         """Runs on the rclpy thread."""
-        _call_soon(self._loop, self._report_count)
-
-    def _report_count(self) -> None:
-        if self.closed or not self._watchers:
-            return
-        count = self.subscriber_count()
-        if count != self._reported:
-            self._reported = count
-            for callback in list(self._watchers):
-                callback(count)
+        self._subscribers.changed()
 
     def _destroy(self) -> None:
         self._backend.node.destroy_publisher(self._publisher)
