@@ -89,6 +89,10 @@ class SceneEnv(Env[Observation, NDArray[np.float32]]):
         self._action_shape = action.space.shape
         self._action_low, self._action_high = action.space.low, action.space.high
         self.observation_space: spaces.Dict = spaces.Dict(self._spaces())  # type: ignore[assignment]
+        self._layout = [
+            (key, space.shape or (), np.dtype(space.dtype))
+            for key, space in self.observation_space.spaces.items()
+        ]
         self._goal = np.zeros(task.goal_space.shape, np.float64)
         self._goal32 = self._goal.astype(np.float32)
         # views on the data's memory, kept: no pybind property lookups on every step
@@ -137,6 +141,12 @@ class SceneEnv(Env[Observation, NDArray[np.float32]]):
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[Observation, dict[str, Any]]:
         """Back to the scene's initial state, then the task draws the episode from the seed."""
+        success = self.begin_episode(seed)
+        return self.observe(), {"is_success": success}
+
+    def begin_episode(self, seed: int | None = None) -> bool:
+        """What `reset` does but observing: the world back to the scene's initial state and a
+        new episode drawn (from `seed` if given). Returns whether it is already solved."""
         super().reset(seed=seed)
         world = self.world
         world.reset()
@@ -144,7 +154,7 @@ class SceneEnv(Env[Observation, NDArray[np.float32]]):
         world.drives.hold_current()
         self.action.reset(world)
         mujoco.mj_forward(world.model, world.data)
-        return self.observe(), {"is_success": self.task.success(world, self.goal)}
+        return self.task.success(world, self.goal)
 
     def step(
         self, action: NDArray[np.float32]
@@ -184,8 +194,7 @@ class SceneEnv(Env[Observation, NDArray[np.float32]]):
 
     def simulate(self, ctrl: NDArray[np.float64] | None) -> None:
         """Run `frame_skip` physics steps with `ctrl` (None: the data's own, or one row per
-        step), then bring poses, Jacobians and body velocities up to date (`mj_kinematics`,
-        `mj_comPos`, `mj_comVel`) for observing; contacts stay those of the last step."""
+        step), then `refresh`."""
         model, data = self.world.model, self.world.data
         if ctrl is None:
             mujoco.mj_step(model, data, nstep=self.frame_skip)
@@ -193,6 +202,13 @@ class SceneEnv(Env[Observation, NDArray[np.float32]]):
             for row in ctrl:
                 data.ctrl[:] = row
                 mujoco.mj_step(model, data)
+        self.refresh()
+
+    def refresh(self) -> None:
+        """Bring poses, Jacobians and body velocities up to date after physics steps
+        (`mj_kinematics`, `mj_comPos`, `mj_comVel`) for observing; contacts stay those of
+        the last step."""
+        model, data = self.world.model, self.world.data
         mujoco.mj_kinematics(model, data)
         mujoco.mj_comPos(model, data)
         mujoco.mj_comVel(model, data)
@@ -202,21 +218,39 @@ class SceneEnv(Env[Observation, NDArray[np.float32]]):
     ) -> tuple[Observation, float, bool, bool, dict[str, Any]]:
         """Observation, reward, terminated, truncated (always False: time limits are a
         wrapper's job) and info after the physics ran."""
+        reward, success, terminated = self.evaluate(action)
+        return self.observe(), reward, terminated, False, {"is_success": success}
+
+    def evaluate(self, action: NDArray[np.float32]) -> tuple[float, bool, bool]:
+        """(reward, success, terminated) for the step `action` just took (`Task.evaluate`);
+        GymError for a reward that is not finite."""
         reward, success, terminated = self.task.evaluate(self.world, self._goal, action)
         if not math.isfinite(reward):
             raise GymError(f"task {type(self.task).__name__} returned reward {reward}")
-        return self.observe(), reward, terminated, False, {"is_success": success}
+        return reward, success, terminated
+
+    def empty_observations(self, count: int) -> Observation:
+        """Uninitialised arrays for `count` observations, one row each (`observe_into`)."""
+        return {key: np.empty((count, *shape), dtype) for key, shape, dtype in self._layout}
 
     def observe(self, readings: Mapping[str, NDArray[Any]] | None = None) -> Observation:
         """The observation for the world's current state; `readings` replace sensor entries
         by key (the ROS side passes the ranges and images it received)."""
-        obs: Observation = {}
+        out = self.empty_observations(1)
+        self.observe_into(out, 0, readings)
+        return {key: rows[0] for key, rows in out.items()}
+
+    def observe_into(
+        self, out: Observation, row: int, readings: Mapping[str, NDArray[Any]] | None = None
+    ) -> None:
+        """Write the observation into row `row` of the arrays in `out` (from
+        `empty_observations`): the vector env fills its batch this way, with no dict or
+        array per world, and `observe` is one row of it."""
         if self.joints:
-            obs["joint_pos"] = self._qpos_all[self._qpos].astype(np.float32)
-            obs["joint_vel"] = self._qvel_all[self._dofs].astype(np.float32)
-        obs.update(self.task.observe(self.world, self._goal))
-        obs["goal"] = self._goal32.copy()
+            out["joint_pos"][row] = self._qpos_all[self._qpos]
+            out["joint_vel"][row] = self._qvel_all[self._dofs]
+        self.task.observe_into(self.world, self._goal, out, row)
+        out["goal"][row] = self._goal32
         for sensor in self.sensors:
             reading = None if readings is None else readings.get(sensor.key)
-            obs[sensor.key] = sensor.read(self.world) if reading is None else reading
-        return obs
+            out[sensor.key][row] = sensor.read(self.world) if reading is None else reading

@@ -49,6 +49,18 @@ class Task(ABC):
         default)."""
         return {}
 
+    def observe_into(
+        self,
+        world: World,
+        goal: NDArray[np.float64],
+        out: Mapping[str, NDArray[np.float32]],
+        row: int,
+    ) -> None:
+        """Write the `observe` entries into row `row` of the arrays in `out` (the default
+        copies what `observe` returns; override it to skip the dict and arrays)."""
+        for key, value in self.observe(world, goal).items():
+            out[key][row] = value
+
     @abstractmethod
     def reward(self, world: World, goal: NDArray[np.float64], action: NDArray[np.float32]) -> float:
         """The reward for the step that just ended."""

@@ -1,33 +1,34 @@
-"""`SceneVectorEnv`: many worlds on one compiled model, stepped on a pool of threads.
+"""`SceneVectorEnv`: many worlds on one compiled model, their physics stepped in one C call.
 
 Every sub-environment is a `SceneEnv` on a `World.clone()` of the first (one `MjModel`,
-one `MjData` each). A vector step hands each thread one contiguous chunk of worlds and
-steps them there, action to observation: `mujoco.mj_step(..., nstep=frame_skip)` releases
-the GIL, so one thread's physics runs while another does its Python (drive targets,
-observations, rewards), and the physics of N worlds spreads over the cores. Each world
-steps exactly as it would alone: a sub-environment matches its single-env twin bit for
-bit. Autoreset follows Gymnasium's default (next step): the step after an episode ended
-resets that world and returns its first observation with reward 0.
+one `MjData` each): resets, drive targets, observations and rewards run there, in
+Python, one world after another. The physics of a vector step is one call of MuJoCo's
+`mujoco.batch.Batch`: each world's integration state (`mjSTATE_INTEGRATION`: positions,
+velocities, controls, warm start, ...) goes into a row, the batch runs `frame_skip`
+`mj_step`s of every row on its thread pool in C (no GIL, no Python between substeps),
+and the rows come back into the worlds' data, which `SceneEnv.refresh` brings up to date.
+MuJoCo documents the batch as bit-identical to `mj_step` on one `MjData` per simulation,
+so a sub-environment matches its single-env twin bit for bit. Autoreset follows
+Gymnasium's default (next step): the step after an episode ended resets that world and
+returns its first observation with reward 0.
 """
 
 from __future__ import annotations
 
-import itertools
 import math
 import os
 from collections.abc import Callable
-from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
+import mujoco
 import numpy as np
-from gymnasium import spaces
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
+from mujoco.batch import Batch
 from numpy.typing import NDArray
 
 from simbridge.errors import GymError
 from simbridge.gym.env import Observation, SceneEnv
-from simbridge.gym.sensors import CameraImage
 from simbridge.sim.world import World
 
 __all__ = ["EnvFactory", "SceneVectorEnv"]
@@ -44,8 +45,8 @@ class SceneVectorEnv(VectorEnv[Observation, NDArray[np.float32], NDArray[Any]]):
     """`num_envs` copies of the environment `make_env(**env_kwargs)` builds, one model.
 
     `max_episode_steps` truncates episodes (as `TimeLimit` does for one env); `threads`
-    is the thread count (0: one per CPU; worlds with camera observations use one, as an
-    OpenGL context belongs to the thread that made it).
+    is the number of threads stepping the physics (0: one per CPU; the calling thread is
+    one of them).
     """
 
     def __init__(
@@ -59,6 +60,8 @@ class SceneVectorEnv(VectorEnv[Observation, NDArray[np.float32], NDArray[Any]]):
     ) -> None:
         if num_envs < 1:
             raise GymError(f"num_envs must be >= 1, got {num_envs}")
+        if threads < 0:
+            raise GymError(f"threads must be >= 0 (0: one per CPU), got {threads}")
         first = make_env(**env_kwargs)
         self.envs = [first] + [
             make_env(world=first.world.clone(), **env_kwargs) for _ in range(num_envs - 1)
@@ -72,17 +75,13 @@ class SceneVectorEnv(VectorEnv[Observation, NDArray[np.float32], NDArray[Any]]):
         self.observation_space = batch_space(first.observation_space, num_envs)
         self.action_space = batch_space(first.action_space, num_envs)
         self.model = first.world.model
-        if any(isinstance(s, CameraImage) for s in first.sensors):
-            threads = 1
-        self._threads = max(1, min(threads or os.cpu_count() or 1, num_envs))
-        # chunks of consecutive worlds, one per thread; the calling thread takes the first
-        edges = np.linspace(0, num_envs, self._threads + 1).round().astype(int).tolist()
-        self._bounds = list(itertools.pairwise(edges))
-        self._pool = (
-            ThreadPoolExecutor(self._threads - 1, thread_name_prefix="simbridge-gym")
-            if self._threads > 1
-            else None
-        )
+        self.frame_skip = first.frame_skip
+        # built after every env bound its drives: the batch runs on a copy of the model
+        threads = max(1, min(threads or os.cpu_count() or 1, num_envs))
+        self._batch = Batch(self.model, num_envs, nthread=threads)
+        self._state = self._batch.state  # (num_envs, nstate) rows, live
+        self._ctrl = self._batch.bind("ctrl")  # the rows' controls, a view
+        self._spec = int(mujoco.mjtState.mjSTATE_INTEGRATION)
         space = first.action_space
         self._action_low, self._action_high = space.low, space.high
         self._elapsed = np.zeros(num_envs, np.int64)
@@ -105,47 +104,65 @@ class SceneVectorEnv(VectorEnv[Observation, NDArray[np.float32], NDArray[Any]]):
             seeds = list(seed)
         if len(seeds) != self.num_envs:
             raise GymError(f"reset needs {self.num_envs} seeds, got {len(seeds)}")
-        observations: list[Observation] = []
-        infos: dict[str, Any] = {}
+        observations = self.envs[0].empty_observations(self.num_envs)
+        success = np.zeros(self.num_envs, np.bool_)
         for i, (env, env_seed) in enumerate(zip(self.envs, seeds, strict=True)):
-            obs, info = env.reset(seed=env_seed, options=options)
-            observations.append(obs)
-            infos = self._add_info(infos, info, i)
+            success[i] = env.begin_episode(env_seed)
+            env.observe_into(observations, i)
         self._elapsed[:] = 0
         self._autoreset[:] = False
-        return self._stack(observations), infos
+        return observations, self._info(success)
 
     def step(self, actions: NDArray[Any]) -> VectorStep:
         """One step of every world (worlds whose episode ended last step are reset instead)."""
         clipped = self._clip(actions)
-        count = self.num_envs
-        observations: list[Observation] = [{}] * count
+        envs, count = self.envs, self.num_envs
+        model, state, spec = self.model, self._state, self._spec
+        resetting = self._autoreset
+        held: list[int] = []  # worlds whose drives' ctrl holds over the frame skip
+        varying: dict[int, NDArray[np.float64]] = {}  # the others' ctrl, one row per substep
+        for i in range(count):
+            if resetting[i]:
+                continue
+            env = envs[i]
+            ctrl = env.action.controls(env.world, clipped[i], env.frame_skip)
+            mujoco.mj_getState(model, env.world.data, state[i], spec)
+            if ctrl is None:
+                held.append(i)
+            else:
+                varying[i] = ctrl
+        self._simulate(held, varying)
+        observations = envs[0].empty_observations(count)
         rewards = np.zeros(count, np.float64)
         terminated = np.zeros(count, np.bool_)
-        infos: list[dict[str, Any]] = [{}] * count
-        resetting = self._autoreset
-        envs = self.envs
-
-        def run(start: int, stop: int) -> None:
-            for i in range(start, stop):
-                env = envs[i]
-                if resetting[i]:
-                    observations[i], infos[i] = env.reset()
-                    continue
-                action = clipped[i]
-                env.simulate(env.action.controls(env.world, action, env.frame_skip))
-                observations[i], rewards[i], terminated[i], _, infos[i] = env.finish_step(action)
-
-        bounds = self._bounds
-        futures = [] if self._pool is None else [self._pool.submit(run, *b) for b in bounds[1:]]
-        run(*bounds[0])  # the calling thread steps the first chunk meanwhile
-        for future in futures:
-            future.result()
+        success = np.zeros(count, np.bool_)
+        for i in range(count):
+            env = envs[i]
+            if resetting[i]:
+                success[i] = env.begin_episode()
+            else:
+                mujoco.mj_setState(model, env.world.data, state[i], spec)
+                env.refresh()
+                rewards[i], success[i], terminated[i] = env.evaluate(clipped[i])
+            env.observe_into(observations, i)
         self._elapsed = np.where(resetting, 0, self._elapsed + 1)
         limit = self.max_episode_steps
         truncated = ~resetting & (limit is not None) & (self._elapsed >= (limit or 0))
         self._autoreset = terminated | truncated
-        return self._stack(observations), rewards, terminated, truncated, self._batch_infos(infos)
+        return observations, rewards, terminated, truncated, self._info(success)
+
+    def _simulate(self, held: list[int], varying: dict[int, NDArray[np.float64]]) -> None:
+        """`frame_skip` physics steps of the rows of `held` (their ctrl as it is) and of
+        `varying` (a ctrl row per substep), each kind in one batch call per call."""
+        if held:
+            ids = None if len(held) == self.num_envs else np.array(held, np.int32)
+            self._batch.step(ids, nstep=self.frame_skip)
+        if varying:
+            ids = np.array(list(varying), np.int32)
+            rows = np.stack(list(varying.values()))  # (worlds, substeps, nu)
+            for substep in range(rows.shape[1]):
+                self._ctrl[ids] = rows[:, substep]
+                self._batch.step(ids)
 
     def _clip(self, actions: NDArray[Any]) -> NDArray[np.float32]:
         """Every world's action at once, as `SceneEnv.clip_action` clips one."""
@@ -158,25 +175,10 @@ class SceneVectorEnv(VectorEnv[Observation, NDArray[np.float32], NDArray[Any]]):
             raise GymError(f"actions must be finite, got {actions!r}")
         return np.minimum(np.maximum(array, self._action_low), self._action_high)
 
-    def _batch_infos(self, infos: list[dict[str, Any]]) -> dict[str, Any]:
-        """Gymnasium's vector info layout (key -> array, "_key" -> mask), in one pass when
-        every world reports the same keys (the usual case)."""
-        keys = set(infos[0])
-        if any(set(info) != keys for info in infos):
-            out: dict[str, Any] = {}
-            for i, info in enumerate(infos):
-                out = self._add_info(out, info, i)
-            return out
-        batched: dict[str, Any] = {}
-        for key in keys:
-            batched[key] = np.array([info[key] for info in infos])
-            batched[f"_{key}"] = np.ones(len(infos), np.bool_)
-        return batched
-
-    def _stack(self, observations: list[Observation]) -> Observation:
-        space = self.single_observation_space
-        assert isinstance(space, spaces.Dict)
-        return {key: np.stack([obs[key] for obs in observations]) for key in space.spaces}
+    def _info(self, success: NDArray[np.bool_]) -> dict[str, Any]:
+        """Gymnasium's vector info layout (key -> array, "_key" -> mask): every world
+        reports "is_success" on every step and reset."""
+        return {"is_success": success, "_is_success": np.ones(self.num_envs, np.bool_)}
 
     def render(self) -> tuple[NDArray[np.uint8], ...] | None:
         """One frame per world when render_mode is "rgb_array"."""
@@ -186,9 +188,6 @@ class SceneVectorEnv(VectorEnv[Observation, NDArray[np.float32], NDArray[Any]]):
         return tuple(frame for frame in frames if frame is not None)
 
     def close_extras(self, **kwargs: Any) -> None:
-        """Stop the physics threads and free the worlds' renderers."""
-        if self._pool is not None:
-            self._pool.shutdown()
-            self._pool = None
+        """Free the worlds' renderers."""
         for env in self.envs:
             env.close()

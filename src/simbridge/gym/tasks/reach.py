@@ -121,11 +121,21 @@ class ReachTask(Task):
 
     def observe(self, world: World, goal: NDArray[np.float64]) -> dict[str, NDArray[np.float32]]:
         """The end effector's position and the goal relative to it."""
-        ee = self._ee if self._ee_data is world.data else world.data.xpos[self._body]
         both = np.empty((2, 3), np.float32)  # one array, two views: fewer allocations
-        both[0] = ee
-        np.subtract(goal, ee, out=both[1], casting="same_kind")
+        self.observe_into(world, goal, {"ee_pos": both[:1], "goal_delta": both[1:]}, 0)
         return {"ee_pos": both[0], "goal_delta": both[1]}
+
+    def observe_into(
+        self,
+        world: World,
+        goal: NDArray[np.float64],
+        out: Mapping[str, NDArray[np.float32]],
+        row: int,
+    ) -> None:
+        """`observe`, written straight into row `row` of `out`."""
+        ee = self._ee if self._ee_data is world.data else world.data.xpos[self._body]
+        out["ee_pos"][row] = ee
+        np.subtract(goal, ee, out=out["goal_delta"][row], casting="same_kind")
 
     def distance(self, world: World, goal: NDArray[np.float64]) -> float:
         """End effector to goal (m)."""
