@@ -1,9 +1,11 @@
-"""Test support for real ROS 1: private roscores on free ports and the ROS command-line tools.
+"""Test support for real ROS 1: private roscores on free ports, the ROS command-line tools
+and `simbridge endpoint --backend ros1` subprocesses.
 
 Every master runs in its own process group with a private ROS_HOME and log
 directory, and is killed as a group when stopped. rospy allows one node per
 process, so tests that run a Ros1Backend in the pytest process share
-`shared_master()`; tests that run the endpoint as a subprocess start their own.
+`shared_master()`; tests that run the endpoint as a subprocess (`EndpointProcess`)
+start their own.
 """
 
 from __future__ import annotations
@@ -11,23 +13,64 @@ from __future__ import annotations
 import atexit
 import importlib.util
 import os
+import re
 import shutil
+import signal
+import struct
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Callable
 
 import pytest
 
+from simbridge.connector import ConnectorOptions
 from simbridge.endpoint.backends.ros1_master import RosCore, free_port, terminate
 
 __all__ = [
+    "FAST",
     "SYSTEM_PYTHON",
+    "EndpointProcess",
     "RosMaster",
     "free_port",
     "require_ros",
+    "ros_string",
     "shared_master",
     "terminate",
+    "wait_until",
 ]
 
 SYSTEM_PYTHON = "/usr/bin/python3"
 """The interpreter Debian's rospy belongs to, for helper nodes run as subprocesses."""
+
+FAST = ConnectorOptions(
+    keepalive_interval=0.2,
+    dead_timeout=1.0,
+    connect_timeout=1.0,
+    reconnect_initial=0.1,
+    reconnect_max=0.5,
+    service_timeout=10.0,
+    request_timeout=5.0,
+)
+"""Connector timings for tests against a local endpoint: crashes and restarts show fast."""
+
+
+def ros_string(text: str) -> bytes:
+    """std_msgs/String by hand: uint32 LE length + UTF-8 bytes."""
+    raw = text.encode()
+    return struct.pack("<I", len(raw)) + raw
+
+
+def wait_until(predicate: Callable[[], bool], timeout: float, what: str) -> float:
+    """Poll `predicate` until true; the seconds it took. AssertionError naming `what`
+    after `timeout` seconds."""
+    start = time.monotonic()
+    while not predicate():
+        if time.monotonic() - start > timeout:
+            raise AssertionError(f"timed out waiting for {what}")
+        time.sleep(0.05)
+    return time.monotonic() - start
 
 
 def require_ros(module_level: bool = False) -> None:
@@ -64,3 +107,62 @@ def shared_master() -> RosMaster:
         os.environ.pop("ROS_IP", None)
         _shared = master
     return _shared
+
+
+_LISTENING = re.compile(r"listening on \S+:\d+")
+
+
+class EndpointProcess:
+    """`simbridge endpoint --backend ros1` on `master`'s graph, in its own session.
+
+    The constructor returns once the endpoint listens (on `port`, a free one by
+    default); an endpoint that exits or says nothing of the kind within `timeout`
+    seconds is stopped and fails the test with its output. Its output lines are
+    collected in `lines` by a reader thread, so the pipe never fills.
+    """
+
+    def __init__(
+        self, master: RosMaster, node_name: str, *extra: str, port: int = 0, timeout: float = 60
+    ) -> None:
+        self.port = port or free_port()
+        self.node_name = node_name
+        command = [sys.executable, "-m", "simbridge.cli", "endpoint", "--backend", "ros1"]
+        options = ["--port", str(self.port), "--idle-timeout", "0", "--node-name", node_name]
+        self.process = subprocess.Popen(
+            [*command, *options, *extra],
+            env=master.env,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT,
+            stdin=subprocess.DEVNULL,
+            text=True,
+            start_new_session=True,
+        )
+        self.lines: list[str] = []
+        self._listening = False
+        self._started = threading.Event()
+        """Set when the endpoint says it listens, or its output ends."""
+        self._reader = threading.Thread(target=self._read, daemon=True)
+        self._reader.start()
+        if not (self._started.wait(timeout) and self._listening):
+            self.stop()
+            raise AssertionError("the endpoint did not start:\n" + self.output())
+
+    def _read(self) -> None:
+        assert self.process.stdout is not None
+        for line in self.process.stdout:
+            self.lines.append(line)
+            if not self._listening and _LISTENING.search(line):
+                self._listening = True
+                self._started.set()
+        self._started.set()
+
+    def output(self) -> str:
+        return "".join(self.lines)
+
+    def kill(self) -> None:
+        """Crash it: SIGKILL, no chance to unregister."""
+        self.process.send_signal(signal.SIGKILL)
+        self.process.wait(10)
+
+    def stop(self) -> None:
+        terminate(self.process)

@@ -12,8 +12,14 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from tests.e2e.test_ros1_actionlib import _start_endpoint
-from tests.ros1support import SYSTEM_PYTHON, RosMaster, free_port, require_ros, terminate
+from tests.ros1support import (
+    SYSTEM_PYTHON,
+    EndpointProcess,
+    RosMaster,
+    free_port,
+    require_ros,
+    terminate,
+)
 
 from simbridge.connector import ActionClient, Connector, ConnectorOptions
 from simbridge.endpoint.backends.ros1_genpy import generate_python_messages
@@ -77,7 +83,7 @@ def test_connector_client_against_simple_action_server(tmp_path: Path) -> None:
         env = dict(master.env)
         for key, value in extra.items():
             env[key] = os.pathsep.join(v for v in (value, env.get(key, "")) if v)
-        endpoint = _start_endpoint(master, port, tmp_path / "endpoint.log")
+        endpoint = EndpointProcess(master, "/jtc_endpoint", port=port)
         server = subprocess.Popen(
             [SYSTEM_PYTHON, "-c", SERVER_NODE], env=env, stdout=subprocess.PIPE,
             stderr=subprocess.PIPE, text=True, start_new_session=True,
@@ -117,4 +123,4 @@ def test_connector_client_against_simple_action_server(tmp_path: Path) -> None:
         finally:
             connector.close()
             terminate(server)
-            terminate(endpoint)
+            endpoint.stop()

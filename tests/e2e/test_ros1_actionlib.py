@@ -7,15 +7,20 @@ from __future__ import annotations
 
 import json
 import os
-import re
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pytest
 import yaml
-from tests.ros1support import SYSTEM_PYTHON, RosMaster, free_port, require_ros, terminate
+from tests.ros1support import (
+    SYSTEM_PYTHON,
+    EndpointProcess,
+    RosMaster,
+    free_port,
+    require_ros,
+    terminate,
+)
 from tests.sim.urdf_samples import GRAVITY_ARM
 
 from simbridge.endpoint.backends.ros1_genpy import generate_python_messages
@@ -91,23 +96,6 @@ print(json.dumps(out))
 """
 
 
-def _start_endpoint(master: RosMaster, port: int, log: Path) -> subprocess.Popen[bytes]:
-    command = [sys.executable, "-m", "simbridge.cli", "endpoint", "--backend", "ros1"]
-    command += ["--port", str(port), "--idle-timeout", "0", "--node-name", "/jtc_endpoint"]
-    with log.open("wb") as out:
-        process = subprocess.Popen(
-            command, env=master.env, stdout=out, stderr=subprocess.STDOUT,
-            stdin=subprocess.DEVNULL, start_new_session=True,
-        )  # fmt: skip
-    deadline = time.monotonic() + 60
-    while time.monotonic() < deadline and process.poll() is None:
-        if re.search(r"listening on \S+:\d+", log.read_text(errors="replace")):
-            return process
-        time.sleep(0.1)
-    terminate(process)
-    raise AssertionError("the endpoint did not start:\n" + log.read_text(errors="replace"))
-
-
 def _scene(tmp_path: Path) -> Path:
     (tmp_path / "arm.urdf").write_text(GRAVITY_ARM)
     controllers = {
@@ -145,7 +133,7 @@ def test_simple_action_client_drives_the_namespaced_controllers(tmp_path: Path) 
         env = dict(master.env)
         for key, value in extra.items():
             env[key] = os.pathsep.join(v for v in (value, env.get(key, "")) if v)
-        endpoint = _start_endpoint(master, port, tmp_path / "endpoint.log")
+        endpoint = EndpointProcess(master, "/jtc_endpoint", port=port)
         sim_command = [sys.executable, "-m", "simbridge.cli", "sim", str(scene)]
         sim_command += ["--endpoint", f"127.0.0.1:{port}", "--duration", "120"]
         client = subprocess.Popen(
@@ -157,7 +145,7 @@ def test_simple_action_client_drives_the_namespaced_controllers(tmp_path: Path) 
                 out, err = client.communicate(timeout=180)
         finally:
             terminate(client)
-            terminate(endpoint)
+            endpoint.stop()
     assert client.returncode == 0, err[-3000:]
     result = json.loads(out.strip().splitlines()[-1])
     assert all(result["server"]), result

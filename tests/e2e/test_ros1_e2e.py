@@ -7,8 +7,6 @@ so it is a separate ROS node that can be killed and restarted.
 from __future__ import annotations
 
 import contextlib
-import re
-import signal
 import struct
 import subprocess
 import sys
@@ -19,9 +17,19 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import pytest
-from tests.ros1support import SYSTEM_PYTHON, RosMaster, free_port, require_ros, terminate
+from tests.ros1support import (
+    FAST,
+    SYSTEM_PYTHON,
+    EndpointProcess,
+    RosMaster,
+    free_port,
+    require_ros,
+    ros_string,
+    terminate,
+    wait_until,
+)
 
-from simbridge.connector import Connector, ConnectorOptions
+from simbridge.connector import Connector
 from simbridge.errors import ServiceError
 
 require_ros(module_level=True)
@@ -30,92 +38,16 @@ import rosgraph  # noqa: E402
 
 pytestmark = [pytest.mark.ros1, pytest.mark.timeout(180)]
 
-FAST = ConnectorOptions(
-    keepalive_interval=0.2,
-    dead_timeout=1.0,
-    connect_timeout=1.0,
-    reconnect_initial=0.1,
-    reconnect_max=0.5,
-    service_timeout=10.0,
-    request_timeout=5.0,
-)
-
-
-def ros_string(text: str) -> bytes:
-    """std_msgs/String by hand: uint32 LE length + UTF-8 bytes."""
-    raw = text.encode()
-    return struct.pack("<I", len(raw)) + raw
-
-
-def wait_until(predicate: Callable[[], bool], timeout: float, what: str) -> None:
-    deadline = time.monotonic() + timeout
-    while not predicate():
-        if time.monotonic() > deadline:
-            raise AssertionError(f"timed out waiting for {what}")
-        time.sleep(0.05)
-
-
-class Endpoint:
-    """`simbridge endpoint --backend ros1` in its own process group."""
-
-    def __init__(
-        self, master: RosMaster, port: int, node_name: str = "/simbridge_endpoint"
-    ) -> None:
-        self.port = port
-        command = [sys.executable, "-m", "simbridge.cli", "endpoint", "--backend", "ros1"]
-        self.process = subprocess.Popen(
-            [*command, "--port", str(port), "--idle-timeout", "0", "--node-name", node_name],
-            env=master.env,
-            stdout=subprocess.PIPE,
-            stderr=subprocess.STDOUT,
-            stdin=subprocess.DEVNULL,
-            text=True,
-            start_new_session=True,
-        )
-        assert self.process.stdout is not None
-        self.startup_lines: list[str] = []
-        lines = self.startup_lines
-        deadline = time.monotonic() + 30
-        while time.monotonic() < deadline:
-            line = self.process.stdout.readline()
-            if not line:
-                break
-            lines.append(line)
-            if re.search(r"listening on \S+:\d+", line):
-                break
-        else:
-            line = ""
-        if not re.search(r"listening on \S+:\d+", line):
-            self.stop()
-            raise AssertionError("the endpoint did not start:\n" + "".join(lines))
-        self._drain = threading.Thread(target=self.process.stdout.read, daemon=True)
-        self._drain.start()
-
-    def kill(self) -> None:
-        """Crash it: SIGKILL, no chance to unregister."""
-        self.process.send_signal(signal.SIGKILL)
-        self.process.wait(10)
-
-    def stop(self) -> None:
-        terminate(self.process)
-
 
 @pytest.fixture(scope="module")
-def master() -> Iterator[RosMaster]:
-    require_ros()
-    with RosMaster() as master:
-        yield master
-
-
-@pytest.fixture(scope="module")
-def endpoint(master: RosMaster) -> Iterator[Endpoint]:
-    ep = Endpoint(master, free_port())
+def endpoint(master: RosMaster) -> Iterator[EndpointProcess]:
+    ep = EndpointProcess(master, "/simbridge_endpoint")
     yield ep
     ep.stop()
 
 
 @pytest.fixture
-def connector(endpoint: Endpoint) -> Iterator[Connector]:
+def connector(endpoint: EndpointProcess) -> Iterator[Connector]:
     conn = Connector("127.0.0.1", endpoint.port, FAST).connect(wait=10)
     yield conn
     conn.close()
@@ -139,9 +71,9 @@ def echo_once(master: RosMaster, topic: str, publish: Callable[[], None]) -> str
     return out
 
 
-def test_endpoint_keeps_its_console_logging_after_joining(endpoint: Endpoint) -> None:
+def test_endpoint_keeps_its_console_logging_after_joining(endpoint: EndpointProcess) -> None:
     """rospy's logging config replaces root handlers; the CLI's console must survive it."""
-    assert any("joined ROS master" in line for line in endpoint.startup_lines)
+    assert any("joined ROS master" in line for line in endpoint.lines)
 
 
 def test_connector_publication_reaches_rostopic_echo(
@@ -233,9 +165,9 @@ def test_restarted_endpoint_gets_data_flowing_again(master: RosMaster) -> None:
     # Its own node name: a second node with the module endpoint's name would make the
     # master shut that one down (ROS replaces a node by a newcomer with the same name).
     port, name = free_port(), "/simbridge_restarted"
-    first = Endpoint(master, port, name)
+    first = EndpointProcess(master, name, port=port)
     conn = Connector("127.0.0.1", port, FAST).connect(wait=10)
-    second: Endpoint | None = None
+    second: EndpointProcess | None = None
     try:
         publisher = conn.register_publisher("/e2e/heartbeat", "std_msgs/String")
         before = echo_once(master, "/e2e/heartbeat", lambda: publisher.publish(ros_string("one")))
@@ -243,7 +175,7 @@ def test_restarted_endpoint_gets_data_flowing_again(master: RosMaster) -> None:
 
         first.kill()
         wait_until(lambda: not conn.connected, 10, "the connector to notice the crash")
-        second = Endpoint(master, port, name)
+        second = EndpointProcess(master, name, port=port)
         assert conn.wait_connected(15)
 
         def publish() -> None:
@@ -260,7 +192,7 @@ def test_restarted_endpoint_gets_data_flowing_again(master: RosMaster) -> None:
 
 
 def test_remove_commands_and_disconnect_unregister_from_master(
-    master: RosMaster, endpoint: Endpoint
+    master: RosMaster, endpoint: EndpointProcess
 ) -> None:
     conn = Connector("127.0.0.1", endpoint.port, FAST).connect(wait=10)
     try:

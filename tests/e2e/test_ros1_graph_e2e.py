@@ -7,97 +7,28 @@ endpoint process on the module's private roscore.
 from __future__ import annotations
 
 import logging
-import re
 import signal
-import subprocess
 import sys
 import textwrap
-import threading
-import time
-from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import pytest
-from tests.ros1support import SYSTEM_PYTHON, RosMaster, free_port, require_ros, terminate
+from tests.ros1support import (
+    FAST,
+    SYSTEM_PYTHON,
+    EndpointProcess,
+    RosMaster,
+    require_ros,
+    wait_until,
+)
 
-from simbridge.connector import Connector, ConnectorOptions
+from simbridge.connector import Connector
 
 require_ros(module_level=True)
 
 import rosgraph  # noqa: E402
 
 pytestmark = [pytest.mark.ros1, pytest.mark.timeout(180)]
-
-FAST = ConnectorOptions(
-    keepalive_interval=0.2,
-    dead_timeout=1.0,
-    connect_timeout=1.0,
-    reconnect_initial=0.1,
-    reconnect_max=0.5,
-    service_timeout=10.0,
-    request_timeout=5.0,
-)
-
-
-def wait_until(predicate: Callable[[], bool], timeout: float, what: str) -> None:
-    deadline = time.monotonic() + timeout
-    while not predicate():
-        if time.monotonic() > deadline:
-            raise AssertionError(f"timed out waiting for {what}")
-        time.sleep(0.05)
-
-
-class EndpointProcess:
-    """`simbridge endpoint --backend ros1` in its own session; its output is collected."""
-
-    def __init__(self, master: RosMaster, node_name: str, *extra: str) -> None:
-        self.port = free_port()
-        self.node_name = node_name
-        command = [sys.executable, "-m", "simbridge.cli", "endpoint", "--backend", "ros1"]
-        options = ["--port", str(self.port), "--idle-timeout", "0", "--node-name", node_name]
-        self.process = subprocess.Popen(
-            [*command, *options, *extra],
-            env=master.env,
-            stdout=subprocess.PIPE,
-            stderr=subprocess.STDOUT,
-            stdin=subprocess.DEVNULL,
-            text=True,
-            start_new_session=True,
-        )
-        assert self.process.stdout is not None
-        self.lines: list[str] = []
-        deadline = time.monotonic() + 30
-        while time.monotonic() < deadline:
-            line = self.process.stdout.readline()
-            if not line:
-                break
-            self.lines.append(line)
-            if re.search(r"listening on \S+:\d+", line):
-                break
-        if not self.lines or "listening on" not in self.lines[-1]:
-            self.stop()
-            raise AssertionError("the endpoint did not start:\n" + "".join(self.lines))
-        self._reader = threading.Thread(target=self._read, daemon=True)
-        self._reader.start()
-
-    def _read(self) -> None:
-        assert self.process.stdout is not None
-        for line in self.process.stdout:
-            self.lines.append(line)
-
-    def output(self) -> str:
-        return "".join(self.lines)
-
-    def stop(self) -> None:
-        terminate(self.process)
-
-
-@pytest.fixture(scope="module")
-def master() -> Iterator[RosMaster]:
-    require_ros()
-    with RosMaster() as master:
-        yield master
-
 
 def system_state(master: RosMaster) -> list[list[tuple[str, list[str]]]]:
     state: list[list[tuple[str, list[str]]]] = rosgraph.Master(

@@ -3,15 +3,22 @@
 
 from __future__ import annotations
 
-import struct
+import dataclasses
 import sys
 import time
-from collections.abc import Callable
 
 import pytest
-from tests.ros1support import RosMaster, free_port, require_ros, terminate
+from tests.ros1support import FAST as E2E_FAST
+from tests.ros1support import (
+    RosMaster,
+    free_port,
+    require_ros,
+    ros_string,
+    terminate,
+    wait_until,
+)
 
-from simbridge.connector import Connector, ConnectorOptions
+from simbridge.connector import Connector
 
 require_ros(module_level=True)
 
@@ -22,32 +29,9 @@ from simbridge.errors import EndpointError  # noqa: E402
 
 pytestmark = [pytest.mark.ros1, pytest.mark.timeout(240)]
 
-FAST = ConnectorOptions(
-    keepalive_interval=0.2,
-    dead_timeout=2.0,
-    connect_timeout=1.0,
-    reconnect_initial=0.1,
-    reconnect_max=0.5,
-    service_timeout=10.0,
-    request_timeout=5.0,
-)
+FAST = dataclasses.replace(E2E_FAST, dead_timeout=2.0)
 REREGISTERED_WITHIN_S = 5.0
 """From the new master answering to every registration being back."""
-
-
-def ros_string(text: str) -> bytes:
-    raw = text.encode()
-    return struct.pack("<I", len(raw)) + raw
-
-
-def wait_until(predicate: Callable[[], bool], timeout: float, what: str) -> float:
-    """Seconds it took until `predicate()`."""
-    start = time.monotonic()
-    while not predicate():
-        if time.monotonic() - start > timeout:
-            raise AssertionError(f"timed out waiting for {what}")
-        time.sleep(0.05)
-    return time.monotonic() - start
 
 
 def registered(master: RosMaster, entry: str) -> bool:

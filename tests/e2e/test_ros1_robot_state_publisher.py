@@ -12,17 +12,21 @@ from __future__ import annotations
 
 import json
 import os
-import re
 import shutil
 import subprocess
 import sys
-import time
 import xmlrpc.client
 from pathlib import Path
 
 import pytest
 import yaml
-from tests.ros1support import SYSTEM_PYTHON, RosMaster, free_port, require_ros, terminate
+from tests.ros1support import (
+    SYSTEM_PYTHON,
+    EndpointProcess,
+    RosMaster,
+    free_port,
+    require_ros,
+)
 from tests.sim.urdf_samples import GRAVITY_ARM
 
 require_ros(module_level=True)
@@ -98,23 +102,6 @@ def _require_rsp() -> str:
     pytest.skip(message)
 
 
-def _start_endpoint(master: RosMaster, port: int, log: Path) -> subprocess.Popen[bytes]:
-    command = [sys.executable, "-m", "simbridge.cli", "endpoint", "--backend", "ros1"]
-    command += ["--port", str(port), "--idle-timeout", "0", "--node-name", "/rsp_test_endpoint"]
-    with log.open("wb") as out:
-        process = subprocess.Popen(
-            command, env=master.env, stdout=out, stderr=subprocess.STDOUT,
-            stdin=subprocess.DEVNULL, start_new_session=True,
-        )  # fmt: skip
-    deadline = time.monotonic() + 60
-    while time.monotonic() < deadline and process.poll() is None:
-        if re.search(r"listening on \S+:\d+", log.read_text(errors="replace")):
-            return process
-        time.sleep(0.1)
-    terminate(process)
-    raise AssertionError("the endpoint did not start:\n" + log.read_text(errors="replace"))
-
-
 def test_sim_tf_matches_robot_state_publisher(tmp_path: Path) -> None:
     rosrun = _require_rsp()
     (tmp_path / "arm.urdf").write_text(GRAVITY_ARM)
@@ -131,7 +118,7 @@ def test_sim_tf_matches_robot_state_publisher(tmp_path: Path) -> None:
     port = free_port()
     with RosMaster() as master:
         xmlrpc.client.ServerProxy(master.uri).setParam("/test", "/robot_description", GRAVITY_ARM)
-        endpoint = _start_endpoint(master, port, tmp_path / "endpoint.log")
+        endpoint = EndpointProcess(master, "/rsp_test_endpoint", port=port)
         rsp_command = [rosrun, "robot_state_publisher", "robot_state_publisher"]
         rsp_command += ["tf:=/rsp/tf", "tf_static:=/rsp/tf_static", "_publish_frequency:=1000"]
         compare_command = [SYSTEM_PYTHON, "-c", COMPARE_NODE, "100"]
@@ -145,7 +132,7 @@ def test_sim_tf_matches_robot_state_publisher(tmp_path: Path) -> None:
             ):
                 out, err = compare.communicate(timeout=150)
         finally:
-            terminate(endpoint)
+            endpoint.stop()
     assert compare.returncode == 0, err
     result = json.loads(out.strip().splitlines()[-1])
     assert result["links"] == ["finger_a", "finger_b", "fore", "spin", "upper"], result

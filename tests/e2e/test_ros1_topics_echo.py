@@ -9,10 +9,8 @@ position and velocity commands) switched on as a scene without a `commands` key 
 
 from __future__ import annotations
 
-import re
 import subprocess
 import sys
-import threading
 import time
 import xmlrpc.client
 from collections.abc import Iterator
@@ -21,7 +19,7 @@ from typing import Any
 
 import pytest
 import yaml
-from tests.ros1support import RosMaster, free_port, require_ros, terminate
+from tests.ros1support import EndpointProcess, RosMaster, free_port, require_ros, terminate
 
 from simbridge.apps.mobile_robot import SCENE_PATH
 
@@ -51,33 +49,6 @@ def _scene(tmp_path: Path) -> Path:
     return scene
 
 
-def _start_endpoint(master: RosMaster, port: int) -> subprocess.Popen[str]:
-    command = [sys.executable, "-m", "simbridge.cli", "endpoint", "--backend", "ros1"]
-    command += ["--port", str(port), "--idle-timeout", "0", "--node-name", NODE]
-    process = subprocess.Popen(
-        command,
-        env=master.env,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        stdin=subprocess.DEVNULL,
-        text=True,
-        start_new_session=True,
-    )
-    assert process.stdout is not None
-    lines: list[str] = []
-    deadline = time.monotonic() + 60
-    while time.monotonic() < deadline:
-        line = process.stdout.readline()
-        lines.append(line)
-        if not line or re.search(r"listening on \S+:\d+", line):
-            break
-    if not re.search(r"listening on \S+:\d+", lines[-1]):
-        terminate(process)
-        raise AssertionError("the endpoint did not start:\n" + "".join(lines))
-    threading.Thread(target=process.stdout.read, daemon=True).start()
-    return process
-
-
 @pytest.fixture(scope="module")
 def graph(tmp_path_factory: pytest.TempPathFactory) -> Iterator[RosMaster]:
     """roscore, the ros1 endpoint and `simbridge sim` on the demo scene, paced at real time."""
@@ -85,7 +56,7 @@ def graph(tmp_path_factory: pytest.TempPathFactory) -> Iterator[RosMaster]:
     scene = _scene(tmp_path_factory.mktemp("scene"))
     port = free_port()
     with RosMaster() as master:
-        endpoint = _start_endpoint(master, port)
+        endpoint = EndpointProcess(master, NODE, port=port)
         sim_command = [sys.executable, "-m", "simbridge.cli", "sim", str(scene)]
         sim_command += ["--endpoint", f"127.0.0.1:{port}", "--duration", "600", "--realtime", "1"]
         try:
@@ -93,7 +64,7 @@ def graph(tmp_path_factory: pytest.TempPathFactory) -> Iterator[RosMaster]:
                 _wait_for_topics(master, sim)
                 yield master
         finally:
-            terminate(endpoint)
+            endpoint.stop()
 
 
 def _master_call(master: RosMaster, method: str) -> Any:

@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 import pytest
 from PIL import Image
-from tests.ros1support import RosMaster, free_port, require_ros, terminate
+from tests.ros1support import EndpointProcess, RosMaster, free_port, require_ros, terminate
 
 from simbridge.apps.rviz import DEMOS, demo_config_path
 
@@ -82,23 +82,6 @@ def robot_blue(rgb: np.ndarray) -> np.ndarray:
     return (b > 70) & (b > 1.6 * r) & (g > 0.3 * b) & (g < 0.8 * b)
 
 
-def _start_endpoint(master: RosMaster, port: int, log: Path) -> subprocess.Popen[bytes]:
-    command = [sys.executable, "-m", "simbridge.cli", "endpoint", "--backend", "ros1"]
-    command += ["--port", str(port), "--idle-timeout", "0", "--node-name", "/rviz_test_endpoint"]
-    with log.open("wb") as out:
-        process = subprocess.Popen(
-            command, env=master.env, stdout=out, stderr=subprocess.STDOUT,
-            stdin=subprocess.DEVNULL, start_new_session=True,
-        )  # fmt: skip
-    deadline = time.monotonic() + 60
-    while time.monotonic() < deadline and process.poll() is None:
-        if re.search(r"listening on \S+:\d+", log.read_text(errors="replace")):
-            return process
-        time.sleep(0.1)
-    terminate(process)
-    raise AssertionError("the endpoint did not start:\n" + log.read_text(errors="replace"))
-
-
 def _start_xvfb(fbdir: Path) -> tuple[subprocess.Popen[bytes], int]:
     """Xvfb on a display it picks itself (-displayfd), framebuffer in `fbdir`."""
     assert XVFB is not None
@@ -137,7 +120,7 @@ def test_rviz_draws_the_mobile_robot(tmp_path: Path) -> None:
     (tmp_path / "rosconsole.config").write_text(ROSCONSOLE)
     rviz_log = tmp_path / "rviz.log"
     with RosMaster() as master:
-        endpoint = _start_endpoint(master, port, tmp_path / "endpoint.log")
+        endpoint = EndpointProcess(master, "/rviz_test_endpoint", port=port)
         sim_command = [sys.executable, "-m", "simbridge.cli", "sim", str(DEMOS["mobile-robot"])]
         sim_command += ["--endpoint", f"127.0.0.1:{port}", "--duration", "300"]
         xvfb: subprocess.Popen[bytes] | None = None
@@ -184,7 +167,7 @@ def test_rviz_draws_the_mobile_robot(tmp_path: Path) -> None:
             for process in (rviz, xvfb, sim):
                 if process is not None:
                     terminate(process)
-            terminate(endpoint)
+            endpoint.stop()
     log = rviz_log.read_text(errors="replace")
     # transforms asked for before the first /tf arrived fail at DEBUG; none after that
     late = [line for line in log[settled:].splitlines() if _ERRORS.search(line)]
