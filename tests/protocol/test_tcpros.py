@@ -114,6 +114,33 @@ def test_round_trip(fields: dict[str, str], messages: list[bytes]) -> None:
     assert got == messages
 
 
+@given(
+    st.lists(st.binary(max_size=20) | st.binary(min_size=3000, max_size=9000), max_size=6),
+    st.lists(st.integers(min_value=1, max_value=4000), min_size=1, max_size=50),
+    st.sampled_from([bytes, bytearray, memoryview]),
+)
+def test_messages_cut_into_any_chunks(
+    messages: list[bytes], sizes: list[int], kind: type[bytes | bytearray | memoryview]
+) -> None:
+    """Large messages arriving over many chunks, several frames in one chunk, lengths cut
+    in two: every message comes out whole, as bytes, and `pending` counts what waits."""
+    wire = encode_header({"a": "1"}) + b"".join(frame(m) for m in messages)
+    decoder = TcprosDecoder(max_message=10_000)
+    got: list[bytes] = []
+    start = 0
+    while start < len(wire):
+        step = sizes[len(got) % len(sizes)]
+        got += decoder.feed(kind(wire[start : start + step]))
+        start = min(start + step, len(wire))
+        done = sum(len(frame(m)) for m in got) + len(encode_header({"a": "1"}))
+        if decoder.header is not None:
+            assert decoder.pending == start - done
+    assert decoder.header == {"a": "1"}
+    assert got == messages
+    assert all(type(m) is bytes for m in got)
+    assert decoder.pending == 0
+
+
 @settings(max_examples=500)
 @given(st.lists(st.binary(max_size=64), max_size=10))
 def test_fuzz_never_crashes(chunks: list[bytes]) -> None:

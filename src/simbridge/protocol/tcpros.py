@@ -87,13 +87,25 @@ def frame(payload: bytes) -> bytes:
 
 
 class TcprosDecoder:
-    """Incremental parser of one connection's bytes: the header first, then messages."""
+    """Incremental parser of one connection's bytes: the header first, then messages.
 
-    __slots__ = ("_buffer", "_max_message", "header")
+    Each chunk is parsed where it lies; a frame cut by a chunk's end is kept as the
+    pieces that arrived (views of their chunks, not copies) and joined once when its
+    last byte comes, so a camera image read in 256 KiB chunks costs one copy instead of
+    a buffer grown and copied chunk by chunk.
+    """
+
+    __slots__ = ("_have", "_head", "_max_message", "_need", "_parts", "header")
 
     def __init__(self, max_message: int) -> None:
-        self._buffer = bytearray()
         self._max_message = max_message
+        self._head = b""
+        """Fewer than 4 bytes of a length prefix, waiting for the rest."""
+        self._parts: list[bytes | memoryview] = []
+        """The body received so far of the frame whose length prefix came last."""
+        self._have = 0
+        self._need = 0
+        """Body bytes of that frame: `_have` of `_need` received."""
         self.header: dict[str, str] | None = None
         """The peer's header once it has arrived."""
 
@@ -102,46 +114,63 @@ class TcprosDecoder:
 
         Raises TcprosError when a length is over its limit or the header is malformed.
         """
-        buffer = self._buffer
-        if buffer:
-            buffer += data
-            source: bytes | bytearray = buffer
-        else:
-            source = bytes(data)  # common case: parse the chunk as it came, no buffer copy
+        source = data if type(data) is bytes else bytes(data)
         messages: list[bytes] = []
         offset = 0
+        if self._head:
+            source = self._head + source
+            self._head = b""
+        elif self._parts:
+            cut = self._need - self._have
+            if len(source) < cut:
+                self._parts.append(source)
+                self._have += len(source)
+                return messages
+            parts = self._parts
+            parts.append(memoryview(source)[:cut] if cut < len(source) else source)
+            self._parts, self._have, self._need = [], 0, 0
+            self._complete(b"".join(parts), messages)
+            offset = cut
         available = len(source)
         unpack = _U32.unpack_from
-        limit = self._max_message
-        with memoryview(source) as view:  # released before the buffer is resized
-            while available - offset >= 4:
-                (size,) = unpack(source, offset)
-                if self.header is None:
-                    if size > MAX_HEADER_SIZE:
-                        raise TcprosError(
-                            f"connection header of {size} bytes is over the limit of "
-                            f"{MAX_HEADER_SIZE} bytes"
-                        )
-                elif size > limit:
-                    raise TcprosError(
-                        f"message of {size} bytes is over the limit of {limit} bytes"
-                    )
-                start = offset + 4
-                if available - start < size:
-                    break
-                offset = start + size
-                if self.header is None:
-                    self.header = decode_header(bytes(view[start:offset]))
-                else:
-                    messages.append(bytes(view[start:offset]))
-        if source is buffer:
-            if offset:
-                del buffer[:offset]
-        elif offset < available:
-            buffer += source[offset:]
+        view = memoryview(source)
+        limit = MAX_HEADER_SIZE if self.header is None else self._max_message
+        while available - offset >= 4:
+            (size,) = unpack(source, offset)
+            if size > limit:
+                raise self._too_big(size)
+            start = offset + 4
+            if available - start < size:
+                self._parts = [view[start:]]
+                self._have, self._need = available - start, size
+                return messages
+            offset = start + size
+            if self.header is None:
+                self.header = decode_header(view[start:offset])
+                limit = self._max_message
+            else:
+                messages.append(bytes(view[start:offset]))
+        if offset < available:
+            self._head = source[offset:]
         return messages
+
+    def _too_big(self, size: int) -> TcprosError:
+        """The error for a length over its limit (raised before anything is buffered)."""
+        if self.header is None:
+            return TcprosError(
+                f"connection header of {size} bytes is over the limit of {MAX_HEADER_SIZE} bytes"
+            )
+        return TcprosError(
+            f"message of {size} bytes is over the limit of {self._max_message} bytes"
+        )
+
+    def _complete(self, body: bytes, messages: list[bytes]) -> None:
+        if self.header is None:
+            self.header = decode_header(body)
+        else:
+            messages.append(body)
 
     @property
     def pending(self) -> int:
         """Bytes received but not yet part of a complete frame."""
-        return len(self._buffer)
+        return len(self._head) + (self._have + 4 if self._parts else 0)
