@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from typing import Any
 
 import pytest
@@ -29,6 +29,7 @@ from simbridge.messages.actionlib import (
     SUCCEEDED,
     ServerGoal,
 )
+from tests.waiting import wait_for
 
 REG = default_registry()
 ACTION = "control_msgs/GripperCommand"
@@ -66,15 +67,6 @@ class Gripper:
 def _goal(position: float, effort: float = 1.0) -> Any:
     command = REG.new("control_msgs/GripperCommand", position=position, max_effort=effort)
     return REG.new("control_msgs/GripperCommandGoal", command=command)
-
-
-def _wait(predicate: Callable[[], bool], timeout: float = 5.0) -> bool:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if predicate():
-            return True
-        time.sleep(0.005)
-    return predicate()
 
 
 @pytest.fixture
@@ -115,9 +107,9 @@ def test_goal_feedback_result_cancel_reject_abort(
         time.sleep(0.2)  # subscriptions settle on both sides
         feedback: list[Any] = []
         done = client.send_goal(_goal(0.03), on_feedback=feedback.append)
-        assert _wait(lambda: len(gripper.goals) == 1)
-        assert _wait(lambda: done.status == ACTIVE)  # from the status topic
-        assert _wait(lambda: bool(feedback))
+        assert wait_for(lambda: len(gripper.goals) == 1)
+        assert wait_for(lambda: done.status == ACTIVE)  # from the status topic
+        assert wait_for(lambda: bool(feedback))
         assert feedback[0].position == pytest.approx(0.01)
         gripper.finish(gripper.goals[0])
         assert done.wait(5)
@@ -127,7 +119,7 @@ def test_goal_feedback_result_cancel_reject_abort(
         assert gripper.goals[0].id == done.id
 
         running = client.send_goal(_goal(0.02))
-        assert _wait(lambda: running.status == ACTIVE)
+        assert wait_for(lambda: running.status == ACTIVE)
         running.cancel()
         assert running.wait(5)
         assert running.status == PREEMPTED
@@ -135,7 +127,7 @@ def test_goal_feedback_result_cancel_reject_abort(
         assert gripper.canceled == [running.id]
 
         pending = client.send_goal(_goal(0.02, effort=99))  # never accepted
-        assert _wait(lambda: len(gripper.goals) == 3)
+        assert wait_for(lambda: len(gripper.goals) == 3)
         client.cancel_all()
         assert pending.wait(5)
         assert pending.status == RECALLED

@@ -22,7 +22,8 @@ from simbridge.connector import Connector, ConnectorOptions
 from simbridge.endpoint import EndpointOptions, EndpointThread, LocalBus, Node
 from simbridge.errors import ServiceError
 from simbridge.messages import MessageRegistry, default_registry, registry_for
-from tests.connector.conftest import FAST, wait_until
+from tests.connector.conftest import FAST
+from tests.waiting import wait_for
 
 REG = default_registry()
 
@@ -90,7 +91,7 @@ def test_topic_between_two_connectors_with_message_objects(endpoint, make_connec
     ros = make_connector(endpoint.port).connect()
     got: queue.Queue[Any] = queue.Queue()
     ros.subscribe("/cmd_vel", "geometry_msgs/Twist", got.put)
-    assert wait_until(lambda: "/cmd_vel" in sim.topic_list())
+    assert wait_for(lambda: "/cmd_vel" in sim.topic_list())
     pub = sim.register_publisher("/cmd_vel", "geometry_msgs/Twist")
     for i in range(5):
         pub.publish(twist(reg, 0.5 * i, -0.25))
@@ -166,7 +167,7 @@ def test_topic_list_names_types(endpoint, make_connector, reg):
     sim = make_connector(endpoint.port).connect()
     sim.register_publisher("/joint_states", "sensor_msgs/JointState")
     sim.subscribe("/cmd_vel", "geometry_msgs/Twist", lambda _m: None)
-    assert wait_until(lambda: len(sim.topic_list()) >= 2)
+    assert wait_for(lambda: len(sim.topic_list()) >= 2)
     topics = sim.topic_list()
     assert topics["/joint_states"] == "sensor_msgs/JointState"
     assert topics["/cmd_vel"] == "geometry_msgs/Twist"
@@ -191,14 +192,14 @@ def test_twenty_concurrent_clients(endpoint, make_connector, reg):
         reports.append(
             client.register_publisher("/reports", "std_msgs/Int32", report_subscribers=True)
         )
-    assert wait_until(lambda: len(collector.topic_list()) >= 2)
+    assert wait_for(lambda: len(collector.topic_list()) >= 2)
     # Every publisher sees the collector (in DDS, messages sent before a publisher and a
     # subscription have discovered each other are lost).
-    assert wait_until(lambda: all((p.subscriber_count or 0) >= 1 for p in reports))
+    assert wait_for(lambda: all((p.subscriber_count or 0) >= 1 for p in reports))
     time.sleep(0.3)  # every registration has reached the endpoint
     source = make_connector(endpoint.port).connect()
     pub = source.register_publisher("/broadcast", "std_msgs/Int32", report_subscribers=True)
-    assert wait_until(lambda: (pub.subscriber_count or 0) >= 20)
+    assert wait_for(lambda: (pub.subscriber_count or 0) >= 20)
     for n in range(50):
         pub.publish(reg.new("std_msgs/Int32", data=n))
 
@@ -215,8 +216,8 @@ def test_twenty_concurrent_clients(endpoint, make_connector, reg):
         for t in threads:
             t.join()
         expected = 20 * (n + 1)
-        assert wait_until(lambda: len(collected) == expected), len(collected)  # noqa: B023
-    assert wait_until(lambda: all(len(box) == 50 for box in inboxes))
+        assert wait_for(lambda: len(collected) == expected), len(collected)  # noqa: B023
+    assert wait_for(lambda: all(len(box) == 50 for box in inboxes))
     assert all(box == list(range(50)) for box in inboxes)
     assert sorted(collected) == sorted(i * 100 + n for i in range(20) for n in range(10))
 
@@ -238,12 +239,12 @@ def test_traffic_resumes_after_endpoint_restart_without_reregistering():
         )
         ros.register_ros_service("/sim/ping", "std_srvs/Trigger")
         pub = sim.register_publisher("/odom_x", "std_msgs/Float64")
-        assert wait_until(lambda: len(ros.topic_list()) >= 1)
+        assert wait_for(lambda: len(ros.topic_list()) >= 1)
         pub.publish(REG.new("std_msgs/Float64", data=1.0))
         assert got.get(timeout=5) == 1.0
 
         first.stop()
-        assert wait_until(lambda: not sim.connected and not ros.connected, timeout=3)
+        assert wait_for(lambda: not sim.connected and not ros.connected, timeout=3)
         t0 = time.monotonic()
         second = EndpointThread(EndpointOptions(port=port)).start()
         resumed = None
@@ -270,14 +271,14 @@ def test_dead_endpoint_detected_within_dead_timeout(make_connector):
     with EndpointThread(EndpointOptions(port=0, keepalive_interval=0.2)) as ep:
         options = dataclasses.replace(FAST, dead_timeout=0.6)
         sim = make_connector(ep.port, options).connect()
-        assert wait_until(lambda: sim.handshake is not None)
+        assert wait_for(lambda: sim.handshake is not None)
         assert sim.handshake is not None
         assert sim.handshake.metadata.get("keepalive") == 0.2
         # freeze the endpoint's event loop: the TCP connection stays open but goes silent
         frozen = threading.Event()
         ep.loop.call_soon_threadsafe(lambda: frozen.wait(3.0))
         t0 = time.monotonic()
-        assert wait_until(lambda: not sim.connected, timeout=2.5)
+        assert wait_for(lambda: not sim.connected, timeout=2.5)
         assert time.monotonic() - t0 < 0.6 + 1.0
         frozen.set()
         assert sim.wait_connected(3.0)
@@ -301,14 +302,14 @@ def test_subscriber_counts_follow_subscriptions(endpoint, make_connector, reg):
     sim = make_connector(endpoint.port).connect()
     scan = sim.register_publisher("/scan", "sensor_msgs/LaserScan", report_subscribers=True)
     plain = sim.register_publisher("/plain", "std_msgs/String")
-    assert wait_until(lambda: scan.subscriber_count == 0)
+    assert wait_for(lambda: scan.subscriber_count == 0)
     assert not scan.has_subscribers
     viewer = make_connector(endpoint.port).connect()
     sub = viewer.subscribe("/scan", "sensor_msgs/LaserScan", lambda _m: None)
-    assert wait_until(lambda: scan.subscriber_count == 1)
+    assert wait_for(lambda: scan.subscriber_count == 1)
     assert scan.has_subscribers
     sub.unsubscribe()
-    assert wait_until(lambda: scan.subscriber_count == 0)
+    assert wait_for(lambda: scan.subscriber_count == 0)
     assert plain.subscriber_count is None  # not asked for
 
 

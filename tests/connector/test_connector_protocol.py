@@ -34,8 +34,9 @@ from simbridge.protocol import (
     UnityService,
     WarnMessage,
 )
-from tests.connector.conftest import FAST, wait_until
+from tests.connector.conftest import FAST
 from tests.connector.fake_endpoint import FakeEndpoint
+from tests.waiting import wait_for
 
 
 def commands(events: list[Any]) -> list[Any]:
@@ -570,7 +571,7 @@ def test_reconnect_backoff_doubles_up_to_the_maximum(monkeypatch, make_connector
     monkeypatch.setattr(module, "open_link", refuse)
     options = dataclasses.replace(FAST, reconnect_initial=0.1, reconnect_max=0.4)
     conn = make_connector(1, options).connect(wait=None)
-    assert wait_until(lambda: len(attempts) >= 6)
+    assert wait_for(lambda: len(attempts) >= 6)
     conn.close()
     gaps = [b - a for a, b in itertools.pairwise(attempts)][:5]
     for gap, expected in zip(gaps, [0.1, 0.2, 0.4, 0.4, 0.4], strict=True):
@@ -592,7 +593,7 @@ def test_many_threads_publish_concurrently(endpoint: FakeEndpoint, make_connecto
     for t in threads:
         t.join()
     assert conn.flush(5)
-    assert wait_until(
+    assert wait_for(
         lambda: sum(len(messages(endpoint.events(), f"/t{k}")) for k in range(4)) == 16000
     )
     per_thread: dict[int, list[int]] = {}

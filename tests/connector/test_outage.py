@@ -9,7 +9,8 @@ import pytest
 from simbridge.connector import Connector
 from simbridge.endpoint import EndpointOptions, EndpointThread
 from simbridge.errors import ServiceError
-from tests.connector.conftest import FAST, wait_until
+from tests.connector.conftest import FAST
+from tests.waiting import wait_for
 
 
 def test_call_during_endpoint_outage_names_the_unreachable_endpoint() -> None:
@@ -19,7 +20,7 @@ def test_call_during_endpoint_outage_names_the_unreachable_endpoint() -> None:
     try:
         conn.register_ros_service("/reset", "std_srvs/Trigger")
         endpoint.stop()  # outage: nothing listens on the port any more
-        assert wait_until(lambda: not conn.connected, 5)
+        assert wait_for(lambda: not conn.connected, 5)
         t0 = time.monotonic()
         with pytest.raises(ServiceError) as info:
             conn.call("/reset", b"", timeout=0.5)

@@ -12,8 +12,9 @@ import numpy as np
 from simbridge.endpoint import EndpointOptions, EndpointThread, LocalBus, Node
 from simbridge.messages import default_registry, ros2_registry
 from simbridge.protocol import MessageReceived
-from tests.connector.conftest import FAST, wait_until
+from tests.connector.conftest import FAST
 from tests.connector.fake_endpoint import FakeEndpoint
+from tests.waiting import wait_for
 
 
 def test_auto_mode_follows_a_ros2_handshake(make_connector) -> None:
@@ -82,4 +83,4 @@ def test_ros2_layouts_between_a_connector_and_a_ros2_bus_node(make_connector) ->
             pose = got.get(timeout=5)
             assert pose.header.frame_id == "map"
             assert not hasattr(pose.header, "seq")
-        assert wait_until(lambda: sim.stats().frames_received > 0)
+        assert wait_for(lambda: sim.stats().frames_received > 0)

@@ -13,8 +13,8 @@ from simbridge.connector import Connector
 from simbridge.endpoint import EndpointOptions, EndpointThread, LocalBus
 from simbridge.errors import ConnectorError
 from simbridge.protocol import CommandReceived, SetParam
-from tests.connector.conftest import wait_until
 from tests.connector.fake_endpoint import FakeEndpoint
+from tests.waiting import wait_for
 
 
 def _set_params(endpoint: FakeEndpoint, conn: int = -1) -> list[SetParam]:
@@ -78,11 +78,11 @@ def test_local_bus_keeps_parameters_and_reports_failures(monkeypatch, caplog) ->
     ):
         conn.set_param("/robot_description", "<robot name='r'/>")
         conn.set_param("/limits", {"max": [1, 2]})
-        assert wait_until(lambda: bus.get_param("/limits") == {"max": [1, 2]})
+        assert wait_for(lambda: bus.get_param("/limits") == {"max": [1, 2]})
         assert bus.get_param("/robot_description") == "<robot name='r'/>"
         monkeypatch.setattr(local_module, "MAX_PARAMS", 2)
         with caplog.at_level(logging.ERROR, logger="simbridge.connector"):
             conn.set_param("/third", 3)
-            assert wait_until(lambda: "__set_param '/third' failed" in caplog.text)
+            assert wait_for(lambda: "__set_param '/third' failed" in caplog.text)
         assert "holds 2 parameters (the limit)" in caplog.text
         assert bus.get_param("/third") is None

@@ -4,24 +4,22 @@ preemption and max_effort."""
 
 from __future__ import annotations
 
-import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import pytest
-import yaml
 
-from simbridge.connector import ActionClient, Connector, ConnectorOptions
-from simbridge.endpoint import EndpointOptions, EndpointThread
+from simbridge.connector import ActionClient
 from simbridge.errors import SimError
 from simbridge.messages import default_registry
 from simbridge.messages.actionlib import ABORTED, ACTIVE, PREEMPTED, SUCCEEDED
-from simbridge.sim.ros import SimRosBridge
 from simbridge.sim.scene import load_scene
 from simbridge.sim.world import World
-from tests.sim.urdf_samples import GRAVITY_ARM
+from tests.sim.bridged import BridgedWorld
+from tests.sim.worlds import arm_scene
+from tests.waiting import wait_for
 
 REG = default_registry()
 ACTION = "control_msgs/GripperCommand"
@@ -29,7 +27,6 @@ NAME = "/arm/gripper_controller/gripper_cmd"
 
 
 def _scene(tmp_path: Path, **gripper: Any) -> Path:
-    (tmp_path / "arm.urdf").write_text(GRAVITY_ARM)
     spec = {"type": "gripper_action_controller", "joint": "grip_a", "stall_timeout": 0.2}
     robot = {
         "urdf": "arm.urdf",
@@ -43,45 +40,21 @@ def _scene(tmp_path: Path, **gripper: Any) -> Path:
         },
     }
     scene = {"physics": {"gravity": [0, 0, 0]}, "robots": [robot]}
-    (tmp_path / "scene.yaml").write_text(yaml.safe_dump(scene))
-    return tmp_path / "scene.yaml"
-
-
-def _wait(predicate: Callable[[], bool], timeout: float = 5.0) -> bool:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if predicate():
-            return True
-        time.sleep(0.005)
-    return predicate()
+    return arm_scene(tmp_path, scene)
 
 
 @pytest.fixture
-def rig_factory(tmp_path: Path) -> Iterator[Callable[..., tuple[World, ActionClient]]]:
-    stack: list[Callable[[], None]] = []
-
+def rig_factory(
+    tmp_path: Path, bridged: Callable[[World], BridgedWorld]
+) -> Callable[..., tuple[World, ActionClient]]:
     def make(**gripper: Any) -> tuple[World, ActionClient]:
-        endpoint = EndpointThread(EndpointOptions(port=0)).start()
-        stack.append(endpoint.stop)
-        sim = Connector("127.0.0.1", endpoint.port, ConnectorOptions()).connect(wait=5)
-        stack.append(sim.close)
-        world = World.from_scene(load_scene(_scene(tmp_path, **gripper)))
-        bridge = SimRosBridge(world, sim).start()
-        stack.append(bridge.close)
-        user = Connector("127.0.0.1", endpoint.port, ConnectorOptions()).connect(wait=5)
-        stack.append(user.close)
-        client = ActionClient(user, NAME, ACTION)
-        runner = threading.Thread(target=world.run, kwargs={"realtime_factor": 1.0})
-        runner.start()
-        stack.append(lambda: runner.join(5))
-        stack.append(world.stop)
+        rig = bridged(World.from_scene(load_scene(_scene(tmp_path, **gripper))))
+        client = ActionClient(rig.connect(), NAME, ACTION)
         assert client.wait_for_server(5)
         time.sleep(0.2)
-        return world, client
+        return rig.world, client
 
-    yield make
-    for undo in reversed(stack):
-        undo()
+    return make
 
 
 def _goal(position: float, max_effort: float = 0.0) -> Any:
@@ -116,7 +89,7 @@ def test_allow_stalling_succeeds_and_new_goal_preempts(
 ) -> None:
     _world, client = rig_factory(allow_stalling=True, stall_timeout=30.0)
     slow = client.send_goal(_goal(0.09))
-    assert _wait(lambda: slow.status == ACTIVE)
+    assert wait_for(lambda: slow.status == ACTIVE)
     fast = client.send_goal(_goal(0.01))
     assert slow.wait(5)
     assert slow.status == PREEMPTED

@@ -3,30 +3,28 @@ and the rule that one joint belongs to one controller."""
 
 from __future__ import annotations
 
-import threading
-import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
-import yaml
 
 from simbridge.connector import Connector, ConnectorOptions
-from simbridge.endpoint import EndpointOptions, EndpointThread, LocalBus, Node
+from simbridge.endpoint import Node
 from simbridge.errors import SimError
 from simbridge.messages import default_registry
 from simbridge.sim.ros import GroupCommandController, SimRosBridge
 from simbridge.sim.scene import load_scene
 from simbridge.sim.world import World
-from tests.sim.urdf_samples import GRAVITY_ARM
+from tests.sim.bridged import BridgedWorld
+from tests.sim.worlds import arm_scene
+from tests.waiting import wait_for
 
 REG = default_registry()
 
 
 def _scene(tmp_path: Path, controllers: dict[str, Any]) -> Path:
-    (tmp_path / "arm.urdf").write_text(GRAVITY_ARM)
     robot = {
         "urdf": "arm.urdf",
         "ros": {
@@ -36,8 +34,7 @@ def _scene(tmp_path: Path, controllers: dict[str, Any]) -> Path:
         },
     }
     scene = {"physics": {"gravity": [0, 0, 0]}, "robots": [robot]}
-    (tmp_path / "scene.yaml").write_text(yaml.safe_dump(scene))
-    return tmp_path / "scene.yaml"
+    return arm_scene(tmp_path, scene)
 
 
 CONTROLLERS = {
@@ -47,38 +44,12 @@ CONTROLLERS = {
 }
 
 
-def _wait(predicate: Callable[[], bool], timeout: float = 5.0) -> bool:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if predicate():
-            return True
-        time.sleep(0.005)
-    return predicate()
-
-
 @pytest.fixture
-def rig(tmp_path: Path) -> Iterator[tuple[World, Node, SimRosBridge]]:
-    stack: list[Callable[[], None]] = []
-    try:
-        endpoint = EndpointThread(EndpointOptions(port=0)).start()
-        stack.append(endpoint.stop)
-        sim = Connector("127.0.0.1", endpoint.port, ConnectorOptions()).connect(wait=5)
-        stack.append(sim.close)
-        world = World.from_scene(load_scene(_scene(tmp_path, CONTROLLERS)))
-        bridge = SimRosBridge(world, sim).start()
-        stack.append(bridge.close)
-        assert isinstance(endpoint.backend, LocalBus)
-        node = Node(endpoint.backend, "/tester")
-        stack.append(node.close)
-        assert sim.flush(5)
-        runner = threading.Thread(target=world.run, kwargs={"realtime_factor": 1.0})
-        runner.start()
-        stack.append(lambda: runner.join(5))
-        stack.append(world.stop)
-        yield world, node, bridge
-    finally:
-        for undo in reversed(stack):
-            undo()
+def rig(
+    tmp_path: Path, bridged: Callable[[World], BridgedWorld]
+) -> tuple[World, Node, SimRosBridge]:
+    rig = bridged(World.from_scene(load_scene(_scene(tmp_path, CONTROLLERS))))
+    return rig.world, rig.node, rig.bridge
 
 
 def _array(*values: float) -> Any:
@@ -91,18 +62,18 @@ def test_position_velocity_and_effort_groups(rig: tuple[World, Node, SimRosBridg
     node.advertise("/arm/arm_position/command", "std_msgs/Float64MultiArray").publish(
         _array(0.3, -0.2)
     )
-    assert _wait(
+    assert wait_for(
         lambda: abs(q()["arm/shoulder"] - 0.3) < 2e-3 and abs(q()["arm/elbow"] + 0.2) < 2e-3
     )
     node.advertise("/arm/wrist_velocity/command", "std_msgs/Float64MultiArray").publish(_array(2.0))
-    assert _wait(lambda: abs(v()["arm/wrist"] - 2.0) < 0.02)
+    assert wait_for(lambda: abs(v()["arm/wrist"] - 2.0) < 0.02)
     effort = node.advertise("/arm/finger_effort/command", "std_msgs/Float64MultiArray")
     effort.publish(_array(5.0))  # pushes the finger open against its limit
-    assert _wait(lambda: q()["arm/grip_a"] > 0.045)
+    assert wait_for(lambda: q()["arm/grip_a"] > 0.045)
     effort.publish(_array(1.0, 2.0))
     controller = bridge.robots["arm"].controllers["finger_effort"]
     assert isinstance(controller, GroupCommandController)
-    assert _wait(lambda: bool(controller.errors))
+    assert wait_for(lambda: bool(controller.errors))
     assert "2 values for 1 joints (grip_a)" in controller.errors[0]
 
 

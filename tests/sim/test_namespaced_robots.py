@@ -7,8 +7,7 @@ from __future__ import annotations
 import queue
 import threading
 import time
-from collections.abc import Callable, Iterator
-from dataclasses import dataclass
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -24,30 +23,16 @@ from simbridge.sim.ros import SimRosBridge
 from simbridge.sim.scene import load_scene
 from simbridge.sim.urdf import forward_kinematics, parse_urdf
 from simbridge.sim.world import World
+from tests.sim.bridged import BridgedWorld
 from tests.sim.urdf_samples import GRAVITY_ARM
+from tests.sim.worlds import arm_scene
+from tests.waiting import wait_for
 
 REG = default_registry()
 ARM_JOINTS = ["shoulder", "elbow", "wrist", "grip_a", "grip_b"]
 
 
-@dataclass
-class Rig:
-    world: World
-    node: Node
-    bridge: SimRosBridge
-
-
-def _wait(predicate: Callable[[], bool], timeout: float = 5.0) -> bool:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if predicate():
-            return True
-        time.sleep(0.005)
-    return predicate()
-
-
 def two_arm_scene(tmp_path: Path, **extra: Any) -> Path:
-    (tmp_path / "arm.urdf").write_text(GRAVITY_ARM)
     scene = {
         "physics": {"timestep": 0.002, "gravity": [0, 0, 0]},
         "robots": [
@@ -65,33 +50,12 @@ def two_arm_scene(tmp_path: Path, **extra: Any) -> Path:
             },
         ],
     }
-    (tmp_path / "scene.yaml").write_text(yaml.safe_dump(scene))
-    return tmp_path / "scene.yaml"
+    return arm_scene(tmp_path, scene)
 
 
 @pytest.fixture
-def rig(tmp_path: Path) -> Iterator[Rig]:
-    stack: list[Callable[[], None]] = []
-    try:
-        endpoint = EndpointThread(EndpointOptions(port=0)).start()
-        stack.append(endpoint.stop)
-        connector = Connector("127.0.0.1", endpoint.port, ConnectorOptions()).connect(wait=5)
-        stack.append(connector.close)
-        world = World.from_scene(load_scene(two_arm_scene(tmp_path)))
-        bridge = SimRosBridge(world, connector).start()
-        stack.append(bridge.close)
-        assert isinstance(endpoint.backend, LocalBus)
-        node = Node(endpoint.backend, "/tester")
-        stack.append(node.close)
-        assert connector.flush(5)
-        runner = threading.Thread(target=world.run, kwargs={"realtime_factor": 1.0})
-        runner.start()
-        stack.append(lambda: runner.join(5))
-        stack.append(world.stop)
-        yield Rig(world, node, bridge)
-    finally:
-        for undo in reversed(stack):
-            undo()
+def rig(tmp_path: Path, bridged: Callable[[World], BridgedWorld]) -> BridgedWorld:
+    return bridged(World.from_scene(load_scene(two_arm_scene(tmp_path))))
 
 
 def _collect(node: Node, topic: str, msg_type: str) -> queue.Queue[Any]:
@@ -119,7 +83,7 @@ def test_bad_namespace_is_named(tmp_path: Path) -> None:
         load_scene(two_arm_scene(tmp_path, bogus=1))
 
 
-def test_each_robot_publishes_its_own_joint_states(rig: Rig) -> None:
+def test_each_robot_publishes_its_own_joint_states(rig: BridgedWorld) -> None:
     left = _collect(rig.node, "/arm_left/joint_states", "sensor_msgs/JointState")
     right = _collect(rig.node, "/arm_right/joint_states", "sensor_msgs/JointState")
     for got, shoulder in ((left, 0.3), (right, -0.2)):
@@ -137,7 +101,7 @@ def _edges(msg: Any) -> dict[str, tuple[str, Any]]:
     return {t.child_frame_id: (t.header.frame_id, t.transform) for t in msg.transforms}
 
 
-def test_tf_tree_has_prefixed_frames_under_one_world(rig: Rig) -> None:
+def test_tf_tree_has_prefixed_frames_under_one_world(rig: BridgedWorld) -> None:
     tf = _collect(rig.node, "/tf", "tf2_msgs/TFMessage")
     static = _collect(rig.node, "/tf_static", "tf2_msgs/TFMessage")
     parents: dict[str, tuple[str, Any]] = {}
@@ -180,7 +144,7 @@ def _trajectory(names: list[str], t: float, positions: list[float]) -> Any:
     return REG.new("trajectory_msgs/JointTrajectory", joint_names=names, points=[point])
 
 
-def test_commands_reach_only_their_robot(rig: Rig) -> None:
+def test_commands_reach_only_their_robot(rig: BridgedWorld) -> None:
     left = rig.node.advertise("/arm_left/joint_trajectory", "trajectory_msgs/JointTrajectory")
     right = rig.node.advertise(
         "/arm_right/joint_group_position_controller/command", "std_msgs/Float64MultiArray"
@@ -188,23 +152,23 @@ def test_commands_reach_only_their_robot(rig: Rig) -> None:
     left.publish(_trajectory(["shoulder", "elbow"], 0.3, [0.8, -0.5]))
     q = rig.world.joint_positions
     left_want = {"arm_left/shoulder": 0.8, "arm_left/elbow": -0.5}
-    assert _wait(lambda: all(abs(q()[j] - v) < 2e-3 for j, v in left_want.items()))
+    assert wait_for(lambda: all(abs(q()[j] - v) < 2e-3 for j, v in left_want.items()))
     assert q()["arm_right/shoulder"] == pytest.approx(-0.2, abs=2e-3)
     assert q()["arm_right/elbow"] == pytest.approx(0.0, abs=2e-3)
     # The right arm's group: its driven joints in URDF order (grip_b mimics grip_a).
     right.publish(REG.new("std_msgs/Float64MultiArray", data=np.array([0.1, 0.2, 0.3, 0.01])))
     want = {"arm_right/shoulder": 0.1, "arm_right/elbow": 0.2, "arm_right/wrist": 0.3}
-    assert _wait(lambda: all(abs(q()[j] - v) < 2e-3 for j, v in want.items()))
+    assert wait_for(lambda: all(abs(q()[j] - v) < 2e-3 for j, v in want.items()))
     assert q()["arm_left/shoulder"] == pytest.approx(0.8, abs=2e-3)
 
 
-def test_one_robots_trajectory_does_not_cancel_the_others(rig: Rig) -> None:
+def test_one_robots_trajectory_does_not_cancel_the_others(rig: BridgedWorld) -> None:
     left = rig.node.advertise("/arm_left/joint_trajectory", "trajectory_msgs/JointTrajectory")
     right = rig.node.advertise("/arm_right/joint_trajectory", "trajectory_msgs/JointTrajectory")
     left.publish(_trajectory(["elbow"], 1.0, [0.7]))
     right.publish(_trajectory(["elbow"], 1.0, [-0.7]))
     q = rig.world.joint_positions
-    assert _wait(
+    assert wait_for(
         lambda: abs(q()["arm_left/elbow"] - 0.7) < 2e-3 and abs(q()["arm_right/elbow"] + 0.7) < 2e-3
     )
 
@@ -272,7 +236,7 @@ def test_own_connection_keeps_one_robot_going_when_the_others_connection_drops(
                         REG.new("std_msgs/Float64MultiArray", data=np.array([0.4, 0, 0, 0]))
                     )
                     q = session.world.joint_positions
-                    assert _wait(lambda: abs(q()["arm_right/shoulder"] - 0.4) < 2e-3)
+                    assert wait_for(lambda: abs(q()["arm_right/shoulder"] - 0.4) < 2e-3)
                     # The shared connection fails; the right arm's own one keeps publishing.
                     assert session.connector is not None
                     session.connector.close()

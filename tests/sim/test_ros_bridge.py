@@ -4,70 +4,36 @@ from __future__ import annotations
 
 import math
 import queue
-import threading
 import time
-from collections.abc import Callable, Iterator
-from dataclasses import dataclass
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
 
-from simbridge.connector import Connector, ConnectorOptions
 from simbridge.endpoint import EndpointOptions, EndpointThread, LocalBus, Node
 from simbridge.messages import default_registry
-from simbridge.sim.ros import STEP_SRV, SimRosBridge, trajectory_from_message
+from simbridge.sim.ros import STEP_SRV, trajectory_from_message
 from simbridge.sim.urdf import forward_kinematics, parse_urdf
 from simbridge.sim.world import World
+from tests.sim.bridged import BridgedWorld
 from tests.sim.urdf_samples import GRAVITY_ARM
 from tests.sim.worlds import arm_world
+from tests.waiting import wait_for
 
 REG = default_registry()
 
 
-@dataclass
-class Rig:
-    world: World
-    node: Node
-    bridge: SimRosBridge
-
-
-def _wait(predicate: Callable[[], bool], timeout: float = 5.0) -> bool:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if predicate():
-            return True
-        time.sleep(0.005)
-    return predicate()
-
-
 @pytest.fixture
-def rig_factory(tmp_path: Path) -> Iterator[Callable[..., Rig]]:
-    stack: list[Callable[[], None]] = []
-
-    def make(**overrides: Any) -> Rig:
-        endpoint = EndpointThread(EndpointOptions(port=0)).start()
-        stack.append(endpoint.stop)
-        connector = Connector("127.0.0.1", endpoint.port, ConnectorOptions()).connect(wait=5)
-        stack.append(connector.close)
+def rig_factory(
+    tmp_path: Path, bridged: Callable[[World], BridgedWorld]
+) -> Callable[..., BridgedWorld]:
+    def make(**overrides: Any) -> BridgedWorld:
         ros = {"enabled": True, **overrides.pop("ros", {})}
-        world = arm_world(tmp_path, ros=ros, **overrides)
-        bridge = SimRosBridge(world, connector).start()
-        stack.append(bridge.close)
-        assert isinstance(endpoint.backend, LocalBus)
-        node = Node(endpoint.backend, "/tester")
-        stack.append(node.close)
-        assert connector.flush(5)
-        runner = threading.Thread(target=world.run, kwargs={"realtime_factor": 1.0})
-        runner.start()
-        stack.append(lambda: runner.join(5))
-        stack.append(world.stop)
-        return Rig(world, node, bridge)
+        return bridged(arm_world(tmp_path, ros=ros, **overrides))
 
-    yield make
-    for undo in reversed(stack):
-        undo()
+    return make
 
 
 def _collect(node: Node, topic: str, msg_type: str) -> queue.Queue[Any]:
@@ -80,7 +46,7 @@ def _stamp(msg: Any) -> float:
     return float(msg.sec) + float(msg.nanosec) * 1e-9
 
 
-def test_joint_states_tf_and_clock(rig_factory: Callable[..., Rig]) -> None:
+def test_joint_states_tf_and_clock(rig_factory: Callable[..., BridgedWorld]) -> None:
     rig = rig_factory(robot={"initial_positions": {"shoulder": -0.4, "elbow": 0.6}})
     states = _collect(rig.node, "/joint_states", "sensor_msgs/JointState")
     tf = _collect(rig.node, "/tf", "tf2_msgs/TFMessage")
@@ -138,17 +104,17 @@ def _trajectory(names: list[str], points: list[tuple[float, list[float]]]) -> An
     return msg
 
 
-def test_trajectory_command_is_followed(rig_factory: Callable[..., Rig]) -> None:
+def test_trajectory_command_is_followed(rig_factory: Callable[..., BridgedWorld]) -> None:
     rig = rig_factory()
     pub = rig.node.advertise("/joint_trajectory", "trajectory_msgs/JointTrajectory")
     pub.publish(_trajectory(["shoulder", "elbow"], [(0.2, [-0.3, 0.3]), (0.5, [-0.6, 0.9])]))
-    assert _wait(lambda: rig.world.follower.active is not None)
-    assert _wait(lambda: rig.world.follower.active is None)
-    assert _wait(lambda: abs(rig.world.joint_positions()["elbow"] - 0.9) < 2e-3)
+    assert wait_for(lambda: rig.world.follower.active is not None)
+    assert wait_for(lambda: rig.world.follower.active is None)
+    assert wait_for(lambda: abs(rig.world.joint_positions()["elbow"] - 0.9) < 2e-3)
     assert rig.world.joint_positions()["shoulder"] == pytest.approx(-0.6, abs=2e-3)
 
 
-def test_group_position_and_velocity_commands(rig_factory: Callable[..., Rig]) -> None:
+def test_group_position_and_velocity_commands(rig_factory: Callable[..., BridgedWorld]) -> None:
     rig = rig_factory(
         ros={"command_joints": ["shoulder", "elbow", "wrist"]}, physics={"gravity": [0, 0, 0]}
     )
@@ -160,31 +126,31 @@ def test_group_position_and_velocity_commands(rig_factory: Callable[..., Rig]) -
     )
     pos.publish(REG.new("std_msgs/Float64MultiArray", data=np.array([0.2, -0.3, 0.4])))
     want = {"shoulder": 0.2, "elbow": -0.3, "wrist": 0.4}
-    assert _wait(
+    assert wait_for(
         lambda: all(abs(rig.world.joint_positions()[j] - v) < 1e-3 for j, v in want.items())
     )
     vel.publish(REG.new("std_msgs/Float64MultiArray", data=np.array([0.0, 0.0, 1.5])))
-    assert _wait(lambda: abs(rig.world.joint_velocities()["wrist"] - 1.5) < 1e-2)
+    assert wait_for(lambda: abs(rig.world.joint_velocities()["wrist"] - 1.5) < 1e-2)
     pos.publish(REG.new("std_msgs/Float64MultiArray", data=np.array([1.0, 2.0])))  # wrong length
     commands = rig.bridge.commands
     assert commands is not None
-    assert _wait(lambda: bool(commands.errors))
+    assert wait_for(lambda: bool(commands.errors))
     assert "2 values for 3 joints" in commands.errors[0]
 
 
-def test_follower_mode_mirrors_joint_states(rig_factory: Callable[..., Rig]) -> None:
+def test_follower_mode_mirrors_joint_states(rig_factory: Callable[..., BridgedWorld]) -> None:
     rig = rig_factory(ros={"commands": {"follow_joint_states": "/gui/joint_states"}})
     pub = rig.node.advertise("/gui/joint_states", "sensor_msgs/JointState")
     msg = REG.new("sensor_msgs/JointState", name=["shoulder", "grip_a", "unknown_joint"])
     msg.position = np.array([0.7, 0.02, 5.0])
     pub.publish(msg)
-    assert _wait(lambda: abs(rig.world.joint_positions()["shoulder"] - 0.7) < 1e-3)
+    assert wait_for(lambda: abs(rig.world.joint_positions()["shoulder"] - 0.7) < 1e-3)
     assert rig.world.joint_positions()["grip_b"] == pytest.approx(-0.02, abs=1e-3)  # mimic
 
 
-def test_pause_step_and_reset_services(rig_factory: Callable[..., Rig]) -> None:
+def test_pause_step_and_reset_services(rig_factory: Callable[..., BridgedWorld]) -> None:
     rig = rig_factory()
-    assert _wait(lambda: rig.world.time > 0.05)
+    assert wait_for(lambda: rig.world.time > 0.05)
     reply = rig.node.call(
         "/simbridge/pause", "std_srvs/SetBool", REG.new("std_srvs/SetBoolRequest", data=True)
     )
@@ -196,11 +162,11 @@ def test_pause_step_and_reset_services(rig_factory: Callable[..., Rig]) -> None:
     assert stepped.success
     assert stepped.sim_time == pytest.approx(paused_at + 10 * 0.002)
     rig.node.call("/simbridge/reset", "std_srvs/Empty", REG.new("std_srvs/EmptyRequest"))
-    assert _wait(lambda: rig.world.time == 0.0)
+    assert wait_for(lambda: rig.world.time == 0.0)
     rig.node.call(
         "/simbridge/pause", "std_srvs/SetBool", REG.new("std_srvs/SetBoolRequest", data=False)
     )
-    assert _wait(lambda: rig.world.time > 0.05)
+    assert wait_for(lambda: rig.world.time > 0.05)
 
 
 def test_trajectory_message_conversion() -> None:
@@ -292,15 +258,15 @@ def test_sensors_nobody_subscribes_to_cost_nothing(tmp_path: Path) -> None:
                 assert session.sensors is not None
                 sensors = {s.name: s for s in session.sensors.suite.sensors}
                 pubs = {t: session.sensors.publisher(t) for t in ("/read/imu", "/unread/imu")}
-                assert _wait(lambda: pubs["/read/imu"].subscriber_count == 1)
-                assert _wait(lambda: pubs["/unread/imu"].subscriber_count == 0)
+                assert wait_for(lambda: pubs["/read/imu"].subscriber_count == 1)
+                assert wait_for(lambda: pubs["/unread/imu"].subscriber_count == 0)
                 session.run(duration=0.2)
                 assert sensors["read_imu"].active
                 assert not sensors["unread_imu"].active
                 assert read.get(timeout=5).linear_acceleration.z != 0.0
                 # A late subscriber switches the sensor on.
                 unread = _collect(node, "/unread/imu", "sensor_msgs/Imu")
-                assert _wait(lambda: pubs["/unread/imu"].subscriber_count == 1)
+                assert wait_for(lambda: pubs["/unread/imu"].subscriber_count == 1)
                 session.run(duration=0.2)
                 assert sensors["unread_imu"].active
                 assert unread.get(timeout=5) is not None

@@ -4,26 +4,26 @@ client on the local bus (goals, feedback, tolerances, preemption, cancel, error 
 from __future__ import annotations
 
 import queue
-import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
-import yaml
 
 from simbridge.connector import ActionClient, Connector, ConnectorOptions
-from simbridge.endpoint import EndpointOptions, EndpointThread, LocalBus, Node, NodeActionClient
+from simbridge.endpoint import Node, NodeActionClient
 from simbridge.errors import SimError
 from simbridge.messages import default_registry
 from simbridge.messages.actionlib import ABORTED, ACTIVE, PREEMPTED, REJECTED, SUCCEEDED
 from simbridge.sim.ros import SimRosBridge
 from simbridge.sim.scene import load_scene
 from simbridge.sim.world import World
-from tests.sim.urdf_samples import GRAVITY_ARM
+from tests.sim.bridged import BridgedWorld
+from tests.sim.worlds import arm_scene
+from tests.waiting import wait_for
 
 REG = default_registry()
 ACTION = "control_msgs/FollowJointTrajectory"
@@ -31,7 +31,6 @@ NAME = "/arm_left/arm_controller/follow_joint_trajectory"
 
 
 def _scene(tmp_path: Path, controller: dict[str, Any] | None = None) -> Path:
-    (tmp_path / "arm.urdf").write_text(GRAVITY_ARM)
     spec = {
         "type": "joint_trajectory_controller",
         "joints": ["shoulder", "elbow", "wrist"],
@@ -51,8 +50,7 @@ def _scene(tmp_path: Path, controller: dict[str, Any] | None = None) -> Path:
             }
         ],
     }
-    (tmp_path / "scene.yaml").write_text(yaml.safe_dump(scene))
-    return tmp_path / "scene.yaml"
+    return arm_scene(tmp_path, scene)
 
 
 @dataclass
@@ -63,43 +61,15 @@ class Rig:
     client: ActionClient
 
 
-def _wait(predicate: Callable[[], bool], timeout: float = 5.0) -> bool:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if predicate():
-            return True
-        time.sleep(0.005)
-    return predicate()
-
-
 @pytest.fixture
-def rig(tmp_path: Path) -> Iterator[Rig]:
-    stack: list[Callable[[], None]] = []
-    try:
-        endpoint = EndpointThread(EndpointOptions(port=0)).start()
-        stack.append(endpoint.stop)
-        sim = Connector("127.0.0.1", endpoint.port, ConnectorOptions()).connect(wait=5)
-        stack.append(sim.close)
-        world = World.from_scene(load_scene(_scene(tmp_path)))
-        bridge = SimRosBridge(world, sim).start()
-        stack.append(bridge.close)
-        user = Connector("127.0.0.1", endpoint.port, ConnectorOptions()).connect(wait=5)
-        stack.append(user.close)
-        client = ActionClient(user, NAME, ACTION)
-        assert isinstance(endpoint.backend, LocalBus)
-        node = Node(endpoint.backend, "/tester")
-        stack.append(node.close)
-        runner = threading.Thread(target=world.run, kwargs={"realtime_factor": 1.0})
-        runner.start()
-        stack.append(lambda: runner.join(5))
-        stack.append(world.stop)
-        assert client.wait_for_server(5)
-        assert user.flush(5)
-        time.sleep(0.2)
-        yield Rig(world, user, node, client)
-    finally:
-        for undo in reversed(stack):
-            undo()
+def rig(tmp_path: Path, bridged: Callable[[World], BridgedWorld]) -> Rig:
+    bridged_world = bridged(World.from_scene(load_scene(_scene(tmp_path))))
+    user = bridged_world.connect()
+    client = ActionClient(user, NAME, ACTION)
+    assert client.wait_for_server(5)
+    assert user.flush(5)
+    time.sleep(0.2)
+    return Rig(bridged_world.world, user, bridged_world.node, client)
 
 
 def _duration(t: float) -> Any:
@@ -144,7 +114,7 @@ def test_goal_is_followed_with_feedback_and_state(rig: Rig) -> None:
         _goal(["shoulder", "elbow"], [(0.3, [0.2, -0.3]), (0.6, [0.4, -0.6])]),
         on_feedback=feedback.append,
     )
-    assert _wait(lambda: goal.status == ACTIVE)
+    assert wait_for(lambda: goal.status == ACTIVE)
     assert goal.wait(5)
     assert (goal.status, goal.result.error_code) == (SUCCEEDED, 0)
     q = rig.world.joint_positions()
@@ -175,12 +145,12 @@ def test_unknown_joints_are_rejected_with_invalid_joints(rig: Rig) -> None:
 
 def test_new_goal_preempts_and_cancel_holds_position(rig: Rig) -> None:
     first = rig.client.send_goal(_goal(["elbow"], [(3.0, [1.0])]))
-    assert _wait(lambda: first.status == ACTIVE)
+    assert wait_for(lambda: first.status == ACTIVE)
     second = rig.client.send_goal(_goal(["elbow"], [(3.0, [-1.0])]))
     assert first.wait(5)
     assert first.status == PREEMPTED
-    assert _wait(lambda: second.status == ACTIVE)
-    assert _wait(lambda: rig.world.joint_positions()["arm_left/elbow"] < -0.05)
+    assert wait_for(lambda: second.status == ACTIVE)
+    assert wait_for(lambda: rig.world.joint_positions()["arm_left/elbow"] < -0.05)
     second.cancel()
     assert second.wait(5)
     assert second.status == PREEMPTED
@@ -217,7 +187,7 @@ def test_command_topic_preempts_the_goal_and_node_client_works(rig: Rig) -> None
     assert client.wait_for_server(5)
     time.sleep(0.2)
     goal = client.send_goal(_goal(["elbow"], [(3.0, [1.0])]))
-    assert _wait(lambda: goal.status == ACTIVE)
+    assert wait_for(lambda: goal.status == ACTIVE)
     command = rig.node.advertise(
         "/arm_left/arm_controller/command", "trajectory_msgs/JointTrajectory"
     )
@@ -225,7 +195,7 @@ def test_command_topic_preempts_the_goal_and_node_client_works(rig: Rig) -> None
     command.publish(msg)
     assert goal.wait(5)
     assert goal.status == PREEMPTED
-    assert _wait(lambda: abs(rig.world.joint_positions()["arm_left/elbow"] + 0.4) < 5e-3)
+    assert wait_for(lambda: abs(rig.world.joint_positions()["arm_left/elbow"] + 0.4) < 5e-3)
 
 
 def test_controller_config_errors_name_the_key(tmp_path: Path) -> None:

@@ -12,9 +12,16 @@ from simbridge.sim.world import World
 from tests.sim.urdf_samples import GRAVITY_ARM
 
 
+def arm_scene(tmp_path: Path, scene: dict[str, Any]) -> Path:
+    """Write GRAVITY_ARM as arm.urdf and `scene` as scene.yaml into `tmp_path`; the
+    scene's path."""
+    (tmp_path / "arm.urdf").write_text(GRAVITY_ARM)
+    (tmp_path / "scene.yaml").write_text(yaml.safe_dump(scene))
+    return tmp_path / "scene.yaml"
+
+
 def arm_world(tmp_path: Path, **overrides: Any) -> World:
     """A world with GRAVITY_ARM at the origin; keyword overrides merge into the scene dict."""
-    (tmp_path / "arm.urdf").write_text(GRAVITY_ARM)
     scene: dict[str, Any] = {
         "physics": {"timestep": 0.002, "realtime_factor": 0},
         "robots": [{"urdf": "arm.urdf"}],
@@ -27,5 +34,4 @@ def arm_world(tmp_path: Path, **overrides: Any) -> World:
             scene["robots"][0].update(value)
         else:
             scene[key] = value
-    (tmp_path / "scene.yaml").write_text(yaml.safe_dump(scene))
-    return World.from_scene(load_scene(tmp_path / "scene.yaml"))
+    return World.from_scene(load_scene(arm_scene(tmp_path, scene)))
