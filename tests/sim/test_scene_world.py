@@ -357,3 +357,35 @@ def test_scheduled_callbacks_fire_on_their_steps_when_the_loop_skips_idle_steps(
     fast.clear()
     world.step(10)
     assert fast == [5, 10]
+
+
+def test_callback_scopes_wrap_each_step_that_runs_callbacks(tmp_path: Path) -> None:
+    """A scope (e.g. `Connector.batch()`) is entered before and left after the callbacks
+    of every step where some are due, also when one raises; not on idle steps."""
+    world = arm_world(tmp_path)  # 2 ms steps
+    log: list[str] = []
+
+    class Scope:
+        def __enter__(self) -> None:
+            log.append(f"enter {world.step_count}")
+
+        def __exit__(self, *exc: object) -> None:
+            log.append(f"exit {world.step_count}")
+
+    def fail(w: World) -> None:
+        if w.step_count == 10:
+            raise RuntimeError("callback failed")
+
+    scope = world.add_callback_scope(Scope())
+    world.add_step_callback(lambda w: log.append(f"cb {w.step_count}"), period=0.01)
+    world.add_step_callback(fail, period=0.02)
+    world.step(5)
+    assert log == ["enter 5", "cb 5", "exit 5"]
+    log.clear()
+    with pytest.raises(RuntimeError, match="callback failed"):
+        world.step(5)
+    assert log == ["enter 10", "cb 10", "exit 10"]
+    world.remove_callback_scope(scope)
+    log.clear()
+    world.step(5)
+    assert log == ["cb 15"]

@@ -17,6 +17,7 @@ from concurrent.futures import TimeoutError as FutureTimeoutError
 from types import TracebackType
 from typing import TYPE_CHECKING, Any
 
+from simbridge.connector.batch import PublishBatch
 from simbridge.connector.calls import PendingCall, ServiceHandler, ServiceImpl
 from simbridge.connector.codec import is_raw
 from simbridge.connector.engine import ConnectorEngine
@@ -202,6 +203,7 @@ class Connector(ConnectorEngine):
                 codec=self._codec,
                 counters=self._counters,
                 taps=self._taps,
+                batch=self._batch,
             )
             self._publishers[topic] = pub
             self._send_command(self._publish_command(pub))
@@ -242,6 +244,13 @@ class Connector(ConnectorEngine):
                 f"(registered: {sorted(self._publishers) or 'none'})"
             )
         pub.publish(msg)
+
+    def batch(self) -> PublishBatch:
+        """A context manager: what this thread publishes inside it leaves at its end, as
+        one batch (one lock, at most one wake-up of the writer thread; a small batch with
+        nothing queued before it is written at once from this thread, without blocking).
+        A simulation wraps each step's callbacks in it. Re-entrant; order is kept."""
+        return self._batch
 
     def subscribe(
         self,

@@ -19,6 +19,7 @@ from collections import deque
 from concurrent.futures import Future
 from typing import TYPE_CHECKING, Any, Literal
 
+from simbridge.connector.batch import PublishBatch
 from simbridge.connector.calls import PendingCall, ServiceImpl, resolve_future
 from simbridge.connector.codec import PayloadCodec
 from simbridge.connector.dispatcher import Dispatcher, Task
@@ -89,6 +90,7 @@ class ConnectorEngine:
         self._counters = StatsCounters()
         self._out: BoundedFifo[OutTopic, bytes] = BoundedFifo()
         self._writer = FrameWriter(self._out, self._counters, self.options.keepalive_interval)
+        self._batch = PublishBatch(self._writer, self._counters)
         self._dispatcher = Dispatcher(self._counters)
         self._lock = threading.RLock()
         self._publishers: dict[str, Publisher] = {}
@@ -134,7 +136,9 @@ class ConnectorEngine:
         )
 
     def _send_command(self, command: Command) -> None:
-        """Queue a registration frame (caller holds the lock); replayed on reconnect anyway."""
+        """Queue a registration frame (caller holds the lock); replayed on reconnect anyway.
+        Messages this thread's open batch holds go first, as they were published first."""
+        self._batch.send_pending()
         if self._link is not None:
             self._out.put_control(self._framer.command(command))
 

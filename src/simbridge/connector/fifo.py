@@ -64,24 +64,55 @@ class BoundedFifo(Generic[K, T]):
 
     def put_many(self, entries: Sequence[tuple[K, T, int]]) -> list[K]:
         """`put` for `(key, item, bound)` entries under one lock; returns the keys that dropped."""
-        dropped: list[K] = []
         with self._lock:
-            by_key = self._by_key
-            order = self._order
-            for key, item, bound in entries:
-                slot = _Slot(key, item, 0)
-                queue = by_key.get(key)
-                if queue is None:
-                    queue = by_key[key] = deque()
-                if len(queue) >= bound:
-                    queue.popleft().live = False
-                    self._count -= 1
-                    dropped.append(key)
-                queue.append(slot)
-                order.append(slot)
-            self._count += len(entries)
+            dropped = self._put_locked(entries)
         if entries and not self.ready.is_set():
             self.ready.set()
+        return dropped
+
+    def put_many_or_send(
+        self,
+        entries: Sequence[tuple[K, T, int]],
+        send: Callable[[Sequence[tuple[K, T, int]]], Sequence[T] | None],
+    ) -> list[K]:
+        """`put_many`, but while nothing is queued `send(entries)` may deliver them instead.
+
+        `send` runs under the lock, so no item can be queued ahead of or between the
+        entries it writes. It returns None when it delivered nothing (the entries are
+        then queued as by `put_many`), else what is left of them, queued as unkeyed items
+        in order (empty when all went out; then nothing is queued or signalled).
+        """
+        with self._lock:
+            if not self._count:
+                rest = send(entries)
+                if rest is not None:
+                    for item in rest:
+                        self._order.append(_Slot(None, item, 0))
+                    self._count += len(rest)
+                    if rest and not self.ready.is_set():
+                        self.ready.set()
+                    return []
+            dropped = self._put_locked(entries)
+        if entries and not self.ready.is_set():
+            self.ready.set()
+        return dropped
+
+    def _put_locked(self, entries: Sequence[tuple[K, T, int]]) -> list[K]:
+        dropped: list[K] = []
+        by_key = self._by_key
+        order = self._order
+        for key, item, bound in entries:
+            slot = _Slot(key, item, 0)
+            queue = by_key.get(key)
+            if queue is None:
+                queue = by_key[key] = deque()
+            if len(queue) >= bound:
+                queue.popleft().live = False
+                self._count -= 1
+                dropped.append(key)
+            queue.append(slot)
+            order.append(slot)
+        self._count += len(entries)
         return dropped
 
     def put_control(self, item: T, size: int = 0) -> None:

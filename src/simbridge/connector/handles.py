@@ -5,6 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
+from simbridge.connector.batch import PublishBatch
 from simbridge.connector.codec import PayloadCodec
 from simbridge.connector.fifo import BoundedFifo
 from simbridge.connector.stats import StatsCounters
@@ -26,6 +27,7 @@ class Publisher:
     """A topic this connector publishes on. `publish` is thread-safe and never blocks."""
 
     __slots__ = (
+        "_batch",
         "_codec",
         "_counters",
         "_fifo",
@@ -52,8 +54,10 @@ class Publisher:
         codec: PayloadCodec,
         counters: StatsCounters,
         taps: list[MessageTap] | None = None,
+        batch: PublishBatch | None = None,
     ) -> None:
         self._out = out
+        self._batch = batch
         self._taps = taps if taps is not None else []
         self.msg_type = msg_type
         self.queue_size = queue_size
@@ -99,7 +103,8 @@ class Publisher:
         """Queue one message (an object of `msg_type` or its serialized bytes).
 
         When the topic already has its bound of unsent messages, the oldest is dropped
-        and counted in `Connector.stats().publish_drops`.
+        and counted in `Connector.stats().publish_drops`. Inside the connector's `batch()`
+        on this thread it leaves with the batch.
         """
         if self.closed:
             raise ConnectorError(f"the publisher on {self.topic!r} was unregistered")
@@ -109,6 +114,12 @@ class Publisher:
         for tap in self._taps:
             tap(self._out.topic, self.msg_type, payload, True)
         out = self._out
+        batch = self._batch
+        if batch is not None:
+            pending = batch.pending()
+            if pending is not None:
+                pending.append((out, payload, out.bound))
+                return
         if self._fifo.put(out, payload, out.bound, len(payload)):
             self._counters.publish_dropped(out.topic)
 

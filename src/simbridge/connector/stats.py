@@ -42,11 +42,15 @@ class ConnectorStats:
 
 
 class StatsCounters:
-    """Mutable counters. Each plain int has one writing thread; drop maps take a lock."""
+    """Mutable counters. Each plain int has one writing thread (the `direct_` ones: the
+    publishing thread holding the outgoing FIFO's lock); drop maps take a lock."""
 
     def __init__(self) -> None:
         self.frames_sent = 0
         self.bytes_sent = 0
+        self.direct_frames_sent = 0
+        self.direct_bytes_sent = 0
+        """Written by publishing threads themselves (`FrameWriter.write_batch`)."""
         self.keepalives_sent = 0
         self.frames_received = 0
         self.bytes_received = 0
@@ -78,8 +82,8 @@ class StatsCounters:
         """An immutable copy."""
         with self._lock:
             return ConnectorStats(
-                frames_sent=self.frames_sent,
-                bytes_sent=self.bytes_sent,
+                frames_sent=self.frames_sent + self.direct_frames_sent,
+                bytes_sent=self.bytes_sent + self.direct_bytes_sent,
                 frames_received=self.frames_received,
                 bytes_received=self.bytes_received,
                 keepalives_sent=self.keepalives_sent,

@@ -3,11 +3,17 @@
 Small frames are packed into one buffer; a large payload goes to `sendmsg` as its own
 buffer, so images are never copied on the way out. When nothing was sent for the
 keepalive interval it sends the 8-byte keepalive.
+
+A batch of small frames (one simulation step's state messages) can skip the thread:
+`write_batch` writes it from the publishing thread with one non-blocking `send` when
+nothing is queued before it and the socket has room, so the writer thread is not woken
+and the interpreter lock not handed over for every step.
 """
 
 from __future__ import annotations
 
 import logging
+import socket
 import struct
 import threading
 import time
@@ -28,6 +34,8 @@ _COPY_LIMIT = 64 * 1024
 _BATCH_ITEMS = 8192
 _BATCH_BYTES = 16 * 1024 * 1024
 _IOV_MAX = 1024
+_DIRECT_LIMIT = 64 * 1024
+"""Batches up to this size may be written from the publishing thread (`write_batch`)."""
 
 
 class OutTopic:
@@ -78,6 +86,8 @@ class FrameWriter:
         self._link_changed = threading.Event()
         self._stop = False
         self._busy = False
+        self._direct_at = 0.0
+        """When `write_batch` last wrote from a publishing thread (for the keepalive)."""
         self._thread = threading.Thread(
             target=self._run, name="simbridge-connector-writer", daemon=True
         )
@@ -118,7 +128,7 @@ class FrameWriter:
             if self._drain(link):
                 last_send = time.monotonic()
                 continue
-            wait = self._keepalive - (time.monotonic() - last_send)
+            wait = self._keepalive - (time.monotonic() - max(last_send, self._direct_at))
             if wait <= 0:
                 if self._send(link, [KEEPALIVE], 1):
                     self._counters.keepalives_sent += 1
@@ -140,6 +150,64 @@ class FrameWriter:
             finally:
                 self._busy = False
         return sent
+
+    def write_batch(self, entries: list[tuple[OutTopic, bytes, int]]) -> list[OutTopic]:
+        """Queue published `(topic, payload, bound)` frames as one batch, or write them now.
+
+        A small batch with nothing queued before it goes out with one non-blocking `send`
+        on the calling thread (what the socket does not take is queued ahead of anything
+        else); otherwise it is queued for the writer thread, which is woken once. Returns
+        the topics that dropped a message (queue bound reached).
+        """
+        size = 0
+        for _, payload, _ in entries:
+            size += len(payload)
+        if size > _DIRECT_LIMIT:
+            return self._fifo.put_many(entries)
+        return self._fifo.put_many_or_send(entries, self._send_now)
+
+    def _send_now(self, entries: Sequence[tuple[OutTopic, bytes, int]]) -> list[bytes] | None:
+        """Write `entries` with one non-blocking send (the FIFO is empty and locked);
+        None when that is not possible now, else the framed bytes left over."""
+        link = self._link
+        if self._busy or link is None or link.broken.is_set():
+            return None
+        lock = link.send_lock
+        if not lock.acquire(blocking=False):  # the writer thread is sending (a keepalive)
+            return None
+        try:
+            data = bytearray()
+            for key, payload, _ in entries:
+                data += key.prefix
+                data += _pack_u32(len(payload))
+                data += payload
+            try:
+                sent = link.sock.send(data, socket.MSG_DONTWAIT)
+            except BlockingIOError:
+                return None
+            except OSError as exc:
+                if not link.broken.is_set():
+                    _log.warning("connection lost while sending: %s", exc)
+                link.fail()
+                return []  # lost with the connection, as a batch the writer thread sends
+        finally:
+            lock.release()
+        self._direct_at = time.monotonic()
+        counters = self._counters
+        counters.direct_bytes_sent += sent
+        if sent == len(data):
+            counters.direct_frames_sent += len(entries)
+            return []
+        rest: list[bytes] = []
+        start = 0
+        for key, payload, _ in entries:  # whole frames count as sent; the rest is queued
+            end = start + len(key.prefix) + 4 + len(payload)
+            if end <= sent:
+                counters.direct_frames_sent += 1
+            else:
+                rest.append(bytes(data[max(start, sent) : end]))
+            start = end
+        return rest
 
     @staticmethod
     def _pack(batch: list[tuple[OutTopic | None, bytes]]) -> list[bytes | bytearray]:

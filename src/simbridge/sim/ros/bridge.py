@@ -61,9 +61,13 @@ class SimRosBridge:
         self.services = ControlServices(
             world, connector, self.settings.services_prefix, self.registry
         )
+        self._scope: int | None = None
 
     def start(self) -> SimRosBridge:
-        """Register every topic and service; state is published as the world steps."""
+        """Register every topic and service; state is published as the world steps, each
+        step's messages (state, and sensors on the same connector) sent as one batch."""
+        if self._scope is None:
+            self._scope = self.world.add_callback_scope(self.connector.batch())
         self.services.start()
         if self.commands is not None:
             self.commands.start()
@@ -76,6 +80,9 @@ class SimRosBridge:
 
     def close(self) -> None:
         """Unregister everything (the connector stays open)."""
+        if self._scope is not None:
+            self.world.remove_callback_scope(self._scope)
+            self._scope = None
         self.state.close()
         if self.diff_drive is not None:
             self.diff_drive.close()

@@ -96,6 +96,7 @@ class RobotRosLink:
                 ),
             )
         self._callback: int | None = None
+        self._scope: int | None = None
         self._encoder: JointStateEncoder | None = None
 
     def start(self) -> RobotRosLink:
@@ -119,6 +120,8 @@ class RobotRosLink:
         self._callback = self.world.add_step_callback(
             lambda _w: self.publish_joint_states(), 1.0 / self.ros.joint_states_rate
         )
+        # a robot on a connection of its own sends each step's messages at once too
+        self._scope = self.world.add_callback_scope(self.connector.batch())
         return self
 
     def close(self) -> None:
@@ -127,6 +130,9 @@ class RobotRosLink:
             self.world.remove_step_callback(self._callback)
             self.connector.unregister_publisher(self.joint_states_topic)
             self._callback = None
+        if self._scope is not None:
+            self.world.remove_callback_scope(self._scope)
+            self._scope = None
         for controller in self.controllers.values():
             controller.close()
         if self.diff_drive is not None:

@@ -8,6 +8,7 @@ import threading
 import time
 from collections import deque
 from collections.abc import Callable, Mapping, Sequence
+from contextlib import AbstractContextManager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -83,6 +84,7 @@ class World:
         self._rng: np.random.Generator | None = None
         self._callbacks: dict[int, _Callback] = {}
         self._reset_callbacks: list[StepCallback] = []
+        self._scopes: dict[int, AbstractContextManager[object]] = {}
         self._next_id = 0
         self._posted: deque[Callable[[], None]] = deque()
         self._lock = threading.Lock()
@@ -261,6 +263,18 @@ class World:
         self._next_due = 0
         return self._next_id
 
+    def add_callback_scope(self, scope: AbstractContextManager[object]) -> int:
+        """Enter `scope` before and leave it after the callbacks of each step that runs
+        any (a reusable context manager, e.g. `Connector.batch()`, so that one step's
+        messages leave together); returns an id for `remove_callback_scope`."""
+        self._next_id += 1
+        self._scopes[self._next_id] = scope
+        return self._next_id
+
+    def remove_callback_scope(self, scope_id: int) -> None:
+        """Stop using a scope added with `add_callback_scope`."""
+        self._scopes.pop(scope_id, None)
+
     def add_reset_callback(self, fn: StepCallback) -> None:
         """Call `fn(world)` after every `reset()` (e.g. to restart sensor schedules)."""
         self._reset_callbacks.append(fn)
@@ -365,19 +379,28 @@ class World:
                 self._run_callbacks(step, timestep)
 
     def _run_callbacks(self, step: int, timestep: float) -> None:
-        """Call the callbacks due at `step`, then note the next step any can be due."""
+        """Call the callbacks due at `step`, inside the scopes (entered before the first
+        due one), then note the next step any can be due."""
         self._next_due = -1
         nearest = _NEVER
-        for cb in list(self._callbacks.values()):
-            schedule = cb.schedule
-            if schedule is None:
-                cb.fn(self)
-                nearest = step + 1
-                continue
-            if schedule.due(step, timestep):
-                cb.fn(self)
-            ahead = schedule.next_step(timestep)
-            nearest = min(nearest, ahead)
+        entered: list[AbstractContextManager[object]] | None = None
+        try:
+            for cb in list(self._callbacks.values()):
+                schedule = cb.schedule
+                if schedule is None or schedule.due(step, timestep):
+                    if entered is None:
+                        entered = list(self._scopes.values())
+                        for scope in entered:
+                            scope.__enter__()
+                    cb.fn(self)
+                if schedule is None:
+                    nearest = step + 1
+                else:
+                    nearest = min(nearest, schedule.next_step(timestep))
+        finally:
+            if entered:
+                for scope in reversed(entered):
+                    scope.__exit__(None, None, None)
         if self._next_due == -1:  # else a callback added one or reset: check next step
             self._next_due = nearest
             self._due_timestep = timestep
