@@ -20,8 +20,8 @@ from simbridge.connector.link import Link
 from simbridge.connector.stats import StatsCounters
 from simbridge.connector.writer import FrameWriter, OutTopic
 from simbridge.protocol import CommandReceived, MessageReceived, Publish, RemovePublisher
-from tests.connector.conftest import wait_until
 from tests.connector.fake_endpoint import FakeEndpoint
+from tests.waiting import wait_for
 
 FRAMER = Framer("ROS1")
 
@@ -163,8 +163,8 @@ def test_full_socket_buffer_queues_the_unsent_rest_in_order(
     try:
         expected = b"".join(frames)
         assert _read_exactly(b, len(expected)) == expected  # no byte lost, none reordered
-        assert wait_until(lambda: writer.idle)
-        assert wait_until(lambda: counters.bytes_sent + counters.direct_bytes_sent == len(expected))
+        assert wait_for(lambda: writer.idle)
+        assert wait_for(lambda: counters.bytes_sent + counters.direct_bytes_sent == len(expected))
         assert counters.frames_sent + counters.direct_frames_sent == len(frames)
     finally:
         writer.stop()
@@ -222,7 +222,7 @@ def test_connector_batch_sends_at_the_end_in_order(
     conn = make_connector(endpoint.port).connect()
     a = conn.register_publisher("/a", "std_msgs/String")
     b = conn.register_publisher("/b", "std_msgs/String")
-    assert wait_until(lambda: conn.flush(0) and len(conn._out) == 0)
+    assert wait_for(lambda: conn.flush(0) and len(conn._out) == 0)
     before = conn.stats().frames_sent
     with conn.batch():
         a.publish(b"1")
