@@ -23,6 +23,7 @@ from pathlib import Path
 __all__ = [
     "DEFAULT_SHM_SEGMENT",
     "FASTDDS_PROFILE_VARS",
+    "WRITER_ALLOCATED_SAMPLES",
     "apply_ros2_env",
     "clean_stale_shm",
     "fastdds_profile_xml",
@@ -37,6 +38,14 @@ DEFAULT_SHM_SEGMENT = 16 * 1024 * 1024
 SHM_PORT_QUEUE = 4096
 """Messages a shared-memory port holds (Fast DDS: 512); bursts beyond it wait for
 reliability's repair (a 3 s heartbeat), which stalls a fast publisher."""
+
+WRITER_ALLOCATED_SAMPLES = 8192
+"""Samples a publisher's history reserves room for up front (Fast DDS: 100), capped by its
+depth: about 0.5 KiB each, so at most 4 MiB for a publisher this deep or deeper. Fast DDS
+sizes each matched reader's list of unacknowledged samples from it and grows that list
+one element at a time beyond it, copying it whole each time: a burst of thousands of
+messages on a deep publisher (the endpoint relaying a sim's burst) spent an eighth of
+its publish time in those copies."""
 
 FASTDDS_PROFILE_VARS = ("FASTRTPS_DEFAULT_PROFILES_FILE", "FASTDDS_DEFAULT_PROFILES_FILE")
 """Fast DDS 2.x reads the first, 3.x the second; both are set to the same file."""
@@ -69,6 +78,13 @@ _PROFILE = """<?xml version="1.0" encoding="UTF-8" ?>
         <useBuiltinTransports>false</useBuiltinTransports>
       </rtps>
     </participant>
+    <data_writer profile_name="simbridge_writer" is_default_profile="true">
+      <topic>
+        <resourceLimitsQos>
+          <allocated_samples>{allocated}</allocated_samples>
+        </resourceLimitsQos>
+      </topic>
+    </data_writer>
   </profiles>
 </dds>
 """
@@ -87,8 +103,11 @@ def ros2_python() -> Path | None:
 
 
 def fastdds_profile_xml(shm_segment: int = DEFAULT_SHM_SEGMENT) -> str:
-    """The Fast DDS XML profile: loopback UDP and shared memory, nothing else."""
-    return _PROFILE.format(segment=int(shm_segment), queue=SHM_PORT_QUEUE)
+    """The Fast DDS XML profile: loopback UDP and shared memory, nothing else; publishers
+    reserve room for bursts (WRITER_ALLOCATED_SAMPLES)."""
+    return _PROFILE.format(
+        segment=int(shm_segment), queue=SHM_PORT_QUEUE, allocated=WRITER_ALLOCATED_SAMPLES
+    )
 
 
 def write_fastdds_profile(
