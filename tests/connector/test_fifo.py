@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import threading
+import time
 from typing import Any
 
 from hypothesis import given
 from hypothesis import strategies as st
 
-from simbridge.connector.fifo import BoundedFifo
+from simbridge.connector.fifo import BoundedFifo, Signal
 
 # An operation: ("put", key, bound) | ("control",) | ("take", n)
 ops = st.lists(
@@ -75,3 +77,63 @@ def test_put_many_reports_drops_per_entry() -> None:
     assert dropped == ["a", "b"]
     assert fifo.take(10, 1 << 30) == [("a", 2), ("a", 3), ("b", 5)]
     assert fifo.ready.is_set()
+
+
+def test_signal_behaves_like_an_event() -> None:
+    """Signal: set, clear, wait with and without a timeout, many waiters, racing setters."""
+    signal = Signal()
+    assert not signal.is_set()
+    start = time.monotonic()
+    assert signal.wait(0.05) is False
+    assert time.monotonic() - start >= 0.04
+    signal.set()
+    signal.set()  # a second set is a no-op, not a second release
+    assert signal.is_set()
+    assert signal.wait()
+    assert signal.wait(0)
+    signal.clear()
+    signal.clear()
+    assert not signal.is_set()
+    assert signal.wait(0) is False
+
+    woken: list[int] = []
+    waiters = [
+        threading.Thread(target=lambda i=i: woken.append(i) if signal.wait(5) else None)
+        for i in range(4)
+    ]
+    for thread in waiters:
+        thread.start()
+    time.sleep(0.05)
+    assert woken == []
+    setters = [threading.Thread(target=signal.set) for _ in range(8)]
+    for thread in setters:
+        thread.start()
+    for thread in [*setters, *waiters]:
+        thread.join(5)
+    assert sorted(woken) == [0, 1, 2, 3]
+    assert signal.is_set()
+    signal.clear()
+    assert not signal.wait(0.01)
+
+
+def test_signal_hand_off_loses_no_wake() -> None:
+    """A consumer that clears, drains and waits (the dispatcher's loop) sees every item
+    a producer queues, however the two interleave."""
+    fifo: BoundedFifo[str, int] = BoundedFifo()
+    got: list[int] = []
+    total = 20_000
+
+    def consume() -> None:
+        while len(got) < total:
+            if not fifo.ready.wait(5):
+                return
+            fifo.ready.clear()
+            while batch := fifo.take(7, 1 << 30):
+                got.extend(item for _, item in batch)
+
+    consumer = threading.Thread(target=consume)
+    consumer.start()
+    for i in range(total):
+        fifo.put("k", i, total)
+    consumer.join(10)
+    assert got == list(range(total))
