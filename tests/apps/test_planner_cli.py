@@ -24,7 +24,7 @@ from simbridge.errors import EndpointError
 from simbridge.planning import Pose
 from tests.ros1support import RosMaster, free_port, require_ros, terminate
 
-pytestmark = [pytest.mark.timeout(180)]
+pytestmark = [pytest.mark.timeout(420)]
 
 PLANNER = [sys.executable, "-m", "simbridge.cli", "planner"]
 
@@ -62,9 +62,9 @@ def node_entries(master: RosMaster, node: str) -> list[str]:
 
 def start_planner(master: RosMaster, node: str) -> subprocess.Popen[str]:
     process = master.spawn([*PLANNER, "--backend", "ros1", "--node-name", node])
-    wait_for(
+    wait_for(  # generous: the planner imports MuJoCo and builds its scene first
         lambda: process.poll() is not None or served_by(master) == f"/{node}",
-        60,
+        180,
         f"/{node} to serve {PLANNER_SERVICE}",
     )
     assert process.poll() is None, process.communicate()
@@ -77,7 +77,7 @@ def test_sigterm_unregisters_the_planner(master: RosMaster) -> None:
     try:
         assert node_entries(master, "/planner_sigterm")  # /niryo_moveit, /rosout
         planner.send_signal(signal.SIGTERM)
-        assert planner.wait(20) == 0, planner.communicate()
+        assert planner.wait(60) == 0, planner.communicate()
     finally:
         terminate(planner)
     assert node_entries(master, "/planner_sigterm") == []
