@@ -17,6 +17,7 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING, Any, TypeVar
 
 from rclpy.action import ActionClient
+from rclpy.action.client import ClientGoalHandle
 from rclpy.serialization import deserialize_message, serialize_message
 
 from simbridge.endpoint.backends.base import BackendActionGoal, MessageCallback
@@ -43,10 +44,12 @@ MAX_ACTION_CLIENTS = 256
 
 _RUNNING = (STATUS_EXECUTING, STATUS_CANCELING)
 _ENDED = (STATUS_SUCCEEDED, STATUS_CANCELED, STATUS_ABORTED)
-_SETTLE = 1.0
-"""How long after first seeing a server the first goal waits. We see the server when our
-side matched; its response writer matches our reader on the server's own schedule, and
-rmw_fastrtps drops a response whose reader is not matched within 100 ms."""
+_PROBE_EVERY = 0.25
+"""How long a probe of a newly found server waits for its answer before another is sent.
+We see the server when our side matched; its response writers match our readers on the
+server's own schedule (seconds later on a busy machine), and rmw_fastrtps drops a
+response whose reader is not matched within 100 ms, so the first goal waits until the
+server has answered a probe."""
 _SERVER_CHECK = 1.0
 """How often a goal waiting for its result checks that its server is still there (s)."""
 _EARLY_FEEDBACK = 100
@@ -84,8 +87,8 @@ class Ros2Actions:
         self._clients: dict[tuple[str, str], tuple[Any, Any]] = {}
         """(action, type) -> (ActionClient, action class); touched on the event loop only."""
         self.goals: dict[bytes, _Ros2Goal] = {}
-        self._ready_since: dict[int, float] = {}
-        """When each ActionClient (by id) first saw its server, for the settle time."""
+        self._answered: set[int] = set()
+        """ActionClients (by id) whose server answered a probe since it was found."""
         """Goals by UUID, for status reports; touched on the rclpy thread only."""
 
     def on_rclpy(self, fn: Callable[[], _T]) -> asyncio.Future[_T]:
@@ -144,12 +147,51 @@ class Ros2Actions:
         return self._ready(client)
 
     def _ready(self, client: Any) -> bool:
-        """`server_is_ready`, remembering when each client first saw its server."""
+        """`server_is_ready`; a server that is gone must answer a probe again."""
         if not client.server_is_ready():
-            self._ready_since.pop(id(client), None)
+            self._answered.discard(id(client))
             return False
-        self._ready_since.setdefault(id(client), time.monotonic())
         return True
+
+    async def _reached(self, client: Any, cls: Any, action: str, deadline: float) -> bool:
+        """Whether the server answers a result request for a goal it does not know (every
+        server answers STATUS_UNKNOWN at once) before `deadline`, probing again every
+        `_PROBE_EVERY` s. Its answer means its side has matched our goal, cancel and result
+        response readers (announced in that order), so its answer to a goal will not be
+        dropped."""
+        if id(client) in self._answered:
+            return True
+        loop = self._backend._started()
+        answered: asyncio.Future[None] = loop.create_future()
+
+        def answer() -> None:
+            if not answered.done():
+                answered.set_result(None)
+
+        def probe() -> None:  # rclpy thread
+            accepted = cls.Impl.SendGoalService.Response(accepted=True)
+            unknown = ClientGoalHandle(client, client._generate_random_uuid(), accepted)
+            unknown.get_result_async().add_done_callback(lambda _f: _call_soon(loop, answer))
+
+        start, probes = time.monotonic(), 0
+        while True:
+            left = deadline - time.monotonic()
+            if left <= 0:
+                return False
+            self._backend._executor.create_task(probe)
+            probes += 1
+            try:
+                await asyncio.wait_for(asyncio.shield(answered), min(_PROBE_EVERY, left))
+            except TimeoutError:
+                continue
+            self._answered.add(id(client))
+            _log.info(
+                "action server of %s answered after %.2f s (%d probe(s))",
+                action,
+                time.monotonic() - start,
+                probes,
+            )
+            return True
 
     async def send_goal(
         self,
@@ -177,9 +219,11 @@ class Ros2Actions:
                     f"(none found within {wait:g} s)"
                 )
             await asyncio.sleep(0.01)
-        settle = self._ready_since[id(client)] + _SETTLE - time.monotonic()
-        if settle > 0:
-            await asyncio.sleep(settle)
+        if not await self._reached(client, cls, action, time.monotonic() + timeout):
+            raise EndpointError(
+                f"the action server of {action!r} did not answer within {timeout:g} s "
+                f"(a result request for an unknown goal, sent before the first goal)"
+            )
         sent = _Ros2Goal(
             self,
             client,
@@ -223,7 +267,7 @@ class Ros2Actions:
             _log.debug("cancelling goals at close: %s", exc)
         clients = [client for client, _cls in self._clients.values()]
         self._clients.clear()
-        self._ready_since.clear()
+        self._answered.clear()
         for client in clients:
             try:
                 await asyncio.wait_for(self.on_rclpy(client.destroy), 2.0)
