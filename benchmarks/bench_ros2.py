@@ -5,11 +5,14 @@ its own, localhost only (ros2_env). Ceiling: a raw rclpy publisher process -> a 
 rclpy subscriber process (`publish(bytes)`, `raw=True`). Through the endpoint: a
 Connector in this process -> `simbridge endpoint --backend ros2` (a subprocess) ->
 the same subscriber process (sim -> ros), and the same publisher process -> the
-endpoint -> the Connector (ros -> sim). The endpoint's memory budget fits the image
-burst, so a lagging Connector costs time, not messages. QoS is reliable with a history as deep as
-the run, so loss should be zero. Payloads: geometry_msgs/Twist and a 640x480 rgb8
-sensor_msgs/Image. Latency: Twists sent by the Connector, echoed back by an rclpy
-node (raw), timed per message at a modest rate: sim -> ROS 2 -> sim.
+endpoint -> the Connector (ros -> sim). Publishing starts once the subscriber process
+has matched its publisher too (a sample sent before that waits for reliability's
+repair). Both publish with rclpy's `publish_raw`, as the endpoint does. The endpoint's
+memory budget fits the image burst, so a lagging Connector costs time, not messages.
+QoS is reliable with a history as deep as the run, so loss should be zero. Payloads:
+geometry_msgs/Twist and a 640x480 rgb8 sensor_msgs/Image. Latency: Twists sent by the
+Connector, echoed back by an rclpy node (raw), timed per message at a modest rate:
+sim -> ROS 2 -> sim.
 """
 
 from __future__ import annotations
@@ -110,20 +113,26 @@ _NODE_SCRIPT = textwrap.dedent(
         time.sleep(0.3)
         print("READY", flush=True)
         sys.stdin.readline()
+        # what publish(bytes) ends in, without its checks: as the endpoint publishes
+        publish = getattr(getattr(pub, "_Publisher__publisher", None), "publish_raw",
+                          pub.publish)
         for _ in range(count):
-            pub.publish(payload)
+            publish(payload)
         print(json.dumps({"sent": count}), flush=True)
         sys.stdin.readline()
     elif role == "sub":
         times = []
-        node.create_subscription(cls, topic, lambda b: times.append(time.perf_counter()), qos,
-                                 raw=True)
+        sub = node.create_subscription(cls, topic, lambda b: times.append(time.perf_counter()),
+                                       qos, raw=True)
         from rclpy.experimental import EventsExecutor  # the fastest rclpy executor
 
         executor = EventsExecutor()
         executor.add_node(node)
         print("READY", flush=True)
         deadline = time.time() + 60
+        while sub.get_publisher_count() == 0 and time.time() < deadline:
+            time.sleep(0.01)
+        print("MATCHED", flush=True)
         while not times and time.time() < deadline:
             executor.spin_once(timeout_sec=0.05)
         last, last_len = time.time(), 0
@@ -212,6 +221,7 @@ def _ceiling(env: dict[str, str], script: Path, data: Path, p: Payload, topic: s
     try:
         assert sub.line() == "READY"
         assert pub.line() == "READY"
+        assert sub.line() == "MATCHED"
         pub.tell()
         result = json.loads(sub.line(timeout=120))
     finally:
@@ -236,6 +246,7 @@ def _sim_to_ros(env: dict[str, str], script: Path, port: int, p: Payload, topic:
             topic, p.msg_type, queue_size=p.count, report_subscribers=True
         )
         assert sub.line() == "READY"
+        assert sub.line() == "MATCHED"
         deadline = time.monotonic() + 30
         while (publisher.subscriber_count or 0) < 1 and time.monotonic() < deadline:
             time.sleep(0.01)

@@ -24,6 +24,7 @@ __all__ = [
     "DEFAULT_SHM_SEGMENT",
     "FASTDDS_PROFILE_VARS",
     "WRITER_ALLOCATED_SAMPLES",
+    "WRITER_HEARTBEAT_NS",
     "apply_ros2_env",
     "clean_stale_shm",
     "fastdds_profile_xml",
@@ -46,6 +47,13 @@ sizes each matched reader's list of unacknowledged samples from it and grows tha
 one element at a time beyond it, copying it whole each time: a burst of thousands of
 messages on a deep publisher (the endpoint relaying a sim's burst) spent an eighth of
 its publish time in those copies."""
+
+WRITER_HEARTBEAT_NS = 100_000_000
+"""How often a reliable publisher with unacknowledged samples announces them (Fast DDS:
+every 3 s). A subscriber that missed samples (it matched the publisher a moment after
+the publisher matched it, or its shared-memory queue was full) asks for them again only
+after a heartbeat, so the default stalls it for up to 3 s; the heartbeat stops once
+every sample is acknowledged."""
 
 FASTDDS_PROFILE_VARS = ("FASTRTPS_DEFAULT_PROFILES_FILE", "FASTDDS_DEFAULT_PROFILES_FILE")
 """Fast DDS 2.x reads the first, 3.x the second; both are set to the same file."""
@@ -84,6 +92,12 @@ _PROFILE = """<?xml version="1.0" encoding="UTF-8" ?>
           <allocated_samples>{allocated}</allocated_samples>
         </resourceLimitsQos>
       </topic>
+      <times>
+        <heartbeatPeriod>
+          <sec>0</sec>
+          <nanosec>{heartbeat_ns}</nanosec>
+        </heartbeatPeriod>
+      </times>
     </data_writer>
   </profiles>
 </dds>
@@ -104,9 +118,12 @@ def ros2_python() -> Path | None:
 
 def fastdds_profile_xml(shm_segment: int = DEFAULT_SHM_SEGMENT) -> str:
     """The Fast DDS XML profile: loopback UDP and shared memory, nothing else; publishers
-    reserve room for bursts (WRITER_ALLOCATED_SAMPLES)."""
+    reserve room for bursts and repair missed samples soon (WRITER_*)."""
     return _PROFILE.format(
-        segment=int(shm_segment), queue=SHM_PORT_QUEUE, allocated=WRITER_ALLOCATED_SAMPLES
+        segment=int(shm_segment),
+        queue=SHM_PORT_QUEUE,
+        allocated=WRITER_ALLOCATED_SAMPLES,
+        heartbeat_ns=WRITER_HEARTBEAT_NS,
     )
 
 
