@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
+from types import EllipsisType
 from typing import Any
 
 import mujoco
@@ -20,13 +21,15 @@ from simbridge.sim.scene import Scene
 from simbridge.sim.sensors import OffscreenRenderer, Pose
 from simbridge.sim.world import World
 
-__all__ = ["MAX_JOINT_SPEED", "Observation", "SceneEnv", "look_at"]
+__all__ = ["MAX_JOINT_SPEED", "Observation", "Row", "SceneEnv", "look_at"]
 
 MAX_JOINT_SPEED = 100.0
 """Bound of the "joint_vel" space, rad/s or m/s (drives keep joints far below it)."""
 
 Observation = dict[str, NDArray[Any]]
 """An observation: named arrays (see `SceneEnv.observation_space`)."""
+Row = int | EllipsisType
+"""Where `observe_into` writes: a row of batched arrays, or `...` for a single observation."""
 
 
 def look_at(eye: Sequence[float], target: Sequence[float]) -> Pose:
@@ -229,23 +232,26 @@ class SceneEnv(Env[Observation, NDArray[np.float32]]):
             raise GymError(f"task {type(self.task).__name__} returned reward {reward}")
         return reward, success, terminated
 
-    def empty_observations(self, count: int) -> Observation:
-        """Uninitialised arrays for `count` observations, one row each (`observe_into`)."""
+    def empty_observations(self, count: int | None = None) -> Observation:
+        """Uninitialised arrays for `count` observations, one row each, or for one
+        observation when `count` is None (to fill with `observe_into`)."""
+        if count is None:
+            return {key: np.empty(shape, dtype) for key, shape, dtype in self._layout}
         return {key: np.empty((count, *shape), dtype) for key, shape, dtype in self._layout}
 
     def observe(self, readings: Mapping[str, NDArray[Any]] | None = None) -> Observation:
         """The observation for the world's current state; `readings` replace sensor entries
         by key (the ROS side passes the ranges and images it received)."""
-        out = self.empty_observations(1)
-        self.observe_into(out, 0, readings)
-        return {key: rows[0] for key, rows in out.items()}
+        out = self.empty_observations()
+        self.observe_into(out, ..., readings)
+        return out
 
     def observe_into(
-        self, out: Observation, row: int, readings: Mapping[str, NDArray[Any]] | None = None
+        self, out: Observation, row: Row, readings: Mapping[str, NDArray[Any]] | None = None
     ) -> None:
         """Write the observation into row `row` of the arrays in `out` (from
-        `empty_observations`): the vector env fills its batch this way, with no dict or
-        array per world, and `observe` is one row of it."""
+        `empty_observations`; `...`: the whole arrays, one observation). The vector env
+        fills its batch this way, with no dict or array per world; `observe` uses it too."""
         if self.joints:
             out["joint_pos"][row] = self._qpos_all[self._qpos]
             out["joint_vel"][row] = self._qvel_all[self._dofs]

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from collections.abc import Mapping, Sequence
+from types import EllipsisType
 
 import numpy as np
 from gymnasium import spaces
@@ -54,10 +55,11 @@ class Task(ABC):
         world: World,
         goal: NDArray[np.float64],
         out: Mapping[str, NDArray[np.float32]],
-        row: int,
+        row: int | EllipsisType,
     ) -> None:
-        """Write the `observe` entries into row `row` of the arrays in `out` (the default
-        copies what `observe` returns; override it to skip the dict and arrays)."""
+        """Write the `observe` entries into row `row` (`...`: all) of the arrays in `out`
+        (the default copies what `observe` returns; override it to skip the dict and
+        arrays)."""
         for key, value in self.observe(world, goal).items():
             out[key][row] = value
 

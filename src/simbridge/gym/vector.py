@@ -117,16 +117,16 @@ class SceneVectorEnv(VectorEnv[Observation, NDArray[np.float32], NDArray[Any]]):
         """One step of every world (worlds whose episode ended last step are reset instead)."""
         clipped = self._clip(actions)
         envs, count = self.envs, self.num_envs
-        model, state, spec = self.model, self._state, self._spec
+        model, state, spec, frame_skip = self.model, self._state, self._spec, self.frame_skip
         resetting = self._autoreset
         held: list[int] = []  # worlds whose drives' ctrl holds over the frame skip
         varying: dict[int, NDArray[np.float64]] = {}  # the others' ctrl, one row per substep
         for i in range(count):
             if resetting[i]:
                 continue
-            env = envs[i]
-            ctrl = env.action.controls(env.world, clipped[i], env.frame_skip)
-            mujoco.mj_getState(model, env.world.data, state[i], spec)
+            world = envs[i].world
+            ctrl = envs[i].action.controls(world, clipped[i], frame_skip)
+            mujoco.mj_getState(model, world.data, state[i], spec)
             if ctrl is None:
                 held.append(i)
             else:

@@ -7,6 +7,7 @@ import xml.etree.ElementTree as ET
 from collections.abc import Mapping, Sequence
 from importlib import resources
 from pathlib import Path
+from types import EllipsisType
 from typing import Any
 
 import mujoco
@@ -121,16 +122,16 @@ class ReachTask(Task):
 
     def observe(self, world: World, goal: NDArray[np.float64]) -> dict[str, NDArray[np.float32]]:
         """The end effector's position and the goal relative to it."""
-        both = np.empty((2, 3), np.float32)  # one array, two views: fewer allocations
-        self.observe_into(world, goal, {"ee_pos": both[:1], "goal_delta": both[1:]}, 0)
-        return {"ee_pos": both[0], "goal_delta": both[1]}
+        out = {"ee_pos": np.empty(3, np.float32), "goal_delta": np.empty(3, np.float32)}
+        self.observe_into(world, goal, out, ...)
+        return out
 
     def observe_into(
         self,
         world: World,
         goal: NDArray[np.float64],
         out: Mapping[str, NDArray[np.float32]],
-        row: int,
+        row: int | EllipsisType,
     ) -> None:
         """`observe`, written straight into row `row` of `out`."""
         ee = self._ee if self._ee_data is world.data else world.data.xpos[self._body]
