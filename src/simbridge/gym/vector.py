@@ -79,7 +79,8 @@ class SceneVectorEnv(VectorEnv[Observation, NDArray[np.float32], NDArray[Any]]):
         # built after every env bound its drives: the batch runs on a copy of the model
         threads = max(1, min(threads or os.cpu_count() or 1, num_envs))
         self._batch = Batch(self.model, num_envs, nthread=threads)
-        self._state = self._batch.state  # (num_envs, nstate) rows, live
+        self._rows = list(self._batch.state)  # each world's state row, a live view
+        self._datas = [env.world.data for env in self.envs]
         self._ctrl = self._batch.bind("ctrl")  # the rows' controls, a view
         self._spec = int(mujoco.mjtState.mjSTATE_INTEGRATION)
         space = first.action_space
@@ -115,36 +116,37 @@ class SceneVectorEnv(VectorEnv[Observation, NDArray[np.float32], NDArray[Any]]):
 
     def step(self, actions: NDArray[Any]) -> VectorStep:
         """One step of every world (worlds whose episode ended last step are reset instead)."""
-        clipped = self._clip(actions)
-        envs, count = self.envs, self.num_envs
-        model, state, spec, frame_skip = self.model, self._state, self._spec, self.frame_skip
+        rows = list(self._clip(actions))  # one view per world, made once
+        count, model, spec, frame_skip = self.num_envs, self.model, self._spec, self.frame_skip
         resetting = self._autoreset
+        worlds = list(
+            zip(self.envs, self._datas, self._rows, rows, resetting.tolist(), strict=True)
+        )
         held: list[int] = []  # worlds whose drives' ctrl holds over the frame skip
         varying: dict[int, NDArray[np.float64]] = {}  # the others' ctrl, one row per substep
-        for i in range(count):
-            if resetting[i]:
+        for i, (env, data, state, action, resets) in enumerate(worlds):
+            if resets:
                 continue
-            world = envs[i].world
-            ctrl = envs[i].action.controls(world, clipped[i], frame_skip)
-            mujoco.mj_getState(model, world.data, state[i], spec)
+            ctrl = env.action.controls(env.world, action, frame_skip)
+            mujoco.mj_getState(model, data, state, spec)
             if ctrl is None:
                 held.append(i)
             else:
                 varying[i] = ctrl
         self._simulate(held, varying)
-        observations = envs[0].empty_observations(count)
-        rewards = np.zeros(count, np.float64)
-        terminated = np.zeros(count, np.bool_)
-        success = np.zeros(count, np.bool_)
-        for i in range(count):
-            env = envs[i]
-            if resetting[i]:
-                success[i] = env.begin_episode()
+        observations = self.envs[0].empty_observations(count)
+        outcomes = [(0.0, False, False)] * count  # reward, success, terminated
+        for i, (env, data, state, action, resets) in enumerate(worlds):
+            if resets:
+                outcomes[i] = (0.0, env.begin_episode(), False)
             else:
-                mujoco.mj_setState(model, env.world.data, state[i], spec)
+                mujoco.mj_setState(model, data, state, spec)
                 env.refresh()
-                rewards[i], success[i], terminated[i] = env.evaluate(clipped[i])
+                outcomes[i] = env.evaluate(action)
             env.observe_into(observations, i)
+        rewards = np.array([outcome[0] for outcome in outcomes], np.float64)
+        success = np.array([outcome[1] for outcome in outcomes], np.bool_)
+        terminated = np.array([outcome[2] for outcome in outcomes], np.bool_)
         self._elapsed = np.where(resetting, 0, self._elapsed + 1)
         limit = self.max_episode_steps
         truncated = ~resetting & (limit is not None) & (self._elapsed >= (limit or 0))
