@@ -113,22 +113,24 @@ class DampedLeastSquares:
     """
 
     def __init__(self, rows: int, cols: int, damping: float) -> None:
-        self.jacobian = np.zeros((rows, cols))
+        # [J | damping I]: its product with its transpose is J J^T + damping^2 I at once
+        self.augmented = np.zeros((rows, cols + rows))
+        self.augmented[:, cols:] = damping * np.eye(rows)
         self.system = np.zeros((rows, rows))
         self.solution = np.zeros(rows)
-        self.damping_diagonal = damping**2 * np.eye(rows)
+        self.step = np.zeros(cols + rows)
+        self.cols = cols
 
     def solve(self, jacobian: FloatArray, error: FloatArray) -> FloatArray:
-        """dq (a new array) for `jacobian` (any layout) and `error`."""
-        jac, system = self.jacobian, self.system
-        jac[...] = jacobian
-        mujoco.mju_mulMatMatT(system, jac, jac)
-        system += self.damping_diagonal
+        """dq for `jacobian` (any layout) and `error`: a view of a work array, valid until
+        the next call."""
+        augmented, system, solution = self.augmented, self.system, self.solution
+        augmented[:, : self.cols] = jacobian
+        mujoco.mju_mulMatMatT(system, augmented, augmented)
         mujoco.mju_cholFactor(system, 0.0)
-        mujoco.mju_cholSolve(self.solution, system, np.ascontiguousarray(error, np.float64))
-        step = np.empty(jac.shape[1])
-        mujoco.mju_mulMatTVec(step, jac, self.solution)
-        return step
+        mujoco.mju_cholSolve(solution, system, np.ascontiguousarray(error, np.float64))
+        mujoco.mju_mulMatTVec(self.step, augmented, solution)  # J^T y, then damping y
+        return self.step[: self.cols]
 
 
 def damped_least_squares(jacobian: FloatArray, error: FloatArray, damping: float) -> FloatArray:
@@ -193,7 +195,8 @@ class EndEffectorDelta(ActionAdapter):
         self._data, self._qpos_all = world.data, world.data.qpos  # a view, kept
 
     def joint_step(self, world: World, delta: FloatArray) -> FloatArray:
-        """Joint increments moving the body by `delta` (m) from the state in `world.data`."""
+        """Joint increments moving the body by `delta` (m) from the state in `world.data`
+        (possibly a view of a work array, valid until the next call)."""
         model, data = world.model, world.data
         jacp, jacr = self._jacp, self._jacr
         if self.orientation is None:  # the rotational Jacobian is not needed
