@@ -10,6 +10,7 @@ start their own.
 
 from __future__ import annotations
 
+import asyncio
 import atexit
 import importlib.util
 import os
@@ -21,12 +22,18 @@ import subprocess
 import sys
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Awaitable, Callable
+from typing import TYPE_CHECKING, TypeVar
 
 import pytest
 
 from simbridge.connector import ConnectorOptions
 from simbridge.endpoint.backends.ros1_master import RosCore, free_port, terminate
+
+if TYPE_CHECKING:  # rospy is imported only once require_ros() let the tests run
+    from simbridge.endpoint.backends.ros1 import Ros1Backend, Ros1Options
+
+T = TypeVar("T")
 
 __all__ = [
     "FAST",
@@ -38,7 +45,9 @@ __all__ = [
     "ros_string",
     "shared_master",
     "terminate",
+    "until",
     "wait_until",
+    "with_backend",
 ]
 
 SYSTEM_PYTHON = "/usr/bin/python3"
@@ -60,6 +69,33 @@ def ros_string(text: str) -> bytes:
     """std_msgs/String by hand: uint32 LE length + UTF-8 bytes."""
     raw = text.encode()
     return struct.pack("<I", len(raw)) + raw
+
+
+async def until(predicate: Callable[[], bool], timeout: float, what: str) -> None:
+    """`wait_until` on an event loop: the loop runs while it polls."""
+    deadline = time.monotonic() + timeout
+    while not predicate():
+        if time.monotonic() > deadline:
+            raise AssertionError(f"timed out waiting for {what}")
+        await asyncio.sleep(0.02)
+
+
+def with_backend(
+    scenario: Callable[[Ros1Backend], Awaitable[T]], options: Ros1Options | None = None
+) -> T:
+    """Run `scenario` on a fresh event loop with a started Ros1Backend (this process's
+    node, on `shared_master()`), closing it after."""
+    from simbridge.endpoint.backends.ros1 import Ros1Backend
+
+    async def main() -> T:
+        backend = Ros1Backend(options)
+        await backend.start()
+        try:
+            return await scenario(backend)
+        finally:
+            await backend.close()
+
+    return asyncio.run(main())
 
 
 def wait_until(predicate: Callable[[], bool], timeout: float, what: str) -> float:

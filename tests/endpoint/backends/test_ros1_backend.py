@@ -9,14 +9,20 @@ import struct
 import sys
 import textwrap
 import time
-from collections.abc import Awaitable, Callable
 from pathlib import Path
-from typing import Literal, TypeVar
+from typing import Literal
 
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from tests.ros1support import SYSTEM_PYTHON, RosMaster, require_ros, shared_master
+from tests.ros1support import (
+    SYSTEM_PYTHON,
+    RosMaster,
+    require_ros,
+    ros_string,
+    until,
+    with_backend,
+)
 
 from simbridge.endpoint.backends.base import TopicInfo
 from simbridge.errors import EndpointError, ServiceError, UnknownMessageTypeError
@@ -34,45 +40,8 @@ pytestmark = [
     pytest.mark.filterwarnings("ignore:notifyAll:DeprecationWarning"),
 ]
 
-T = TypeVar("T")
 
 STRING_HELLO = struct.pack("<I", 5) + b"hello"  # std_msgs/String data="hello"
-
-
-def ros_string(text: str) -> bytes:
-    """std_msgs/String by hand: uint32 LE length + UTF-8 bytes."""
-    raw = text.encode()
-    return struct.pack("<I", len(raw)) + raw
-
-
-@pytest.fixture(scope="module")
-def master() -> RosMaster:
-    require_ros()
-    return shared_master()
-
-
-def with_backend(
-    scenario: Callable[[Ros1Backend], Awaitable[T]], options: Ros1Options | None = None
-) -> T:
-    """Run `scenario` on a fresh event loop with a started backend, closing it after."""
-
-    async def main() -> T:
-        backend = Ros1Backend(options)
-        await backend.start()
-        try:
-            return await scenario(backend)
-        finally:
-            await backend.close()
-
-    return asyncio.run(main())
-
-
-async def until(predicate: Callable[[], bool], timeout: float, what: str) -> None:
-    deadline = time.monotonic() + timeout
-    while not predicate():
-        if time.monotonic() > deadline:
-            raise AssertionError(f"timed out waiting for {what}")
-        await asyncio.sleep(0.05)
 
 
 def test_published_bytes_reach_rostopic_echo(master: RosMaster) -> None:

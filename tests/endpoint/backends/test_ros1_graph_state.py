@@ -7,12 +7,11 @@ import struct
 import subprocess
 import textwrap
 import xmlrpc.client
-from collections.abc import Awaitable, Callable
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Any
 
 import pytest
-from tests.ros1support import SYSTEM_PYTHON, RosMaster, require_ros, shared_master
+from tests.ros1support import SYSTEM_PYTHON, RosMaster, require_ros, with_backend
 
 from simbridge.endpoint.backends.base import TopicInfo
 
@@ -23,33 +22,11 @@ import rospy  # noqa: E402
 from simbridge.endpoint.backends.ros1 import Ros1Backend  # noqa: E402
 from simbridge.endpoint.backends.ros1_rejoin import register_again  # noqa: E402
 
-T = TypeVar("T")
-
 pytestmark = [
     pytest.mark.ros1,
     pytest.mark.timeout(120),
     pytest.mark.filterwarnings("ignore:notifyAll:DeprecationWarning"),
 ]
-
-
-@pytest.fixture(scope="module")
-def master() -> RosMaster:
-    require_ros()
-    return shared_master()
-
-
-def with_backend(scenario: Callable[[Ros1Backend], Awaitable[T]]) -> T:
-    """Run `scenario` on a fresh event loop with a started backend, closing it after."""
-
-    async def main() -> T:
-        backend = Ros1Backend()
-        await backend.start()
-        try:
-            return await scenario(backend)
-        finally:
-            await backend.close()
-
-    return asyncio.run(main())
 
 
 def rostopic_list(master: RosMaster) -> set[str]:

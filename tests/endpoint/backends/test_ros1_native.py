@@ -12,13 +12,12 @@ import struct
 import threading
 import time
 import xmlrpc.client
-from collections.abc import Awaitable, Callable
-from typing import Any, TypeVar
+from typing import Any
 
 import pytest
 from tests.endpoint.rawclient import RawClient
 from tests.endpoint.tcpros_publisher import Plan, RawPublisher
-from tests.ros1support import RosMaster, require_ros, shared_master
+from tests.ros1support import RosMaster, require_ros, ros_string, until, with_backend
 
 from simbridge.endpoint import EndpointOptions, EndpointThread
 from simbridge.protocol import (
@@ -49,41 +48,7 @@ pytestmark = [
     pytest.mark.filterwarnings("ignore:The publisher should be created:SyntaxWarning"),
 ]
 
-T = TypeVar("T")
 STRING = Ros1Types(default_registry()).message("std_msgs/String")
-
-
-@pytest.fixture(scope="module")
-def master() -> RosMaster:
-    require_ros()
-    return shared_master()
-
-
-def with_backend(
-    scenario: Callable[[Ros1Backend], Awaitable[T]], options: Ros1Options | None = None
-) -> T:
-    async def main() -> T:
-        backend = Ros1Backend(options)
-        await backend.start()
-        try:
-            return await scenario(backend)
-        finally:
-            await backend.close()
-
-    return asyncio.run(main())
-
-
-async def until(predicate: Callable[[], bool], timeout: float, what: str) -> None:
-    deadline = time.monotonic() + timeout
-    while not predicate():
-        if time.monotonic() > deadline:
-            raise AssertionError(f"timed out waiting for {what}")
-        await asyncio.sleep(0.02)
-
-
-def ros_string(text: str) -> bytes:
-    raw = text.encode()
-    return struct.pack("<I", len(raw)) + raw
 
 
 def tcpros_address(topic: str) -> tuple[str, int]:

@@ -6,19 +6,16 @@ from __future__ import annotations
 
 import asyncio
 import xmlrpc.client
-from collections.abc import Awaitable, Callable
-from typing import Any, TypeVar
+from typing import Any
 
 import pytest
-from tests.ros1support import RosMaster, require_ros, shared_master
+from tests.ros1support import RosMaster, require_ros, with_backend
 
 require_ros(module_level=True)
 
 from simbridge.endpoint.backends.ros1 import Ros1Backend  # noqa: E402
 from simbridge.endpoint.backends.ros1_rejoin import register_again  # noqa: E402
 from simbridge.errors import EndpointError  # noqa: E402
-
-T = TypeVar("T")
 
 pytestmark = [
     pytest.mark.ros1,
@@ -27,24 +24,6 @@ pytestmark = [
 ]
 
 URDF = '<robot name="r"><link name="base"/></robot>'
-
-
-@pytest.fixture(scope="module")
-def master() -> RosMaster:
-    require_ros()
-    return shared_master()
-
-
-def with_backend(scenario: Callable[[Ros1Backend], Awaitable[T]]) -> T:
-    async def main() -> T:
-        backend = Ros1Backend()
-        await backend.start()
-        try:
-            return await scenario(backend)
-        finally:
-            await backend.close()
-
-    return asyncio.run(main())
 
 
 def test_set_param_reaches_the_master_and_survives_a_restart(master: RosMaster) -> None:
