@@ -18,6 +18,8 @@ rospy p50 and 100% to its p99).
 
 Every figure is taken `REPEATS` (>= 3) times in interleaved rounds; rows give the best
 and the median round and the 1-minute load average when the row's first round started.
+`python -m benchmarks.bench_ros1 --round-trip` runs the round trips alone
+(`SIMBRIDGE_BENCH_SCALE` and `SIMBRIDGE_BENCH_REPEATS` make it shorter).
 """
 
 from __future__ import annotations
@@ -542,39 +544,55 @@ ROUND_TRIP_TITLE = (
 )
 
 
-def run(repeats: int = REPEATS) -> dict[str, list[dict[str, Any]]]:
+def run(repeats: int = REPEATS, round_trip_only: bool = False) -> dict[str, list[dict[str, Any]]]:
     """Every direction and payload, then the round trips, in `repeats` interleaved rounds
-    (the machine may be shared); rows give the best and the median round."""
-    throughput: list[dict[str, Any]] = []
-    round_trips: list[dict[str, Any]] = []
+    (the machine may be shared); rows give the best and the median round. With
+    `round_trip_only` just the round trips (`--round-trip` on the command line)."""
     with _roscore() as env, tempfile.TemporaryDirectory() as tmp:
         os.environ.update({k: v for k, v in env.items() if k.startswith("ROS_")})
         script = Path(tmp, "bench_node.py")
         script.write_text(_NODE_SCRIPT % {"idle": IDLE_END})
         rt_script = Path(tmp, "rt_node.py")
         rt_script.write_text(_RT_SCRIPT)
-        for i, p in enumerate(PAYLOADS):
-            loads: list[float] = []
-            rounds: list[list[dict[str, Any]]] = []
-            for r in range(repeats):
-                results = []
-                for name, measure in MEASURES:
-                    if r == 0:
-                        loads.append(load_average())
-                    results.append(measure(env, script, p, f"/bench/p{i}r{r}/{name}"))
-                rounds.append(results)
-            throughput.extend(_summary(rounds, k, loads[k]) for k in range(len(MEASURES)))
-        rt: dict[str, list[dict[str, float]]] = {"rospy": [], "endpoint": []}
-        rt_loads: dict[str, float] = {}
+        tables: dict[str, list[dict[str, Any]]] = {}
+        if not round_trip_only:
+            tables[THROUGHPUT_TITLE] = _throughput(env, script, repeats)
+        tables[ROUND_TRIP_TITLE] = _round_trips(env, rt_script, repeats)
+    return tables
+
+
+def _throughput(env: dict[str, str], script: Path, repeats: int) -> list[dict[str, Any]]:
+    """Every MEASURES row for every payload, in `repeats` rounds."""
+    throughput: list[dict[str, Any]] = []
+    for i, p in enumerate(PAYLOADS):
+        loads: list[float] = []
+        rounds: list[list[dict[str, Any]]] = []
         for r in range(repeats):
-            rt_loads.setdefault("rospy", load_average())
-            rt["rospy"].append(_rospy_round_trip(env, rt_script, f"/bench/rt{r}/rospy"))
-            rt_loads.setdefault("endpoint", load_average())
-            rt["endpoint"].append(_endpoint_round_trip(env, rt_script, f"/bench/rt{r}/endpoint"))
+            results = []
+            for name, measure in MEASURES:
+                if r == 0:
+                    loads.append(load_average())
+                results.append(measure(env, script, p, f"/bench/p{i}r{r}/{name}"))
+            rounds.append(results)
+        throughput.extend(_summary(rounds, k, loads[k]) for k in range(len(MEASURES)))
+    return throughput
+
+
+def _round_trips(env: dict[str, str], rt_script: Path, repeats: int) -> list[dict[str, Any]]:
+    """rospy and endpoint round trips in `repeats` alternating rounds; each ratio is
+    against the rospy round trip of the same round."""
+    rt: dict[str, list[dict[str, float]]] = {"rospy": [], "endpoint": []}
+    rt_loads: dict[str, float] = {}
+    for r in range(repeats):
+        rt_loads.setdefault("rospy", load_average())
+        rt["rospy"].append(_rospy_round_trip(env, rt_script, f"/bench/rt{r}/rospy"))
+        rt_loads.setdefault("endpoint", load_average())
+        rt["endpoint"].append(_endpoint_round_trip(env, rt_script, f"/bench/rt{r}/endpoint"))
     labels = {
         "rospy": "rospy -> rospy echo -> rospy",
         "endpoint": "sim -> endpoint -> rospy echo -> endpoint -> sim",
     }
+    round_trips: list[dict[str, Any]] = []
     for key, runs in rt.items():
         row: dict[str, Any] = {"path": labels[key], "pings": RT_COUNT, "load_1min": rt_loads[key]}
         for figure in ("p50_us", "p99_us"):
@@ -585,7 +603,7 @@ def run(repeats: int = REPEATS) -> dict[str, list[dict[str, Any]]]:
             row[f"{figure}_vs_rospy"] = statistics.median(ratios)
         row["lost"] = sum(int(run["lost"]) for run in runs)
         round_trips.append(row)
-    return {THROUGHPUT_TITLE: throughput, ROUND_TRIP_TITLE: round_trips}
+    return round_trips
 
 
 def _summary(rounds: list[list[dict[str, Any]]], k: int, load: float) -> dict[str, Any]:
@@ -614,5 +632,5 @@ def _summary(rounds: list[list[dict[str, Any]]], k: int, load: float) -> dict[st
 if __name__ == "__main__":
     from benchmarks.table import format_table
 
-    for title, table in run().items():
+    for title, table in run(round_trip_only="--round-trip" in sys.argv).items():
         print(f"### {title}\n\n{format_table(table, markdown='--markdown' in sys.argv)}\n")

@@ -17,6 +17,7 @@ from simbridge.endpoint.backends.base import (
     BackendServiceServer,
     BackendSubscription,
 )
+from simbridge.endpoint.deferred import deferred_writes
 from simbridge.endpoint.session_actions import SessionActions
 from simbridge.endpoint.stats import SessionStats
 from simbridge.endpoint.writev import WRITE_ALONE, write_chunks
@@ -128,6 +129,8 @@ class ClientSession(asyncio.BufferedProtocol):
         self._fd = -1
         """The socket's descriptor, for scatter-gather writes while the transport is idle."""
         self._flush_scheduled = False
+        self._writes = deferred_writes(server.loop)
+        """Writes leave at the end of the read that caused them (or of the loop iteration)."""
         self._paused = False
         self._paused_at = 0.0
         self._control: deque[bytes] = deque()
@@ -217,6 +220,16 @@ class ClientSession(asyncio.BufferedProtocol):
         return self.proto.get_buffer()
 
     def buffer_updated(self, nbytes: int) -> None:
+        writes = self._writes
+        writes.hold()
+        try:
+            self._received(nbytes)
+        finally:
+            writes.release()
+
+    def _received(self, nbytes: int) -> None:
+        """Handle the frames `nbytes` more bytes complete (what they make the endpoint
+        write, to this client or to ROS, leaves when the caller releases the writes)."""
         now = self.last_recv = time.monotonic()
         stats = self.stats
         stats.bytes_in += nbytes
@@ -271,7 +284,7 @@ class ClientSession(asyncio.BufferedProtocol):
             self._flush()
         elif not self._flush_scheduled:
             self._flush_scheduled = True
-            self.server.loop.call_soon(self._flush)
+            self._writes.defer(self._flush)
 
     def _flush(self) -> None:
         self._flush_scheduled = False

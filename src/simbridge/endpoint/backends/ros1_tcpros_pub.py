@@ -1,8 +1,9 @@
 """The endpoint's own TCPROS server: ROS subscribers of its topics connect here.
 
 Runs on the endpoint's event loop, so a publish is a few appends and one write per
-connection per loop iteration (everything published in one iteration goes out in one
-`write`), with no thread hand-off. A connection whose kernel buffer is full holds its
+connection per read of the client's frames (everything one read brings in goes out in
+one `write`, right at the end of that read: see `endpoint.deferred`), with no thread
+hand-off. A connection whose kernel buffer is full holds its
 messages in a queue bounded by the registration's `queue_size` (and a byte cap);
 past that the oldest are dropped and counted, as rospy's publisher queue does.
 """
@@ -18,6 +19,7 @@ from collections import deque
 from collections.abc import Callable
 
 from simbridge.endpoint.backends.ros1_raw import RawMessageType
+from simbridge.endpoint.deferred import DeferredWrites, deferred_writes
 from simbridge.endpoint.writev import write_chunks
 from simbridge.protocol.tcpros import TcprosDecoder, TcprosError, encode_header
 
@@ -42,7 +44,8 @@ connection_ids = itertools.count(1 << 20)
 """Ids of the endpoint's TCPROS connections in getBusInfo (apart from rospy's own)."""
 
 _FLUSH_AT = 256 << 10
-"""Bytes queued in one loop iteration that are written at once rather than at its end."""
+"""Bytes queued for one connection that are written at once rather than when the read
+that published them is done."""
 
 
 class PublishedTopic:
@@ -121,6 +124,7 @@ class TopicServer:
         """Messages dropped for ROS subscribers that did not keep up (past queue_size)."""
         self._server: asyncio.Server | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
+        self._writes: DeferredWrites | None = None
         self._dirty: list[_SubscriberConnection] = []
         self._connections: set[_SubscriberConnection] = set()
         self.port = 0
@@ -128,6 +132,7 @@ class TopicServer:
     async def start(self, bind_host: str) -> None:
         """Listen on `bind_host` at a free port."""
         self._loop = asyncio.get_running_loop()
+        self._writes = deferred_writes(self._loop)
         self._server = await self._loop.create_server(
             lambda: _SubscriberConnection(self), bind_host, 0
         )
@@ -166,9 +171,10 @@ class TopicServer:
             topic.close()
 
     def schedule(self, connection: _SubscriberConnection) -> None:
-        """Flush `connection` at the end of this loop iteration."""
-        if not self._dirty and self._loop is not None:
-            self._loop.call_soon(self._flush)
+        """Flush `connection` once the read that published to it is done (or at the end
+        of this loop iteration)."""
+        if not self._dirty and self._writes is not None:
+            self._writes.defer(self._flush)
         self._dirty.append(connection)
 
     def _flush(self) -> None:
@@ -274,8 +280,8 @@ class _SubscriberConnection(asyncio.Protocol):
             self._transport.close()
 
     def send(self, prefix: bytes, payload: bytes) -> None:
-        """Queue one message (its length prefix and bytes); it leaves at the end of this
-        loop iteration, or held while the subscriber is not reading."""
+        """Queue one message (its length prefix and bytes); it leaves once the read that
+        published it is done, or is held while the subscriber is not reading."""
         if self._paused:
             self._hold(prefix, payload)
             return

@@ -26,6 +26,7 @@ from dataclasses import dataclass
 from simbridge.endpoint.backends.base import MessageCallback
 from simbridge.endpoint.backends.ros1_raw import RawMessageType
 from simbridge.endpoint.backends.ros1_tcpros_pub import connection_ids
+from simbridge.endpoint.deferred import DeferredWrites, deferred_writes
 from simbridge.protocol.tcpros import TcprosDecoder, TcprosError, encode_header
 
 __all__ = ["Sink", "SubscribedTopic"]
@@ -278,6 +279,7 @@ class _PublisherConnection(asyncio.Protocol):
         self._reading_paused = False
         self._stash: deque[bytes] = deque()
         """Messages received but not yet delivered (at most one read's worth)."""
+        self._writes: DeferredWrites | None = None
 
     async def open(self) -> None:
         loop = asyncio.get_running_loop()
@@ -294,12 +296,25 @@ class _PublisherConnection(asyncio.Protocol):
             transport.close()
             return
         self._transport = transport
+        self._writes = deferred_writes(asyncio.get_running_loop())
         sock = transport.get_extra_info("socket")
         if sock is not None:
             sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
         transport.write(self.topic.header())
 
     def data_received(self, data: bytes) -> None:
+        writes = self._writes
+        if writes is None:
+            return
+        writes.hold()
+        try:
+            self._received(data)
+        finally:
+            writes.release()
+
+    def _received(self, data: bytes) -> None:
+        """Hand what `data` completes to the consumers (what they write leaves when the
+        caller releases the writes)."""
         transport = self._transport
         if transport is None or transport.is_closing():
             return
