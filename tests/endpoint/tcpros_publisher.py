@@ -134,9 +134,9 @@ class RawPublisher:
         )
 
     def _close(self, conn: socket.socket) -> None:
-        conn.close()
-        with self._lock:
+        with self._lock:  # noted first: the subscriber cannot see the close before
             self.closed.append(time.monotonic())
+        conn.close()
 
     def serving(self) -> int:
         """How many connections take messages now."""

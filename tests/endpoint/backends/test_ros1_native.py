@@ -37,7 +37,11 @@ import rospy  # noqa: E402
 
 from simbridge.endpoint.backends.ros1 import Ros1Backend, Ros1Options, Ros1Publisher  # noqa: E402
 from simbridge.endpoint.backends.ros1_raw import raw_message_class  # noqa: E402
-from simbridge.endpoint.backends.ros1_tcpros_sub import RETRY_FIRST, RETRY_MAX  # noqa: E402
+from simbridge.endpoint.backends.ros1_tcpros_sub import (  # noqa: E402
+    RETRY_FIRST,
+    RETRY_MAX,
+    SubscribedTopic,
+)
 from simbridge.endpoint.backends.ros1_types import Ros1Types  # noqa: E402
 from simbridge.messages import default_registry  # noqa: E402
 
@@ -321,10 +325,16 @@ def raw_publisher(
     )
 
 
-def listed(backend: Ros1Backend, topic: str) -> frozenset[str]:
-    """The publishers the master last listed to the endpoint's subscription of `topic`."""
+def native_topic(backend: Ros1Backend, topic: str) -> SubscribedTopic:
+    """The endpoint's subscription of `topic` (its publisher list, connections, retries)."""
     assert backend._native is not None
-    return backend._native._subscribed[topic].publishers
+    return backend._native._subscribed[topic]
+
+
+def between_attempts(subscribed: SubscribedTopic, uri: str) -> bool:
+    """No connection to `uri` is being made: every attempt so far was accepted and closed
+    by the publisher, so a later accept can only be a new attempt."""
+    return uri not in subscribed.connections
 
 
 def test_a_dropped_publisher_is_reconnected_while_the_master_lists_it(
@@ -348,7 +358,8 @@ def test_a_dropped_publisher_is_reconnected_while_the_master_lists_it(
         await until(lambda: "again" in received, 20, "a message after reconnecting")
         stats = backend.stats()
         await asyncio.to_thread(fake.unregister)
-        await until(lambda: fake.uri not in listed(backend, topic), 20, "the master's update")
+        subscribed = native_topic(backend, topic)
+        await until(lambda: fake.uri not in subscribed.publishers, 20, "the master's update")
         accepted = len(fake.accepted)
         fake.drop()
         await asyncio.sleep(4 * RETRY_FIRST)
@@ -384,7 +395,13 @@ def test_reconnecting_stops_when_the_publisher_unregisters(master: RosMaster) ->
         await until(lambda: received == ["first"], 20, "the first connection's message")
         await until(lambda: len(fake.accepted) >= 3, 20, "two reconnection attempts")
         await asyncio.to_thread(fake.unregister)
-        await until(lambda: fake.uri not in listed(backend, topic), 20, "the master's update")
+        subscribed = native_topic(backend, topic)
+        uri = fake.uri
+        await until(
+            lambda: uri not in subscribed.publishers and between_attempts(subscribed, uri),
+            20,
+            "the master's update, and no attempt under way",
+        )
         accepted = len(fake.accepted)
         await asyncio.sleep(RETRY_MAX / 2 + 1)  # longer than the wait after 3 attempts
         assert len(fake.accepted) == accepted, "retried a publisher the master no longer lists"
@@ -409,8 +426,13 @@ def test_reconnecting_stops_when_the_subscription_ends(master: RosMaster) -> Non
         subscription = backend.subscribe(
             topic, "std_msgs/String", lambda p: received.append(p[4:].decode())
         )
-        await until(lambda: len(fake.accepted) >= 2, 20, "a reconnection attempt")
-        subscription.close()
+        subscribed = native_topic(backend, topic)
+        await until(
+            lambda: len(fake.accepted) >= 2 and between_attempts(subscribed, fake.uri),
+            20,
+            "a reconnection attempt, then the wait for the next",
+        )
+        subscription.close()  # with the next attempt's timer pending
         accepted = len(fake.accepted)
         await asyncio.sleep(RETRY_MAX / 2 + 1)
         assert len(fake.accepted) == accepted, "retried after the subscription ended"
