@@ -31,6 +31,7 @@ from simbridge.endpoint.backends.base import (
     ServiceHandler,
     TopicInfo,
 )
+from simbridge.endpoint.backends.malloc_tuning import keep_large_buffers
 from simbridge.endpoint.backends.ros1_native import NativeData
 from simbridge.endpoint.backends.ros1_node import NodeIdentity, join_graph, on_node_shutdown
 from simbridge.endpoint.backends.ros1_raw import (
@@ -119,6 +120,7 @@ class Ros1Backend(Backend):
             max_workers=opts.service_threads, thread_name_prefix="simbridge-ros1-call"
         )
         if opts.transport == "native":
+            keep_large_buffers()  # images: reuse heap buffers, no page faults per copy
             native = NativeData(opts.max_message_size)
             await native.start()
             self._native = native
