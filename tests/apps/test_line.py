@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import json
 import threading
-import time
 from collections import Counter
 from collections.abc import Callable
 from pathlib import Path
@@ -31,6 +30,7 @@ from simbridge.cli import main as cli_main
 from simbridge.connector import ConnectorOptions
 from simbridge.endpoint import EndpointOptions, EndpointThread, LocalBus, Node
 from simbridge.sim.ros import SimulationSession
+from tests.waiting import wait_for
 
 ROBOTS = (*ARMS, CONVEYOR)
 
@@ -84,15 +84,6 @@ def test_json_line_has_the_documented_shape_and_the_bag_every_robot(
     assert topics["/tf"] > 100
 
 
-def _wait(predicate: Callable[[], bool], timeout: float = 10.0) -> bool:
-    deadline = time.monotonic() + timeout
-    while not predicate():
-        if time.monotonic() > deadline:
-            return False
-        time.sleep(0.01)
-    return True
-
-
 def test_every_robot_has_its_own_namespaced_topics_frames_and_actions() -> None:
     task = LineTask.random(0, 1)
     bus = LocalBus()
@@ -129,7 +120,9 @@ def test_every_robot_has_its_own_namespaced_topics_frames_and_actions() -> None:
         runner = threading.Thread(target=session.world.run, args=(2.0, 0.0))
         runner.start()
         try:
-            assert _wait(lambda: len(names) == 3 and "conveyor/pallet_link" in frames)
+            assert wait_for(
+                lambda: len(names) == 3 and "conveyor/pallet_link" in frames, timeout=10
+            )
         finally:
             session.world.stop()
             runner.join(10)

@@ -7,7 +7,6 @@ from __future__ import annotations
 import os
 import subprocess
 import time
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -20,6 +19,7 @@ from tests.ros1support import (
     require_ros,
     terminate,
 )
+from tests.waiting import wait_for
 
 from simbridge.connector import ActionClient, Connector, ConnectorOptions
 from simbridge.endpoint.backends.ros1_genpy import generate_python_messages
@@ -62,15 +62,6 @@ def _goal(position: float, seconds: float) -> Any:
     return REG.new("control_msgs/GripperCommandGoal", command=command)
 
 
-def _wait(predicate: Callable[[], bool], timeout: float = 20.0) -> bool:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if predicate():
-            return True
-        time.sleep(0.02)
-    return predicate()
-
-
 def test_connector_client_against_simple_action_server(tmp_path: Path) -> None:
     probe = subprocess.run([SYSTEM_PYTHON, "-c", "import actionlib"], check=False)
     if probe.returncode != 0:
@@ -106,14 +97,14 @@ def test_connector_client_against_simple_action_server(tmp_path: Path) -> None:
             assert feedback[0].position == pytest.approx(0.02)
 
             long = client.send_goal(_goal(0.01, 30.0))
-            assert _wait(lambda: long.status == ACTIVE)
+            assert wait_for(lambda: long.status == ACTIVE, timeout=20)
             long.cancel()
             assert long.wait(20)
             assert long.status == PREEMPTED
             assert long.result.position == pytest.approx(-1.0)
 
             older = client.send_goal(_goal(0.01, 30.0))
-            assert _wait(lambda: older.status == ACTIVE)
+            assert wait_for(lambda: older.status == ACTIVE, timeout=20)
             newer = client.send_goal(_goal(0.03, 0.3))
             assert older.wait(20)
             assert older.status == PREEMPTED  # SimpleActionServer preempts for the newer goal

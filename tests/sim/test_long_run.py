@@ -8,7 +8,6 @@ stamps, as a subscriber on the endpoint sees them (issue 11, "done when").
 from __future__ import annotations
 
 import threading
-import time
 from collections import defaultdict
 from pathlib import Path
 from typing import Any
@@ -19,6 +18,7 @@ import yaml
 from simbridge.endpoint import EndpointOptions, EndpointThread, LocalBus, Node
 from simbridge.sim.ros import SimulationSession
 from tests.sim.urdf_samples import GRAVITY_ARM
+from tests.waiting import wait_for
 
 SCENE: dict[str, Any] = {
     "physics": {"timestep": 0.002, "realtime_factor": 0},
@@ -101,7 +101,7 @@ def run_and_count(tmp_path: Path, sim_seconds: float) -> dict[str, list[int]]:
                 assert sim.sensors is not None
                 lazy = sim.sensors
                 assert all(
-                    _wait(lambda t=t: lazy.publisher(t).has_subscribers)  # type: ignore[misc]
+                    wait_for(lambda t=t: lazy.publisher(t).has_subscribers)  # type: ignore[misc]
                     for t in lazy.suite.outputs
                     if t != "/tf"
                 )
@@ -110,18 +110,9 @@ def run_and_count(tmp_path: Path, sim_seconds: float) -> dict[str, list[int]]:
                 assert sim.connector.flush(60)
                 drops = sim.connector.stats().publish_drops
             expected = sum(round(sim_seconds * hz) for _, hz in STREAMS.values())
-            _wait(lambda: sum(len(v) for v in stamps.values()) >= expected, timeout=60)
+            wait_for(lambda: sum(len(v) for v in stamps.values()) >= expected, timeout=60)
     assert not drops, drops
     return dict(stamps)
-
-
-def _wait(predicate: Any, timeout: float = 5.0) -> bool:
-    deadline = time.monotonic() + timeout
-    while not predicate():
-        if time.monotonic() > deadline:
-            return False
-        time.sleep(0.01)
-    return True
 
 
 def check_rates(stamps: dict[str, list[int]], sim_seconds: float) -> None:

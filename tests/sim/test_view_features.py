@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -24,6 +24,7 @@ pytest.importorskip("viser")
 import viser._messages as messages
 
 from tests.sim.viser_client import ViserClient
+from tests.waiting import wait_for
 
 
 def _world(tmp_path: Path) -> World:
@@ -48,15 +49,6 @@ def _world(tmp_path: Path) -> World:
     return World.from_scene(load_scene(tmp_path / "scene.yaml"))
 
 
-def _wait(predicate: Callable[[], bool], timeout: float = 10.0) -> bool:
-    deadline = time.monotonic() + timeout
-    while not predicate():
-        if time.monotonic() > deadline:
-            return False
-        time.sleep(0.02)
-    return True
-
-
 @pytest.fixture
 def running(tmp_path: Path) -> Iterator[tuple[World, LiveView]]:
     world = _world(tmp_path)
@@ -74,13 +66,15 @@ def test_tf_frames_appear_and_go_with_their_checkbox(running: tuple[World, LiveV
     assert view.tf.frames == {}, "off by default"
     with ViserClient(view.port) as browser:
         browser.send(messages.GuiUpdateMessage(view.tf.checkbox._impl.uuid, {"value": True}))
-        assert _wait(lambda: len(view.tf.frames) == world.model.nbody - 1)
+        assert wait_for(lambda: len(view.tf.frames) == world.model.nbody - 1, timeout=10)
         names = {handle.name for handle in view.tf.frames.values()}
         assert {"/tf/upper", "/tf/crate"} <= names
         upper = world.model.body("upper").id
-        assert _wait(lambda: np.allclose(view.tf.frames[upper].position, world.data.xpos[upper]))
+        assert wait_for(
+            lambda: np.allclose(view.tf.frames[upper].position, world.data.xpos[upper]), timeout=10
+        )
         browser.send(messages.GuiUpdateMessage(view.tf.checkbox._impl.uuid, {"value": False}))
-        assert _wait(lambda: view.tf.frames == {})
+        assert wait_for(lambda: view.tf.frames == {}, timeout=10)
 
 
 def test_contact_points_on_demand(running: tuple[World, LiveView]) -> None:
@@ -88,7 +82,7 @@ def test_contact_points_on_demand(running: tuple[World, LiveView]) -> None:
     time.sleep(0.3)  # the crate settles on the floor
     assert view.contacts.handle is None, "off by default"
     view.contacts.checkbox.value = True  # type: ignore[misc]
-    assert _wait(lambda: view.contacts.handle is not None)
+    assert wait_for(lambda: view.contacts.handle is not None, timeout=10)
     handle = view.contacts.handle
     assert handle is not None
     points = np.asarray(handle.points, dtype=np.float64)
@@ -105,14 +99,14 @@ def test_dragging_the_gizmo_moves_the_body_in_mujoco(running: tuple[World, LiveV
     view.toggle_pause()
     with ViserClient(view.port) as browser:
         browser.send(messages.GuiUpdateMessage(view.mover.dropdown._impl.uuid, {"value": "crate"}))
-        assert _wait(lambda: view.mover.gizmo is not None)
+        assert wait_for(lambda: view.mover.gizmo is not None, timeout=10)
         target = (0.1, 0.5, 0.3)
         yaw = (np.cos(0.3), 0.0, 0.0, np.sin(0.3))
         browser.drag("/move_object", target, yaw)
-        assert _wait(lambda: np.allclose(world.data.xpos[crate], target, atol=1e-9))
+        assert wait_for(lambda: np.allclose(world.data.xpos[crate], target, atol=1e-9), timeout=10)
         assert np.allclose(world.data.xquat[crate], yaw, atol=1e-9)
         view.toggle_pause()  # the physics takes over: it falls onto the floor below
-        assert _wait(lambda: abs(world.data.xpos[crate][2] - 0.05) < 2e-3, timeout=15)
+        assert wait_for(lambda: abs(world.data.xpos[crate][2] - 0.05) < 2e-3, timeout=15)
         assert np.allclose(world.data.xpos[crate][:2], target[:2], atol=0.02)
 
 
@@ -133,16 +127,20 @@ def test_several_browsers_and_one_going_away_leave_the_physics_at_pace(
     world, view = running
     browsers = [ViserClient(view.port) for _ in range(3)]
     try:
-        assert _wait(lambda: len(view.server.get_clients()) == 3)
-        assert _wait(lambda: all(b.received > 20 for b in browsers)), "each gets the scene"
+        assert wait_for(lambda: len(view.server.get_clients()) == 3, timeout=10)
+        assert wait_for(lambda: all(b.received > 20 for b in browsers), timeout=10), (
+            "each gets the scene"
+        )
         sim0, wall0, frames0 = world.time, time.perf_counter(), view.frames_sent
         time.sleep(2.0)
         factor = (world.time - sim0) / (time.perf_counter() - wall0)
         assert factor > 0.9, f"three browsers slowed the physics to x{factor:.2f}"
         browsers[0].socket.close_socket()  # gone without a goodbye, like a closed laptop
-        assert _wait(lambda: len(view.server.get_clients()) == 2)
+        assert wait_for(lambda: len(view.server.get_clients()) == 2, timeout=10)
         seen = browsers[1].received
-        assert _wait(lambda: browsers[1].received > seen + 10), "the others keep streaming"
+        assert wait_for(lambda: browsers[1].received > seen + 10, timeout=10), (
+            "the others keep streaming"
+        )
         assert view.frames_sent > frames0 + 30
         assert view._thread.is_alive()
     finally:
