@@ -28,6 +28,11 @@ class PublishBatch:
         self._counters = counters
         self._local = threading.local()
 
+    @property
+    def writer(self) -> FrameWriter:
+        """The writer the batches go to (single publishes use it too: `write_one`)."""
+        return self._writer
+
     def pending(self) -> list[tuple[OutTopic, bytes, int]] | None:
         """The calling thread's open batch (None outside one)."""
         pending: list[tuple[OutTopic, bytes, int]] | None = getattr(self._local, "pending", None)

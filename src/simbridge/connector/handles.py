@@ -104,7 +104,8 @@ class Publisher:
 
         When the topic already has its bound of unsent messages, the oldest is dropped
         and counted in `Connector.stats().publish_drops`. Inside the connector's `batch()`
-        on this thread it leaves with the batch.
+        on this thread it leaves with the batch; a small message on its own is written
+        from this thread at once (`FrameWriter.write_one`).
         """
         if self.closed:
             raise ConnectorError(f"the publisher on {self.topic!r} was unregistered")
@@ -120,7 +121,10 @@ class Publisher:
             if pending is not None:
                 pending.append((out, payload, out.bound))
                 return
-        if self._fifo.put(out, payload, out.bound, len(payload)):
+            dropped = batch.writer.write_one(out, payload)
+        else:
+            dropped = self._fifo.put(out, payload, out.bound, len(payload))
+        if dropped:
             self._counters.publish_dropped(out.topic)
 
 

@@ -7,7 +7,10 @@ keepalive interval it sends the 8-byte keepalive.
 A batch of small frames (one simulation step's state messages) can skip the thread:
 `write_batch` writes it from the publishing thread with one non-blocking `send` when
 nothing is queued before it and the socket has room, so the writer thread is not woken
-and the interpreter lock not handed over for every step.
+and the interpreter lock not handed over for every step. A single message published on
+its own (`write_one`: a command, a ping) goes the same way, saving a thread hand-off on
+each round trip; messages that follow each other closely are left to the writer thread,
+which sends them many per syscall.
 """
 
 from __future__ import annotations
@@ -36,6 +39,9 @@ _BATCH_BYTES = 16 * 1024 * 1024
 _IOV_MAX = 1024
 _DIRECT_LIMIT = 64 * 1024
 """Batches up to this size may be written from the publishing thread (`write_batch`)."""
+_BURST_GAP = 50e-6
+"""A message published sooner than this after the previous one (`write_one`) is part of
+a burst: it is queued for the writer thread, which sends a burst many frames per syscall."""
 
 
 class OutTopic:
@@ -88,6 +94,8 @@ class FrameWriter:
         self._busy = False
         self._direct_at = 0.0
         """When `write_batch` last wrote from a publishing thread (for the keepalive)."""
+        self._published_at = 0.0
+        """When `write_one` last queued or wrote a message (to tell bursts apart)."""
         self._thread = threading.Thread(
             target=self._run, name="simbridge-connector-writer", daemon=True
         )
@@ -165,6 +173,17 @@ class FrameWriter:
         if size > _DIRECT_LIMIT:
             return self._fifo.put_many(entries)
         return self._fifo.put_many_or_send(entries, self._send_now)
+
+    def write_one(self, key: OutTopic, payload: bytes) -> bool:
+        """Queue one published message, or write it now when it stands alone: small,
+        published at least `_BURST_GAP` after the previous one, nothing queued before it
+        and the writer thread idle. Returns True when the topic dropped a message."""
+        now = time.monotonic()
+        alone = now - self._published_at >= _BURST_GAP
+        self._published_at = now
+        if alone and len(payload) <= _DIRECT_LIMIT:
+            return bool(self._fifo.put_many_or_send([(key, payload, key.bound)], self._send_now))
+        return self._fifo.put(key, payload, key.bound, len(payload))
 
     def _send_now(self, entries: Sequence[tuple[OutTopic, bytes, int]]) -> list[bytes] | None:
         """Write `entries` with one non-blocking send (the FIFO is empty and locked);
