@@ -6,7 +6,7 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-import simbridge.gym  # noqa: F401 - registers the ids
+import simbridge.gym  # registers the ids
 from simbridge.errors import GymError
 from simbridge.gym import SceneVectorEnv
 
@@ -16,7 +16,7 @@ def _actions(space: gym.Space[np.ndarray], steps: int, seed: int) -> list[np.nda
     return [space.sample() for _ in range(steps)]
 
 
-@pytest.mark.parametrize("env_id", ["simbridge/Reach-v0", "simbridge/DiffDriveNav-v0"])
+@pytest.mark.parametrize("env_id", simbridge.gym.ENV_IDS)
 def test_batched_worlds_match_single_envs_bit_for_bit(env_id: str) -> None:
     vec = gym.make_vec(env_id, num_envs=3)
     assert isinstance(vec, SceneVectorEnv)
@@ -88,3 +88,25 @@ def test_gymnasium_sync_and_async_vector_envs(mode: str) -> None:
     np.testing.assert_allclose(obs["ee_pos"], expected["ee_pos"], atol=1e-4)
     reference.close()
     vec.close()
+
+
+def test_physics_threads_do_not_change_the_results() -> None:
+    """The batch's thread count only spreads the worlds: 1 and 2 threads, same bits."""
+    traces = []
+    for threads in (1, 2):
+        vec = gym.make_vec("simbridge/Reach-v0", num_envs=5, threads=threads)
+        obs, _ = vec.reset(seed=4)
+        trace = [obs]
+        for action in _actions(vec.action_space, 8, 2):
+            obs, *_ = vec.step(action)
+            trace.append(obs)
+        vec.close()
+        traces.append(trace)
+    for t, (one, two) in enumerate(zip(*traces, strict=True)):
+        for key in one:
+            np.testing.assert_array_equal(one[key], two[key], err_msg=f"step {t} {key}")
+
+
+def test_vector_rejects_a_negative_thread_count() -> None:
+    with pytest.raises(GymError, match="threads"):
+        gym.make_vec("simbridge/Reach-v0", num_envs=2, threads=-1)
