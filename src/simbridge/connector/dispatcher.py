@@ -71,9 +71,9 @@ class Dispatcher:
             fifo.ready.wait()
             fifo.ready.clear()
             while not self._stop:
+                # Anything queued after clear() sets `ready` again, so a short batch
+                # needs no second take() to find the queue empty.
                 batch = fifo.take(_BATCH, 1 << 62)
-                if not batch:
-                    break
                 for receiver, item in batch:
                     if self._stop:
                         return
@@ -86,3 +86,5 @@ class Dispatcher:
                     except Exception:
                         self._counters.callback_failed()
                         _log.exception("callback raised; the connector keeps running")
+                if len(batch) < _BATCH:
+                    break
