@@ -359,24 +359,30 @@ def test_scheduled_callbacks_fire_on_their_steps_when_the_loop_skips_idle_steps(
     assert fast == [5, 10]
 
 
-def test_callback_scopes_wrap_each_step_that_runs_callbacks(tmp_path: Path) -> None:
-    """A scope (e.g. `Connector.batch()`) is entered before and left after the callbacks
-    of every step where some are due, also when one raises; not on idle steps."""
+class _Scope:
+    """Logs when it is entered and left, with the world's step count."""
+
+    def __init__(self, world: World, log: list[str]) -> None:
+        self.world, self.log = world, log
+
+    def __enter__(self) -> None:
+        self.log.append(f"enter {self.world.step_count}")
+
+    def __exit__(self, *exc: object) -> None:
+        self.log.append(f"exit {self.world.step_count}")
+
+
+def test_callback_scopes_wrap_the_callbacks_of_each_step_call(tmp_path: Path) -> None:
+    """A scope (e.g. `Connector.batch()`) is entered before the first due callback and
+    left at the end of `step`, also when a callback raises; idle steps enter nothing."""
     world = arm_world(tmp_path)  # 2 ms steps
     log: list[str] = []
-
-    class Scope:
-        def __enter__(self) -> None:
-            log.append(f"enter {world.step_count}")
-
-        def __exit__(self, *exc: object) -> None:
-            log.append(f"exit {world.step_count}")
 
     def fail(w: World) -> None:
         if w.step_count == 10:
             raise RuntimeError("callback failed")
 
-    scope = world.add_callback_scope(Scope())
+    scope = world.add_callback_scope(_Scope(world, log))
     world.add_step_callback(lambda w: log.append(f"cb {w.step_count}"), period=0.01)
     world.add_step_callback(fail, period=0.02)
     world.step(5)
@@ -385,7 +391,51 @@ def test_callback_scopes_wrap_each_step_that_runs_callbacks(tmp_path: Path) -> N
     with pytest.raises(RuntimeError, match="callback failed"):
         world.step(5)
     assert log == ["enter 10", "cb 10", "exit 10"]
+    log.clear()
+    world.batch_window = 10.0  # within one step call they stay entered across steps
+    world.step(10)
+    assert log == ["enter 15", "cb 15", "cb 20", "exit 20"]
     world.remove_callback_scope(scope)
     log.clear()
     world.step(5)
-    assert log == ["cb 15"]
+    assert log == ["cb 25"]
+    with pytest.raises(SimError, match="batch_window"):
+        world.batch_window = -1
+
+
+def test_run_keeps_scopes_entered_until_the_window_ends_or_it_sleeps(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Flat out, `run` leaves the scopes once per `batch_window` (so what several steps
+    publish leaves in one write) and at its end; paced, before every sleep; with a
+    window of 0, after each step's callbacks."""
+    world = arm_world(tmp_path)  # 2 ms steps
+    log: list[str] = []
+    world.add_callback_scope(_Scope(world, log))
+    world.add_step_callback(lambda w: log.append("cb"), period=0.01)
+    world.batch_window = 3600.0
+    world.run(duration=0.2, realtime_factor=0)  # 100 steps, 20 callbacks
+    assert log == ["enter 5", *["cb"] * 20, "exit 100"]
+    log.clear()
+    world.batch_window = 0.0
+    world.run(duration=0.1, realtime_factor=0)
+    assert log == [x for n in range(105, 151, 5) for x in (f"enter {n}", "cb", f"exit {n}")]
+    log.clear()
+    world.batch_window = 3600.0
+    sleep = time.sleep
+
+    def logged_sleep(seconds: float) -> None:
+        log.append("sleep")
+        sleep(seconds)
+
+    monkeypatch.setattr(time, "sleep", logged_sleep)
+    world.run(duration=0.1, realtime_factor=1.0)  # sleeps between the 10 ms callbacks
+    assert log.count("cb") == 10
+    assert "sleep" in log
+    entered = False
+    for entry in log:  # never asleep with the scope entered
+        entered = entry.startswith("enter") or (entered and not entry.startswith("exit"))
+        assert not (entered and entry == "sleep"), log
+    assert [x for x in log if x.startswith("exit")][-1] == "exit 200"
+
+

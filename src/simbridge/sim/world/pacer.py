@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 
 __all__ = ["Pacer"]
 
@@ -21,12 +22,16 @@ class Pacer:
         self._wall0 = time.perf_counter()
         self._sim0 = sim_time
 
-    def wait(self, sim_time: float) -> None:
+    def wait(self, sim_time: float, before_sleep: Callable[[], None] | None = None) -> None:
         """Sleep until wall time catches up with `sim_time` (only when it is ahead by
-        more than `min_sleep`, so fast steps are batched into one sleep)."""
+        more than `min_sleep`, so fast steps are batched into one sleep), calling
+        `before_sleep` first (e.g. to send what is waiting)."""
         if self.factor <= 0:
             return
         due = self._wall0 + (sim_time - self._sim0) / self.factor
         ahead = due - time.perf_counter()
         if ahead > self.min_sleep:
-            time.sleep(ahead)
+            if before_sleep is not None:
+                before_sleep()
+                ahead = due - time.perf_counter()
+            time.sleep(max(ahead, 0.0))

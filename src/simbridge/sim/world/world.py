@@ -27,6 +27,7 @@ from simbridge.sim.urdf.document import MjcfDocument
 from simbridge.sim.urdf.transforms import Transform
 from simbridge.sim.world.pacer import Pacer
 from simbridge.sim.world.robot import RobotHandle
+from simbridge.sim.world.scopes import CallbackScopes
 
 __all__ = ["ModelExtension", "RunStats", "StepCallback", "World"]
 
@@ -84,7 +85,9 @@ class World:
         self._rng: np.random.Generator | None = None
         self._callbacks: dict[int, _Callback] = {}
         self._reset_callbacks: list[StepCallback] = []
-        self._scopes: dict[int, AbstractContextManager[object]] = {}
+        self._scopes = CallbackScopes(window=0.001)
+        self._running = False
+        """Inside `run`, which leaves the scopes itself (not at the end of each `step`)."""
         self._next_id = 0
         self._posted: deque[Callable[[], None]] = deque()
         self._lock = threading.Lock()
@@ -264,16 +267,30 @@ class World:
         return self._next_id
 
     def add_callback_scope(self, scope: AbstractContextManager[object]) -> int:
-        """Enter `scope` before and leave it after the callbacks of each step that runs
-        any (a reusable context manager, e.g. `Connector.batch()`, so that one step's
-        messages leave together); returns an id for `remove_callback_scope`."""
+        """Enter `scope` (a reusable context manager, e.g. `Connector.batch()`) before the
+        first due callback and leave it at the end of `step`, or, in `run`, once the run
+        is about to sleep, pause or end, or after `batch_window` seconds: the messages of
+        the steps in between leave together. Returns an id for `remove_callback_scope`."""
         self._next_id += 1
-        self._scopes[self._next_id] = scope
+        self._scopes.add(self._next_id, scope)
         return self._next_id
 
     def remove_callback_scope(self, scope_id: int) -> None:
         """Stop using a scope added with `add_callback_scope`."""
-        self._scopes.pop(scope_id, None)
+        self._scopes.remove(scope_id)
+
+    @property
+    def batch_window(self) -> float:
+        """Wall-clock seconds `run` may keep the callback scopes entered across steps (1 ms
+        by default; 0: left after each step's callbacks). Running flat out, a step takes
+        tens of microseconds, about what one socket write costs."""
+        return self._scopes.window
+
+    @batch_window.setter
+    def batch_window(self, seconds: float) -> None:
+        if not (seconds >= 0 and math.isfinite(seconds)):
+            raise SimError(f"batch_window must be >= 0 seconds, got {seconds!r}")
+        self._scopes.window = seconds
 
     def add_reset_callback(self, fn: StepCallback) -> None:
         """Call `fn(world)` after every `reset()` (e.g. to restart sensor schedules)."""
@@ -366,41 +383,44 @@ class World:
         The clock is the step count times the timestep (not a running sum, which drifts),
         and callbacks that read poses get them for the new time (see `refresh`).
         """
-        model, data, opt = self.model, self.data, self._opt
-        for _ in range(count):
-            self.process_posted()
-            self.follower.update(data.time)
-            mujoco.mj_step(model, data)
-            self._steps = step = self._steps + 1
-            timestep = opt.timestep
-            data.time = step * timestep
-            self._derived_stale = True
-            if step >= self._next_due or timestep != self._due_timestep:
-                self._run_callbacks(step, timestep)
+        model, data, opt, scopes = self.model, self.data, self._opt, self._scopes
+        try:
+            for _ in range(count):
+                self.process_posted()
+                self.follower.update(data.time)
+                mujoco.mj_step(model, data)
+                self._steps = step = self._steps + 1
+                timestep = opt.timestep
+                data.time = step * timestep
+                self._derived_stale = True
+                if step >= self._next_due or timestep != self._due_timestep:
+                    self._run_callbacks(step, timestep)
+                if scopes.open:
+                    scopes.close_if_due()
+        finally:
+            if not self._running:
+                scopes.close()
 
     def _run_callbacks(self, step: int, timestep: float) -> None:
-        """Call the callbacks due at `step`, inside the scopes (entered before the first
-        due one), then note the next step any can be due."""
+        """Call the callbacks due at `step` (the scopes entered before the first due one),
+        then note the next step any can be due."""
         self._next_due = -1
         nearest = _NEVER
-        entered: list[AbstractContextManager[object]] | None = None
+        scopes = self._scopes
         try:
             for cb in list(self._callbacks.values()):
                 schedule = cb.schedule
                 if schedule is None or schedule.due(step, timestep):
-                    if entered is None:
-                        entered = list(self._scopes.values())
-                        for scope in entered:
-                            scope.__enter__()
+                    if not scopes.open:
+                        scopes.enter()
                     cb.fn(self)
                 if schedule is None:
                     nearest = step + 1
                 else:
                     nearest = min(nearest, schedule.next_step(timestep))
-        finally:
-            if entered:
-                for scope in reversed(entered):
-                    scope.__exit__(None, None, None)
+        except BaseException:
+            scopes.close()
+            raise
         if self._next_due == -1:  # else a callback added one or reset: check next step
             self._next_due = nearest
             self._due_timestep = timestep
@@ -421,12 +441,15 @@ class World:
         self._stop.clear()
         start_wall, steps, sim_elapsed = time.perf_counter(), 0, 0.0
         last_sync = 0.0
+        scopes = self._scopes
+        self._running = True
         try:
             while not self._stop.is_set():
                 if duration is not None and sim_elapsed >= duration - 1e-9:
                     break
                 self.process_posted()
                 if self._paused and self._pending_steps == 0:
+                    scopes.close()
                     time.sleep(0.002)
                     pacer.restart(self.time)
                     continue
@@ -437,13 +460,15 @@ class World:
                 self.step()
                 steps += 1
                 sim_elapsed += max(self.time - before, 0.0)
-                pacer.wait(self.time)
+                pacer.wait(self.time, before_sleep=scopes.close)
                 if handle is not None and time.perf_counter() - last_sync > 1 / 60:
                     if not handle.is_running():
                         break
                     handle.sync()
                     last_sync = time.perf_counter()
         finally:
+            self._running = False
+            scopes.close()
             if handle is not None:
                 handle.close()
         return RunStats(steps, sim_elapsed, time.perf_counter() - start_wall)
