@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import functools
 import itertools
 import logging
 import socket
@@ -513,11 +514,11 @@ class ClientSession(asyncio.BufferedProtocol):
             msg_type = types.message(command.message_name)
             self._drop_subscription(command.topic)
             outbox = _Outbox(command.topic, command.queue_size)
-            deliver = self.deliver
+            # partial, not lambda: one Python frame less per message relayed
             subscription = backend.subscribe(
-                command.topic, msg_type, lambda payload: deliver(outbox, payload)
+                command.topic, msg_type, functools.partial(self.deliver, outbox)
             )
-            subscription.throttle(lambda: self._blocked(outbox))
+            subscription.throttle(functools.partial(self._blocked, outbox))
             self.subscriptions[command.topic] = (subscription, outbox)
         elif isinstance(command, RosService):
             self._check_room(command.topic, self.ros_services)
