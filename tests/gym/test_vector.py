@@ -23,21 +23,28 @@ def test_batched_worlds_match_single_envs_bit_for_bit(env_id: str) -> None:
     assert len({id(w.model) for w in vec.worlds}) == 1, "one compiled model for every world"
     assert len({id(w.data) for w in vec.worlds}) == 3
     actions = _actions(vec.action_space, 15, 1)
-    obs, _ = vec.reset(seed=20)
+    obs, info = vec.reset(seed=20)
     trace = [obs]
+    outcomes = [info["is_success"]]
     for action in actions:
-        obs, _reward, terminated, truncated, _ = vec.step(action)
+        obs, reward, terminated, truncated, info = vec.step(action)
         assert not (terminated.any())
         assert not (truncated.any())
         trace.append(obs)
+        outcomes.append(np.stack([reward, info["is_success"]]))
     vec.close()
     for i in range(3):
         env = gym.make(env_id)
         obs, _ = env.reset(seed=20 + i)
         single = [obs]
-        for action in actions:
-            obs, *_ = env.step(action[i])
+        for t, action in enumerate(actions):
+            obs, alone_reward, _, _, info = env.step(action[i])
             single.append(obs)
+            np.testing.assert_array_equal(
+                outcomes[t + 1][:, i],
+                [alone_reward, info["is_success"]],
+                err_msg=f"world {i} step {t}",
+            )
         for t, (batched, alone) in enumerate(zip(trace, single, strict=True)):
             for key in alone:
                 np.testing.assert_array_equal(
@@ -110,3 +117,37 @@ def test_physics_threads_do_not_change_the_results() -> None:
 def test_vector_rejects_a_negative_thread_count() -> None:
     with pytest.raises(GymError, match="threads"):
         gym.make_vec("simbridge/Reach-v0", num_envs=2, threads=-1)
+
+
+def test_worlds_ending_apart_match_single_envs_across_autoresets() -> None:
+    """World 0 heads for its goal and ends early; the others keep stepping meanwhile (the
+    vector steps some worlds and resets one), and every world still matches its single
+    env, which resets on the step after its episode ended, as Gymnasium's next-step
+    autoreset does."""
+    count, steps = 3, 40
+    vec = gym.make_vec("simbridge/Reach-v0", num_envs=count)
+    singles = [gym.make("simbridge/Reach-v0").unwrapped for _ in range(count)]
+    obs, _ = vec.reset(seed=30)
+    alone = [env.reset(seed=30 + i)[0] for i, env in enumerate(singles)]
+    ended = [False] * count
+    resets = 0
+    for t in range(steps):
+        action = np.zeros((count, 3), np.float32)
+        action[0] = np.clip(obs["goal_delta"][0], -0.02, 0.02)  # greedy: ends early
+        action[1] = 0.01 * np.sin(t)
+        obs, reward, terminated, _, _ = vec.step(action)
+        for i, env in enumerate(singles):
+            if ended[i]:
+                alone[i], _ = env.reset()
+                single_reward, single_terminated = 0.0, False
+                resets += 1
+            else:
+                alone[i], stepped_reward, single_terminated, _, _ = env.step(action[i])
+                single_reward = float(stepped_reward)
+            ended[i] = single_terminated
+            assert reward[i] == single_reward, f"world {i} step {t}"
+            assert terminated[i] == single_terminated, f"world {i} step {t}"
+            for key, value in alone[i].items():
+                np.testing.assert_array_equal(obs[key][i], value, err_msg=f"{i} {t} {key}")
+    assert resets >= 1, "world 0 never reached its goal: the test stepped no partial batch"
+    vec.close()

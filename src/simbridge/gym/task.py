@@ -63,6 +63,45 @@ class Task(ABC):
         for key, value in self.observe(world, goal).items():
             out[key][row] = value
 
+    @classmethod
+    def observe_many(
+        cls,
+        tasks: Sequence[Task],
+        worlds: Sequence[World],
+        goals: NDArray[np.float64],
+        out: Mapping[str, NDArray[np.float32]],
+        rows: list[int] | slice,
+    ) -> None:
+        """`observe_into` of many worlds (each with its own task, all of this class, bound
+        to one model) into `rows` (indices or a slice) of `out`, for the vector env. The
+        default asks each task; a subclass may do all rows at once, as long as every row
+        gets the same bits as `observe_into` gives it (elementwise NumPy in the same order
+        does)."""
+        first = next(iter(out.values()))
+        indices = range(len(first))[rows] if isinstance(rows, slice) else rows
+        for task, world, goal, row in zip(tasks, worlds, goals, indices, strict=True):
+            task.observe_into(world, goal, out, row)
+
+    @classmethod
+    def evaluate_many(
+        cls,
+        tasks: Sequence[Task],
+        worlds: Sequence[World],
+        goals: NDArray[np.float64],
+        actions: NDArray[np.float32],
+    ) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.bool_]]:
+        """`evaluate` of many worlds as arrays (reward, success, terminated), on the terms
+        of `observe_many`."""
+        results = [
+            task.evaluate(world, goal, action)
+            for task, world, goal, action in zip(tasks, worlds, goals, actions, strict=True)
+        ]
+        return (
+            np.array([r[0] for r in results], np.float64),
+            np.array([r[1] for r in results], np.bool_),
+            np.array([r[2] for r in results], np.bool_),
+        )
+
     @abstractmethod
     def reward(self, world: World, goal: NDArray[np.float64], action: NDArray[np.float32]) -> float:
         """The reward for the step that just ended."""

@@ -79,14 +79,24 @@ class SceneVectorEnv(VectorEnv[Observation, NDArray[np.float32], NDArray[Any]]):
         # built after every env bound its drives: the batch runs on a copy of the model
         threads = max(1, min(threads or os.cpu_count() or 1, num_envs))
         self._batch = Batch(self.model, num_envs, nthread=threads)
-        self._rows = list(self._batch.state)  # each world's state row, a live view
+        self._spec = int(mujoco.mjtState.mjSTATE_INTEGRATION)
+        self._state = self._batch.state
+        self._rows = list(self._state)  # each world's state row, a live view
+        # where qpos and qvel lie in a state row
+        self._qpos = self._component(mujoco.mjtState.mjSTATE_QPOS)
+        self._qvel = self._component(mujoco.mjtState.mjSTATE_QVEL)
         self._datas = [env.world.data for env in self.envs]
         self._ctrl = self._batch.bind("ctrl")  # the rows' controls, a view
-        self._spec = int(mujoco.mjtState.mjSTATE_INTEGRATION)
         space = first.action_space
         self._action_low, self._action_high = space.low, space.high
         self._elapsed = np.zeros(num_envs, np.int64)
         self._autoreset = np.zeros(num_envs, np.bool_)
+
+    def _component(self, component: mujoco.mjtState) -> slice:
+        """The columns of one component (mjSTATE_QPOS, ...) in the integration state."""
+        before = int(component) - 1  # the components ordered before it
+        start = mujoco.mj_stateSize(self.model, self._spec & before)
+        return slice(start, start + mujoco.mj_stateSize(self.model, int(component)))
 
     @property
     def worlds(self) -> list[World]:
@@ -116,7 +126,8 @@ class SceneVectorEnv(VectorEnv[Observation, NDArray[np.float32], NDArray[Any]]):
 
     def step(self, actions: NDArray[Any]) -> VectorStep:
         """One step of every world (worlds whose episode ended last step are reset instead)."""
-        rows = list(self._clip(actions))  # one view per world, made once
+        clipped = self._clip(actions)
+        rows = list(clipped)  # one view per world, made once
         count, model, spec, frame_skip = self.num_envs, self.model, self._spec, self.frame_skip
         resetting = self._autoreset
         worlds = list(
@@ -135,23 +146,65 @@ class SceneVectorEnv(VectorEnv[Observation, NDArray[np.float32], NDArray[Any]]):
                 varying[i] = ctrl
         self._simulate(held, varying)
         observations = self.envs[0].empty_observations(count)
-        outcomes = [(0.0, False, False)] * count  # reward, success, terminated
-        for i, (env, data, state, action, resets) in enumerate(worlds):
+        rewards = np.zeros(count, np.float64)
+        terminated = np.zeros(count, np.bool_)
+        success = np.zeros(count, np.bool_)
+        stepped: list[int] = []
+        for i, (env, data, state, _, resets) in enumerate(worlds):
             if resets:
-                outcomes[i] = (0.0, env.begin_episode(), False)
+                success[i] = env.begin_episode()
+                env.observe_into(observations, i)
             else:
                 mujoco.mj_setState(model, data, state, spec)
                 env.refresh()
-                outcomes[i] = env.evaluate(action)
-            env.observe_into(observations, i)
-        rewards = np.array([outcome[0] for outcome in outcomes], np.float64)
-        success = np.array([outcome[1] for outcome in outcomes], np.bool_)
-        terminated = np.array([outcome[2] for outcome in outcomes], np.bool_)
+                stepped.append(i)
+        if stepped:
+            self._finish(
+                stepped,
+                actions=clipped if len(stepped) == count else clipped[stepped],
+                observations=observations,
+                rewards=rewards,
+                success=success,
+                terminated=terminated,
+            )
         self._elapsed = np.where(resetting, 0, self._elapsed + 1)
         limit = self.max_episode_steps
         truncated = ~resetting & (limit is not None) & (self._elapsed >= (limit or 0))
         self._autoreset = terminated | truncated
         return observations, rewards, terminated, truncated, self._info(success)
+
+    def _finish(
+        self,
+        stepped: list[int],
+        *,
+        actions: NDArray[np.float32],
+        observations: Observation,
+        rewards: NDArray[np.float64],
+        success: NDArray[np.bool_],
+        terminated: NDArray[np.bool_],
+    ) -> None:
+        """Reward, success, termination and observation of the worlds in `stepped` (their
+        data up to date), over all of them at once where the task allows
+        (`Task.evaluate_many`, `SceneEnv.observe_many`)."""
+        everyone = len(stepped) == self.num_envs  # the usual case: basic indexing, no copies
+        rows: list[int] | slice = slice(None) if everyone else stepped
+        envs = self.envs if everyone else [self.envs[i] for i in stepped]
+        goals = np.array([env.goal for env in envs])
+        tasks = [env.task for env in envs]
+        worlds = [env.world for env in envs]
+        reward, solved, ended = type(tasks[0]).evaluate_many(tasks, worlds, goals, actions)
+        if not math.isfinite(float(reward.sum())):
+            raise GymError(f"task {type(tasks[0]).__name__} returned rewards {reward}")
+        rewards[rows], success[rows], terminated[rows] = reward, solved, ended
+        state = self._state[rows]
+        SceneEnv.observe_many(
+            envs,
+            observations,
+            rows,
+            qpos=state[:, self._qpos],
+            qvel=state[:, self._qvel],
+            goals=goals,
+        )
 
     def _simulate(self, held: list[int], varying: dict[int, NDArray[np.float64]]) -> None:
         """`frame_skip` physics steps of the rows of `held` (their ctrl as it is) and of

@@ -138,6 +138,37 @@ class ReachTask(Task):
         out["ee_pos"][row] = ee
         np.subtract(goal, ee, out=out["goal_delta"][row], casting="same_kind")
 
+    @classmethod
+    def observe_many(
+        cls,
+        tasks: Sequence[Task],
+        worlds: Sequence[World],
+        goals: NDArray[np.float64],
+        out: Mapping[str, NDArray[np.float32]],
+        rows: list[int] | slice,
+    ) -> None:
+        """`observe_into` of every world at once (the same casts and subtraction)."""
+        ee = _end_effectors(tasks, worlds)
+        out["ee_pos"][rows] = ee
+        out["goal_delta"][rows] = np.subtract(goals, ee)
+
+    @classmethod
+    def evaluate_many(
+        cls,
+        tasks: Sequence[Task],
+        worlds: Sequence[World],
+        goals: NDArray[np.float64],
+        actions: NDArray[np.float32],
+    ) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.bool_]]:
+        """`evaluate` of every world at once: the distance summed in `distance`'s order."""
+        delta = _end_effectors(tasks, worlds) - goals
+        x, y, z = delta[:, 0], delta[:, 1], delta[:, 2]
+        distance = np.sqrt(x * x + y * y + z * z)
+        first = tasks[0]
+        assert isinstance(first, ReachTask)
+        reached = distance < first.tolerance
+        return -distance, reached, reached.copy()
+
     def distance(self, world: World, goal: NDArray[np.float64]) -> float:
         """End effector to goal (m)."""
         ee = self._ee if self._ee_data is world.data else world.data.xpos[self._body]
@@ -158,6 +189,15 @@ class ReachTask(Task):
     def success(self, world: World, goal: NDArray[np.float64]) -> bool:
         """Within tolerance."""
         return self.distance(world, goal) < self.tolerance
+
+
+def _end_effectors(tasks: Sequence[Task], worlds: Sequence[World]) -> NDArray[np.float64]:
+    """(n, 3): each world's end-effector position, through the views the tasks kept."""
+    rows = []
+    for task, world in zip(tasks, worlds, strict=True):
+        assert isinstance(task, ReachTask)
+        rows.append(task._ee if task._ee_data is world.data else world.data.xpos[task._body])
+    return np.array(rows)
 
 
 def make_reach(
