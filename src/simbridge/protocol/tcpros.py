@@ -149,7 +149,7 @@ class TcprosDecoder:
                 self.header = decode_header(view[start:offset])
                 limit = self._max_message
             else:
-                messages.append(bytes(view[start:offset]))
+                messages.append(source[start:offset])
         if offset < available:
             self._head = source[offset:]
         return messages
