@@ -116,3 +116,30 @@ def test_reads_from_a_real_socket() -> None:
         assert count == 4 + 2 + 4 + 5 + 8
         assert items[0] == ("/t", b"hello")
         assert len(items) == 2
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.lists(st.integers(0, 5000), min_size=1, max_size=40),
+    st.lists(st.integers(0, 200_000), max_size=30),
+    st.integers(1, 700),
+)
+def test_payloads_of_every_size_come_out_whole_as_bytes(
+    sizes: list[int], cuts: list[int], start: int
+) -> None:
+    """Small payloads (one cached unpacker per size, and past the cache's bound) and
+    large ones (copied out), many to one read or cut anywhere: each is its own bytes."""
+    payloads = [bytes((start + i + j) % 251 for j in range(size)) for i, size in enumerate(sizes)]
+    stream = b"".join(encode_frame("/t", p) for p in payloads)
+    reader = FrameReader(ProtocolConnection("client"), 1 << 20, 4096)
+    for size in range(1, 600):  # fill the unpacker cache so later sizes go uncached
+        reader._unpacker(size)
+    sock = ChunkSocket(stream, cuts)
+    got: list[object] = []
+    while True:
+        count, items = reader.receive(sock)  # type: ignore[arg-type]
+        if not count:
+            break
+        got += items
+    assert got == [("/t", p) for p in payloads]
+    assert all(type(item[1]) is bytes for item in got if isinstance(item, tuple))

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import socket
 import struct
+from collections.abc import Callable
 
 from simbridge.protocol import (
     MAX_DESTINATION_SIZE,
@@ -25,8 +26,11 @@ _unpack_u32 = struct.Struct("<I").unpack_from
 _UNDERSCORE = 0x5F
 _SERVICE_HEADERS = (b"__request", b"__response")
 _SMALL = 4096
-"""Payloads below this are sliced from the bytearray (faster); larger ones via memoryview
-(one copy instead of two)."""
+"""Payloads below this are read with a `struct` unpacker of their exact size (one bytes
+object made straight from the buffer: ~120 ns for a Twist against ~300 ns for
+`bytes(buf[a:b])`, which copies twice); larger ones are copied out through a memoryview."""
+_MAX_UNPACKERS = 512
+"""Payload sizes whose unpacker is kept (message types of fixed size repeat one size)."""
 
 Received = tuple[str, bytes] | Event
 """A plain topic message as `(topic, payload)`, or any other protocol event."""
@@ -45,6 +49,7 @@ class FrameReader:
         "_proto",
         "_service_next",
         "_start",
+        "_unpackers",
     )
 
     def __init__(self, proto: ProtocolConnection, max_payload: int, chunk: int) -> None:
@@ -55,6 +60,7 @@ class FrameReader:
         self._end = 0
         self._service_next = False
         self._names: dict[bytes, str] = {}
+        self._unpackers: dict[int, Callable[[bytearray, int], tuple[bytes]]] = {}
         self._last_name = b"\x00"
         self._last_topic = ""
 
@@ -77,6 +83,7 @@ class FrameReader:
         buf = self._buf
         pos, end = self._start, self._end
         need = 8
+        unpackers = self._unpackers
         with memoryview(buf) as view:
             while end - pos >= 4:
                 dlen = _unpack_u32(buf, pos)[0]
@@ -119,7 +126,13 @@ class FrameReader:
                             return self._fatal(events, "a destination is not valid UTF-8")
                         topic = found
                     start = pos + 8 + dlen
-                    payload = bytes(buf[start:stop]) if plen < _SMALL else bytes(view[start:stop])
+                    if plen < _SMALL:
+                        unpack = unpackers.get(plen)
+                        if unpack is None:
+                            unpack = self._unpacker(plen)
+                        payload = unpack(buf, start)[0]
+                    else:
+                        payload = bytes(view[start:stop])
                     events.append((topic, payload))
                 pos = stop
             left = end - pos
@@ -135,6 +148,13 @@ class FrameReader:
                 pos, end = 0, left
         self._start, self._end = pos, end
         return events
+
+    def _unpacker(self, size: int) -> Callable[[bytearray, int], tuple[bytes]]:
+        """Reads `size` bytes at an offset as one bytes object (cached per size)."""
+        unpack: Callable[[bytearray, int], tuple[bytes]] = struct.Struct(f"{size}s").unpack_from
+        if len(self._unpackers) < _MAX_UNPACKERS:
+            self._unpackers[size] = unpack
+        return unpack
 
     def _topic(self, raw_name: bytes) -> str | None:
         """Decoded topic name (cached); None when not UTF-8."""
