@@ -12,8 +12,9 @@ from tests.waiting import wait_for
 
 
 class Sink:
-    def __init__(self, topic: str) -> None:
+    def __init__(self, topic: str, queue_size: int) -> None:
         self.topic = topic
+        self.queue_size = queue_size
         self.got: list[bytes] = []
 
     def deliver(self, payload: bytes) -> None:
@@ -23,7 +24,8 @@ class Sink:
 def test_every_hand_off_is_run_in_order() -> None:
     dispatcher = Dispatcher(StatsCounters())
     dispatcher.start()
-    sink = Sink("/t")
+    total = 20_000
+    sink = Sink("/t", total)
     tasks: list[tuple[int, int]] = []
 
     def task_after(mark: int) -> None:
@@ -35,8 +37,8 @@ def test_every_hand_off_is_run_in_order() -> None:
         sent = 0
         while sent < total:
             size = min(rng.choice([1, 1, 2, 5, 300]), total - sent)
-            batch = [(sink, str(sent + i).encode(), total) for i in range(size)]
-            assert dispatcher.fifo.put_many(batch) == []
+            batch = [(sink, str(sent + i).encode()) for i in range(size)]
+            assert dispatcher.inbox.put_messages(batch) == []
             sent += size
             if rng.random() < 0.05:
                 task_after(sent)

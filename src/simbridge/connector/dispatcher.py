@@ -8,27 +8,13 @@ from __future__ import annotations
 
 import logging
 import threading
-from collections.abc import Callable
-from typing import Protocol
 
-from simbridge.connector.fifo import BoundedFifo
+from simbridge.connector.inbox import Inbox, Receiver, Task
 from simbridge.connector.stats import StatsCounters
 
 __all__ = ["Dispatcher", "Receiver", "Task"]
 
 _log = logging.getLogger("simbridge.connector")
-
-Task = Callable[[], None]
-
-
-class Receiver(Protocol):
-    """Takes received payloads one at a time (a subscription)."""
-
-    topic: str
-
-    def deliver(self, payload: bytes) -> None:
-        """Handle one payload."""
-
 
 _BATCH = 256
 
@@ -38,7 +24,7 @@ class Dispatcher:
     receiver, oldest dropped) and plain tasks."""
 
     def __init__(self, counters: StatsCounters) -> None:
-        self.fifo: BoundedFifo[Receiver, bytes | Task] = BoundedFifo()
+        self.inbox = Inbox()
         self._counters = counters
         self._stop = False
         self._thread = threading.Thread(
@@ -52,7 +38,7 @@ class Dispatcher:
     def stop(self) -> None:
         """End the thread once its current task returns (queued tasks are dropped)."""
         self._stop = True
-        self.fifo.ready.set()
+        self.inbox.ready.set()
         if self._thread.is_alive() and threading.current_thread() is not self._thread:
             self._thread.join(timeout=5.0)
 
@@ -63,26 +49,25 @@ class Dispatcher:
 
     def submit(self, task: Task) -> None:
         """Run `task` after everything queued before it."""
-        self.fifo.put_control(task)
+        self.inbox.put_task(task)
 
     def _run(self) -> None:
-        fifo = self.fifo
+        inbox = self.inbox
         while not self._stop:
-            fifo.ready.wait()
-            fifo.ready.clear()
+            inbox.ready.wait()
+            inbox.ready.clear()
             while not self._stop:
                 # Anything queued after clear() sets `ready` again, so a short batch
                 # needs no second take() to find the queue empty.
-                batch = fifo.take(_BATCH, 1 << 62)
+                batch = inbox.take(_BATCH)
                 for receiver, item in batch:
                     if self._stop:
                         return
                     try:
-                        if isinstance(item, bytes):
-                            if receiver is not None:
-                                receiver.deliver(item)
+                        if receiver is not None:
+                            receiver.deliver(item)  # type: ignore[arg-type]
                         else:
-                            item()
+                            item()  # type: ignore[operator]
                     except Exception:
                         self._counters.callback_failed()
                         _log.exception("callback raised; the connector keeps running")

@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING, Any, Literal
 from simbridge.connector.batch import PublishBatch
 from simbridge.connector.calls import PendingCall, ServiceImpl, resolve_future
 from simbridge.connector.codec import PayloadCodec
-from simbridge.connector.dispatcher import Dispatcher, Task
+from simbridge.connector.dispatcher import Dispatcher
 from simbridge.connector.fifo import BoundedFifo
 from simbridge.connector.framer import Framer
 from simbridge.connector.goals import GoalRouter
@@ -375,7 +375,7 @@ class ConnectorEngine:
 
     def _deliver(self, items: list[Received]) -> bool:
         """Queue messages for their callbacks and act on events, in arrival order."""
-        batch: list[tuple[Subscription, bytes | Task, int]] = []
+        batch: list[tuple[Subscription, bytes]] = []
         subscriptions = self._subscriptions
         for item in items:
             if isinstance(item, tuple):
@@ -386,8 +386,10 @@ class ConnectorEngine:
                     continue
                 for tap in self._taps:
                     tap(topic, subs[0].msg_type, payload, False)
-                for sub in subs:
-                    batch.append((sub, payload, sub.queue_size))
+                if len(subs) == 1:
+                    batch.append((subs[0], payload))
+                else:
+                    batch.extend((sub, payload) for sub in subs)
                 continue
             if batch:
                 self._queue_messages(batch)
@@ -398,8 +400,8 @@ class ConnectorEngine:
             self._queue_messages(batch)
         return True
 
-    def _queue_messages(self, batch: list[tuple[Subscription, bytes | Task, int]]) -> None:
-        for sub in self._dispatcher.fifo.put_many(batch):
+    def _queue_messages(self, batch: list[tuple[Subscription, bytes]]) -> None:
+        for sub in self._dispatcher.inbox.put_messages(batch):
             self._counters.subscribe_dropped(sub.topic)
 
     def _handle(self, event: Event) -> bool:
