@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import threading
 import time
+import warnings
 from pathlib import Path
 
 import mujoco
@@ -12,6 +13,7 @@ import pytest
 import trimesh
 import yaml
 
+from simbridge.assets import robot_urdf
 from simbridge.errors import SimError
 from simbridge.sim.scene import build_scene, load_scene, parse_scene
 from simbridge.sim.sensors import RateSchedule
@@ -439,3 +441,44 @@ def test_run_keeps_scopes_entered_until_the_window_ends_or_it_sleeps(
     assert [x for x in log if x.startswith("exit")][-1] == "exit 200"
 
 
+
+
+@pytest.mark.parametrize("boxes", [False, True])
+def test_refresh_state_gives_what_mj_forward_gives(tmp_path: Path, boxes: bool) -> None:
+    """The cheaper refresh for joint states and TF: poses, velocity terms and actuator
+    forces equal `mj_forward`'s after every step of a moving arm (with contacts too)."""
+    world = arm_world(tmp_path)
+    if boxes:
+        scene = {
+            "physics": {"timestep": 0.002},
+            "robots": [{"urdf": str(robot_urdf("niryo_one"))}],
+            "objects": [{"name": "floor", "type": "plane"}]
+            + [
+                {
+                    "name": f"box{i}",
+                    "type": "box",
+                    "size": [0.03, 0.03, 0.03],
+                    "dynamic": True,
+                    "mass": 0.05,
+                    "pose": {"xyz": [0.25 + 0.04 * i, 0.0, 0.015]},
+                }
+                for i in range(4)
+            ],
+        }
+        with warnings.catch_warnings():  # the gripper's zero pose is outside its limits
+            warnings.simplefilter("ignore")
+            world = World.from_scene(parse_scene(scene, robot_urdf("niryo_one").parent))
+    for joint in [j for j in world.joint_names() if j in world.drives.joints][:3]:
+        world.drives.set_position(joint, 0.6)
+    reference = mujoco.MjData(world.model)
+    fields = ("xpos", "xquat", "xmat", "qfrc_actuator", "actuator_force", "cvel")
+    for _ in range(60):
+        world.step(1)
+        mujoco.mj_copyData(reference, world.model, world.data)
+        mujoco.mj_forward(world.model, reference)
+        world.refresh_state()
+        for name in fields:
+            np.testing.assert_allclose(
+                getattr(world.data, name), getattr(reference, name), rtol=0, atol=1e-12
+            )
+    assert not boxes or world.data.ncon > 0 or reference.ncon > 0

@@ -109,12 +109,13 @@ class Publisher:
         """
         if self.closed:
             raise ConnectorError(f"the publisher on {self.topic!r} was unregistered")
-        payload = self._codec.encode(msg, self.msg_type)
+        payload = msg if type(msg) is bytes else self._codec.encode(msg, self.msg_type)
         if self.latch:
             self._last = payload
-        for tap in self._taps:
-            tap(self._out.topic, self.msg_type, payload, True)
         out = self._out
+        if self._taps:
+            for tap in self._taps:
+                tap(out.topic, self.msg_type, payload, True)
         batch = self._batch
         if batch is not None:
             pending = batch.pending()

@@ -48,7 +48,7 @@ class JointStateEncoder:
         if writer is None or writer.wire != wire:
             writer = self._writer = JointStateWriter(wire[0], self.names, seq=wire[1])
         world = self.world
-        world.refresh()
+        world.refresh_state()
         data = world.data
         data.qpos.take(self._qpos, out=writer.position)
         data.qvel.take(self._dof, out=writer.velocity)

@@ -12,7 +12,7 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from typing import Any
 
-from simbridge.connector import Connector
+from simbridge.connector import Connector, Publisher
 from simbridge.messages import MessageRegistry, Translator, WireFormat, default_registry
 from simbridge.messages.fastwire import ClockWriter, TFWriter
 from simbridge.sim.ros.convert import StampMaker, joint_state_message, tf_message
@@ -44,6 +44,9 @@ class StatePublisher:
         """The registry /tf_static was last published with (re-sent when it changes)."""
         self._callbacks: list[int] = []
         self._topics: list[str] = []
+        self._pubs: dict[str, Publisher] = {}
+        self._wire_cache: tuple[object, str, tuple[WireFormat, bool]] | None = None
+        """(connector registry, protocol, wire) of the last `_wire()` answer."""
         self.extra_static: list[Any] = []
         """More geometry_msgs/TransformStamped for /tf_static (e.g. sensor frames), built
         like sensor messages in the ROS 1 layouts of `default_registry()` (translated to
@@ -101,9 +104,11 @@ class StatePublisher:
             self.connector.unregister_publisher(topic)
         self._callbacks.clear()
         self._topics.clear()
+        self._pubs.clear()
 
     def _advertise(self, topic: str, msg_type: str, latch: bool = False) -> None:
-        self.connector.register_publisher(topic, msg_type, queue_size=10, latch=latch)
+        pub = self.connector.register_publisher(topic, msg_type, queue_size=10, latch=latch)
+        self._pubs[topic] = pub
         self._topics.append(topic)
 
     def _every(self, period: float, fn: Callable[[], None]) -> None:
@@ -113,24 +118,33 @@ class StatePublisher:
         """Positions, velocities and efforts of every 1-DoF joint."""
         w, joints = self.world, self.shared_joints if self.names else None
         wire = self._wire()
-        if wire is None:
-            positions = w.joint_positions(joints)
-            velocities, efforts = w.joint_velocities(joints), w.joint_efforts(joints)
-            msg: Any = joint_state_message(self.stamps, w.time, positions, velocities, efforts)
-        else:
+        if wire is not None:
             if self._js_encoder is None:
                 self._js_encoder = JointStateEncoder(w, joints)
-            msg = self._js_encoder.encode(wire)
+            self._pubs[self.settings.joint_states_topic].publish(self._js_encoder.encode(wire))
+            return
+        positions = w.joint_positions(joints)
+        velocities, efforts = w.joint_velocities(joints), w.joint_efforts(joints)
+        msg = joint_state_message(self.stamps, w.time, positions, velocities, efforts)
         self.connector.publish(self.settings.joint_states_topic, msg)
 
     def _wire(self) -> tuple[WireFormat, bool] | None:
         """(wire format, Header has seq) for the precompiled writers; None when messages
         must be built as objects (a registry was given, whose layouts the writers do not
-        follow)."""
+        follow). Worked out again only when the connector's protocol or registry changed."""
         if self._registry is not None:
             return None
-        seq = self.stamps.registry.protocol == "ROS1"
-        return ("cdr" if self.connector.wire_format == "cdr" else "ros1", seq)
+        connector = self.connector
+        registry, protocol = connector.registry, connector.protocol
+        cached = self._wire_cache
+        if cached is not None and cached[0] is registry and cached[1] == protocol:
+            return cached[2]
+        wire: tuple[WireFormat, bool] = (
+            "cdr" if protocol == "ROS2" else "ros1",
+            registry.protocol == "ROS1",
+        )
+        self._wire_cache = (registry, protocol, wire)
+        return wire
 
     def _edges(self, fixed: bool) -> list[tuple[str, str, Transform]]:
         edges = []
@@ -173,9 +187,9 @@ class StatePublisher:
             writer = self._tf_writer = TFWriter(wire[0], pairs, seq=wire[1])
             self._tf_elsewhere = elsewhere
         if bodies:
-            self.world.refresh()
+            self.world.refresh_state()
             poses = relative_poses(self.world.data, bodies)
-            self.connector.publish("/tf", writer.encode(*stamp_parts(self.world.time), poses))
+            self._pubs["/tf"].publish(writer.encode(*stamp_parts(self.world.time), poses))
 
     def _body_id(self, link: str) -> int:
         return 0 if link == WORLD_FRAME else int(self.world.model.body(link).id)
@@ -217,7 +231,7 @@ class StatePublisher:
         writer = self._clock_writer
         if writer is None or writer.fmt != wire[0]:
             writer = self._clock_writer = ClockWriter(wire[0])
-        self.connector.publish("/clock", writer.encode(*stamp_parts(self.world.time)))
+        self._pubs["/clock"].publish(writer.encode(*stamp_parts(self.world.time)))
 
 
 def relative_poses(data: Any, edges: Sequence[tuple[int, int]]) -> list[tuple[float, ...]]:

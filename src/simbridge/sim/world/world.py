@@ -97,6 +97,8 @@ class World:
         self._stop = threading.Event()
         self._steps = 0
         self._derived_stale = False
+        self._state_stale = False
+        """Poses, velocity terms and actuator forces lag the state (`refresh_state`)."""
         self._opt = self.model.opt
         """The model's options, held once (`model.opt` builds a new accessor per read)."""
         self._next_due = 0
@@ -160,7 +162,26 @@ class World:
         """
         if self._derived_stale:
             mujoco.mj_forward(self.model, self.data)
-            self._derived_stale = False
+            self._derived_stale = self._state_stale = False
+
+    def refresh_state(self) -> None:
+        """Like `refresh`, but only what joint states and TF read: body poses, velocity
+        terms and actuator forces, the same numbers `mj_forward` gives, at well under
+        half its cost (no collision detection, constraint forces, accelerations or sensor
+        values, which `refresh` still brings up to date when something reads them)."""
+        if self._state_stale and self._derived_stale:
+            model, data = self.model, self.data
+            if model.nflex:  # flexes need mj_fwdPosition's mj_flex: the whole forward
+                mujoco.mj_forward(model, data)
+                self._derived_stale = False
+            else:
+                mujoco.mj_kinematics(model, data)
+                mujoco.mj_comPos(model, data)
+                mujoco.mj_tendon(model, data)
+                mujoco.mj_transmission(model, data)
+                mujoco.mj_fwdVelocity(model, data)
+                mujoco.mj_fwdActuation(model, data)
+        self._state_stale = False
 
     def robot(self, name: str | None = None) -> RobotHandle:
         """The robot called `name` (or the only one)."""
@@ -237,7 +258,7 @@ class World:
                 self.drives.set_position(name, values[name])
         self._sync_mimics()
         mujoco.mj_forward(self.model, self.data)
-        self._derived_stale = False
+        self._derived_stale = self._state_stale = False
 
     def _sync_mimics(self) -> None:
         for robot in self.robots.values():
@@ -365,7 +386,7 @@ class World:
                 self.data.qpos[robot.joints[robot.prefix + name].qpos] = value
         self._sync_mimics()
         mujoco.mj_forward(self.model, self.data)
-        self._derived_stale = False
+        self._derived_stale = self._state_stale = False
         self.drives.hold_current()
         self.follower.cancel()
         self._rng = None  # reseeded when next used: a Generator costs tens of microseconds
@@ -392,7 +413,7 @@ class World:
                 self._steps = step = self._steps + 1
                 timestep = opt.timestep
                 data.time = step * timestep
-                self._derived_stale = True
+                self._derived_stale = self._state_stale = True
                 if step >= self._next_due or timestep != self._due_timestep:
                     self._run_callbacks(step, timestep)
                 if scopes.open:
