@@ -70,21 +70,27 @@ class RateSchedule:
     def next_step(self, timestep: float) -> int:
         """The first step at which `due(step, timestep)` is True (a caller may skip
         polling until then)."""
-        self._use_timestep(timestep)
+        if timestep != self._timestep:
+            self._use_timestep(timestep)
         return self._next_step
 
     def due(self, step: int, timestep: float) -> bool:
         """True once per tick reached by physics step `step`; advances past every tick
         reached (so a late or skipped poll fires once, not once per missed tick)."""
-        self._use_timestep(timestep)
+        if timestep != self._timestep:
+            self._use_timestep(timestep)
         if step < self._next_step:
             return False
-        self.skip_through(step, timestep)
+        self._advance(step)
         return True
 
     def skip_through(self, step: int, timestep: float) -> None:
         """Mark every tick reached by `step` as done (the next fires after it)."""
-        self._use_timestep(timestep)
+        if timestep != self._timestep:
+            self._use_timestep(timestep)
+        self._advance(step)
+
+    def _advance(self, step: int) -> None:
         self._next_tick = max(self._next_tick, step * self._den // self._num + 1)
         self._next_step = self._step_of_tick(self._next_tick)
 
