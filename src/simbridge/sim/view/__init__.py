@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from simbridge.sim.view.controls import SimControls, joint_slider_ranges
+from simbridge.sim.view.framing import MIN_DISTANCE, Framing, framing
 from simbridge.sim.view.live import LiveView, ViewOptions
 from simbridge.sim.view.mover import ObjectMover, free_bodies, place_body
 from simbridge.sim.view.overlays import CONTACT_RGB, ContactPoints, TfFrames
@@ -12,7 +13,9 @@ from simbridge.sim.view.shapes import Shape, body_names, visual_shapes
 __all__ = [
     "CONTACT_RGB",
     "LIDAR_RGB",
+    "MIN_DISTANCE",
     "ContactPoints",
+    "Framing",
     "LiveView",
     "ObjectMover",
     "SensorFeed",
@@ -21,6 +24,7 @@ __all__ = [
     "TfFrames",
     "ViewOptions",
     "body_names",
+    "framing",
     "free_bodies",
     "joint_slider_ranges",
     "place_body",

@@ -24,6 +24,7 @@ import numpy as np
 from simbridge.errors import SimError
 from simbridge.sim.sensors import SensorSuite
 from simbridge.sim.view.controls import SimControls
+from simbridge.sim.view.framing import framing
 from simbridge.sim.view.mover import ObjectMover
 from simbridge.sim.view.overlays import ContactPoints, TfFrames
 from simbridge.sim.view.sensors import SensorFeed
@@ -151,18 +152,16 @@ class LiveView:
                 self._bodies[body] = handle
         for index, shape in enumerate(shapes):
             self._add_shape(scene, f"/world/{names[shape.body]}/{index}_{shape.name}", shape)
-        self._aim_camera(np.array([data.xpos[b] for b in with_shapes if b != 0]))
+        self._aim_camera(shapes)
 
-    def _aim_camera(self, points: np.ndarray) -> None:
-        """Start browsers looking at the moving bodies from a diagonal, at a distance that
-        frames them."""
-        if len(points) == 0:
-            return
-        center = points.mean(axis=0)
-        extent = max(0.8, float(np.linalg.norm(points - center, axis=1).max()) * 2.5)
+    def _aim_camera(self, shapes: list[Shape]) -> None:
+        """Start browsers looking at the robots and free objects (`framing.py`)."""
         camera = self.server.initial_camera
-        camera.look_at = (float(center[0]), float(center[1]), float(center[2]))
-        camera.position = center + np.array([1.2, 1.0, 0.8]) * extent
+        framed = framing(self.world, shapes, camera.fov)
+        if framed is None:
+            return
+        camera.look_at = framed.target
+        camera.position = framed.position
 
     @staticmethod
     def _add_shape(scene: viser.SceneApi, path: str, shape: Shape) -> None:
