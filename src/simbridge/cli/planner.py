@@ -24,12 +24,19 @@ __all__ = ["add_parser"]
 
 @contextmanager
 def _stop_on_signals() -> Iterator[threading.Event]:
-    """An event set by SIGINT or SIGTERM, so both end the planner cleanly (unregistered)."""
+    """An event set by SIGINT or SIGTERM, so both end the planner cleanly (unregistered).
+
+    The handler sets it from a thread of its own: Python runs handlers in the main thread
+    between bytecodes, possibly inside `stop.wait()` while that holds the event's lock, and
+    `stop.set()` there would wait for that lock forever (a signal sent just as the planner
+    started waiting was lost that way).
+    """
     stop = threading.Event()
-    previous = {
-        sig: signal.signal(sig, lambda _sig, _frame: stop.set())
-        for sig in (signal.SIGINT, signal.SIGTERM)
-    }
+
+    def handle(_sig: int, _frame: object) -> None:
+        threading.Thread(target=stop.set, name="simbridge-planner-stop", daemon=True).start()
+
+    previous = {sig: signal.signal(sig, handle) for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
         yield stop
     finally:
