@@ -11,8 +11,10 @@ from simbridge.apps.line.runner import main, run_line
 from simbridge.apps.line.scene import ARMS, CONVEYOR, SCENE_PATH, line_scene
 from simbridge.apps.line.supervisor import LineSupervisor
 from simbridge.apps.line.task import MAX_PARTS, LineTask, PartStart
+from simbridge.apps.line.view import AGAIN_LABEL, LineView
 
 __all__ = [
+    "AGAIN_LABEL",
     "ARMS",
     "CONVEYOR",
     "DELIVERY_TOLERANCE_M",
@@ -23,6 +25,7 @@ __all__ = [
     "LineResult",
     "LineSupervisor",
     "LineTask",
+    "LineView",
     "PartStart",
     "RobotNode",
     "RobotTally",

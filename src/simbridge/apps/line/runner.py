@@ -29,6 +29,7 @@ from simbridge.apps.line.scene import (
 )
 from simbridge.apps.line.supervisor import LineSupervisor
 from simbridge.apps.line.task import MAX_PARTS, LineTask
+from simbridge.apps.line.view import LineView
 from simbridge.apps.pick_and_place.video import VideoRecorder, check_video_path
 from simbridge.apps.ros_master import DemoMaster
 from simbridge.connector import ConnectorOptions
@@ -133,7 +134,7 @@ def run_line(
     *,
     scene: Path = SCENE_PATH,
     record: RecordOptions | None = None,
-    view: ViewOptions | None = None,
+    view: ViewOptions | LineView | None = None,
     max_sim_s: float = 600.0,
     realtime_factor: float = 0.0,
     backend: str = "local",
@@ -147,7 +148,8 @@ def run_line(
     robot's joint states, TF and action traffic, are real ROS 1 topics; every robot is
     served on its own connection; one node per robot (on the endpoint's graph) drives it
     through its controllers' actions. ``video`` writes
-    a .gif (or .mp4), ``record`` a bag of every sim topic, ``view`` a live browser view;
+    a .gif (or .mp4), ``record`` a bag of every sim topic, ``view`` a live browser view
+    (a `LineView` shows the run in a page kept across runs);
     ``json`` prints the summary as the last line; ``realtime_factor`` paces the run (0: as
     fast as possible). A failed step ends the run with ``error``
     set; setup problems (bad options, video path) raise AppError.
@@ -179,7 +181,9 @@ def run_line(
         )
         stack.enter_context(session)
         world = session.world
-        if view is not None:
+        if isinstance(view, LineView):
+            view.show(world, seed or 0)
+        elif view is not None:
             say(f"[line] live view at {stack.enter_context(LiveView(world, view)).url}")
         sim = _SimThread(world, max_sim_s, video_path, realtime_factor)
         alive = lambda: sim.alive  # noqa: E731
@@ -273,25 +277,44 @@ def main(argv: Sequence[str] | None = None) -> int:
         help="sim seconds per wall second (default: 1 with --view, else 0 = as fast as possible)",
     )
     parser.add_argument("--record", metavar="FILE", help="record the run (.mcap or .bag)")
-    parser.add_argument("--view", action="store_true", help="live browser view (viser)")
+    parser.add_argument(
+        "--view",
+        action="store_true",
+        help="live browser view (viser); keeps serving after the run, with a button that "
+        "runs the line again with the next seed (Ctrl-C ends)",
+    )
     parser.add_argument("--view-port", type=int, default=8080, help="live view port")
     args = parser.parse_args(argv)
     realtime = args.realtime if args.realtime is not None else (1.0 if args.view else 0.0)
     if not realtime >= 0:
         print(f"simbridge demo line: --realtime must be >= 0, got {realtime}", file=sys.stderr)
         return 2
-    try:
-        result = run_line(
-            args.seed,
-            args.parts,
-            args.video,
-            args.json,
-            record=RecordOptions(Path(args.record)) if args.record else None,
-            view=ViewOptions(port=args.view_port) if args.view else None,
-            realtime_factor=realtime,
-            backend=args.backend,
+    with ExitStack() as stack:
+        view = (
+            stack.enter_context(LineView(ViewOptions(port=args.view_port))) if args.view else None
         )
+        try:
+            result = run_line(
+                args.seed,
+                args.parts,
+                args.video,
+                args.json,
+                record=RecordOptions(Path(args.record)) if args.record else None,
+                view=view,
+                realtime_factor=realtime,
+                backend=args.backend,
+            )
+        except SimbridgeError as exc:
+            print(f"simbridge demo line: {exc}", file=sys.stderr)
+            return 2
+        if view is not None:
+            view.serve(lambda seed: _again(seed, args.parts, view, realtime, args.backend))
+    return 0 if result.success else 1
+
+
+def _again(seed: int, parts: int, view: LineView, realtime: float, backend: str) -> None:
+    """A run the view's button asked for (no video or recording: those are the first run's)."""
+    try:
+        run_line(seed, parts, view=view, realtime_factor=realtime, backend=backend)
     except SimbridgeError as exc:
         print(f"simbridge demo line: {exc}", file=sys.stderr)
-        return 2
-    return 0 if result.success else 1
