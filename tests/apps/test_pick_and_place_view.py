@@ -55,6 +55,42 @@ def test_the_pages_button_runs_again_with_a_new_seed(tmp_path: Path) -> None:
         assert view.world is demo.world is not first_world, "the view shows the new world"
 
 
+def test_the_world_keeps_stepping_at_real_time_between_runs() -> None:
+    with PickAndPlaceDemo(progress=None, view=ViewOptions(port=0)) as demo:
+        assert demo.run(PickAndPlaceTask()).success
+        first = demo.world
+        assert first is not None
+        stop = threading.Event()
+        server = threading.Thread(target=demo.serve, args=(stop,))
+        server.start()
+        try:
+            time.sleep(0.3)
+            sim0, wall0 = first.time, time.perf_counter()
+            time.sleep(1.5)
+            rate = (first.time - sim0) / (time.perf_counter() - wall0)
+            assert 0.2 < rate < 1.15, f"idle stepping at {rate:.2f}x real time"
+            cube = first.model.body("cube").id
+            assert first.data.xpos[cube][2] > 0.0, "the cube rests on the table"
+            demo.again()  # what the page's button does
+            deadline = time.monotonic() + 60
+            while len(demo.results) < 2 and time.monotonic() < deadline:
+                time.sleep(0.05)
+            assert len(demo.results) == 2
+            second = demo.world
+            assert second is not None
+            assert second is not first
+            held = first.time
+            sim0 = second.time
+            time.sleep(0.5)
+            assert first.time == held, "the previous world no longer steps"
+            assert second.time > sim0, "the new world steps while idle"
+        finally:
+            stop.set()
+            server.join(60)
+        assert not server.is_alive()
+        assert not any(t.name == "pick-and-place-idle" for t in threading.enumerate())
+
+
 def test_record_writes_the_arms_motion(tmp_path: Path) -> None:
     bag = tmp_path / "run.mcap"
     result = run_pick_and_place(progress=None, record=RecordOptions(bag))

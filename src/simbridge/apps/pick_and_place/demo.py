@@ -2,7 +2,9 @@
 recording and live view, and a run per task (each in a world of its own).
 
 With a live view the page gets a "Pick and place again" button: each press queues a
-run with the next seed, which `serve` performs on the caller's thread.
+run with the next seed, which `serve` performs on the caller's thread. Between runs the
+shown world keeps stepping (at the run's real-time factor, else real time), so the page
+stays live and its controls (pause, joints, moving the cube) act.
 """
 
 from __future__ import annotations
@@ -185,15 +187,39 @@ class PickAndPlaceDemo:
         if self.view is not None:
             self.say(f"[pick-and-place] serving {self.view.url}: '{AGAIN_LABEL}' runs again")
         try:
-            while not stop.is_set():
-                try:
-                    seed = self._requests.get(timeout=0.1)
-                except queue.Empty:
-                    continue
+            while (seed := self._wait_for_request(stop)) is not None:
                 self.say(f"[pick-and-place] again with seed {seed}")
                 self.run(PickAndPlaceTask.random(seed), seed)
         except KeyboardInterrupt:
             pass
+
+    def _wait_for_request(self, stop: threading.Event) -> int | None:
+        """The next queued seed (None once `stop` is set), stepping the shown world at
+        real time meanwhile on a thread of its own."""
+        world = self.world if self.view is not None else None
+        idle = threading.Event()
+        stepper: threading.Thread | None = None
+        if world is not None:
+            factor = self.options.realtime_factor or 1.0
+
+            def keep_stepping() -> None:
+                while not idle.is_set():  # chunks: a stop() before run() starts is not lost
+                    world.run(0.1, factor)
+
+            stepper = threading.Thread(target=keep_stepping, name="pick-and-place-idle")
+            stepper.start()
+        try:
+            while not stop.is_set():
+                try:
+                    return self._requests.get(timeout=0.1)
+                except queue.Empty:
+                    continue
+            return None
+        finally:
+            if world is not None and stepper is not None:
+                idle.set()
+                world.stop()
+                stepper.join(10)
 
     def close(self) -> None:
         """Stop the view, the recorder and the graph."""
