@@ -70,8 +70,7 @@ def test_unknown_xacro_arg_is_an_error(
     assert main(["urdf", "check", str(xacro_file), "hnd:=true"]) == 2
     err = capsys.readouterr().err
     assert err.strip() == (
-        f"simbridge: error: {xacro_file}: unknown xacro arg(s) hnd "
-        "(the file declares: hand, reach)"
+        f"simbridge: error: {xacro_file}: unknown xacro arg(s) hnd (the file declares: hand, reach)"
     )
 
 

@@ -603,10 +603,10 @@ def test_many_threads_publish_concurrently(endpoint: FakeEndpoint, make_connecto
     assert conn.flush(60)  # generous bounds: 16,000 frames on a loaded machine
     topics = {f"/t{k}" for k in range(4)}
     assert wait_for(  # one pass per poll: the fake endpoint's reader needs the GIL too
-        lambda: sum(
-            isinstance(e, MessageReceived) and e.topic in topics for e in endpoint.events()
-        )
-        == 16000,
+        lambda: (
+            sum(isinstance(e, MessageReceived) and e.topic in topics for e in endpoint.events())
+            == 16000
+        ),
         timeout=60,
     )
     assert conn.stats().reconnects == 0

@@ -30,6 +30,7 @@ import rosgraph  # noqa: E402
 
 pytestmark = [pytest.mark.ros1, pytest.mark.timeout(180)]
 
+
 def system_state(master: RosMaster) -> list[list[tuple[str, list[str]]]]:
     state: list[list[tuple[str, list[str]]]] = rosgraph.Master(
         "/e2e_graph_test", master_uri=master.uri

@@ -55,18 +55,21 @@ def run_endpoint() -> dict[str, object]:
     received = 0
     endpoint, port = start_endpoint("--idle-timeout", "0")
     try:
-        with Ros2Process.node("echo", "/net_out", "geometry_msgs/msg/Twist", "5") as echo, \
-                Ros2Process.node("pub", "/net_in", "std_msgs/msg/String", '{"data": "x"}',
-                                 "20", "60"):
+        with (
+            Ros2Process.node("echo", "/net_out", "geometry_msgs/msg/Twist", "5") as echo,
+            Ros2Process.node("pub", "/net_in", "std_msgs/msg/String", '{"data": "x"}', "20", "60"),
+        ):
             echo.expect_json("ready")
             client = RawClient(port)
             publish = Publish("/net_out", "geometry_msgs/Twist", report_subscribers=True)
             client.send(publish.encode())
             client.send(Subscribe("/net_in", "std_msgs/String").encode())
             client.expect(
-                lambda e: isinstance(e, CommandReceived)
-                and isinstance(e.command, SubscriberCount)
-                and e.command.count >= 1,
+                lambda e: (
+                    isinstance(e, CommandReceived)
+                    and isinstance(e.command, SubscriberCount)
+                    and e.command.count >= 1
+                ),
                 timeout=30,
             )
             for _ in range(5):

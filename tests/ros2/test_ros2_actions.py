@@ -242,9 +242,7 @@ def ros(endpoint: tuple[Ros2Process, int]) -> Iterator[Connector]:
         yield connector
 
 
-def test_connector_goal_feedback_result(
-    ros: Connector, endpoint: tuple[Ros2Process, int]
-) -> None:
+def test_connector_goal_feedback_result(ros: Connector, endpoint: tuple[Ros2Process, int]) -> None:
     action = unique_action()
     with server(action) as srv:
         client = action_client(ros, action, FIB)

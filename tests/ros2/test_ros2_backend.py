@@ -56,8 +56,9 @@ def cdr(msg: object, ros2_type: str) -> bytes:
 def twist(x: float, yaw: float) -> bytes:
     v3 = TS.types["geometry_msgs/msg/Vector3"]
     tw = TS.types["geometry_msgs/msg/Twist"]
-    return cdr(tw(linear=v3(x=x, y=0.0, z=0.0), angular=v3(x=0.0, y=0.0, z=yaw)),
-               "geometry_msgs/msg/Twist")
+    return cdr(
+        tw(linear=v3(x=x, y=0.0, z=0.0), angular=v3(x=0.0, y=0.0, z=yaw)), "geometry_msgs/msg/Twist"
+    )
 
 
 def command(event: object, cls: type) -> bool:
@@ -87,8 +88,10 @@ def client(endpoint: int) -> Iterator[RawClient]:
 def advertise(client: RawClient, topic: str, msg_type: str, **kw: object) -> None:
     """__publish, then wait until a ROS 2 subscription has matched (`__subscribers`)."""
     client.send(Publish(topic, msg_type, report_subscribers=True, **kw).encode())  # type: ignore[arg-type]
-    client.expect(lambda e: command(e, SubscriberCount) and e.command.topic == topic
-                  and e.command.count >= 1, timeout=20)
+    client.expect(
+        lambda e: command(e, SubscriberCount) and e.command.topic == topic and e.command.count >= 1,
+        timeout=20,
+    )
 
 
 def test_handshake_says_ros2(endpoint: int) -> None:
@@ -116,8 +119,15 @@ def test_image_reaches_a_ros2_subscriber(client: RawClient) -> None:
     pixels = (np.arange(480 * 640 * 3) % 251).astype(np.uint8)
     img_t, hdr_t = TS.types["sensor_msgs/msg/Image"], TS.types["std_msgs/msg/Header"]
     stamp = TS.types["builtin_interfaces/msg/Time"](sec=12, nanosec=34)
-    image = img_t(header=hdr_t(stamp=stamp, frame_id="camera"), height=480, width=640,
-                  encoding="rgb8", is_bigendian=0, step=640 * 3, data=pixels)
+    image = img_t(
+        header=hdr_t(stamp=stamp, frame_id="camera"),
+        height=480,
+        width=640,
+        encoding="rgb8",
+        is_bigendian=0,
+        step=640 * 3,
+        data=pixels,
+    )
     with Ros2Process.node("echo", "/sb_image", "sensor_msgs/msg/Image", "1") as echo:
         echo.expect_json("ready")
         advertise(client, "/sb_image", "sensor_msgs/Image")
@@ -132,8 +142,9 @@ def test_latched_topic_reaches_a_late_subscriber(client: RawClient) -> None:
     client.send(Publish("/sb_latched", "std_msgs/String", latch=True).encode())
     string = TS.types["std_msgs/msg/String"]
     time.sleep(0.5)
-    client.send(ProtocolConnection.message("/sb_latched", cdr(string(data="kept"),
-                                                              "std_msgs/msg/String")))
+    client.send(
+        ProtocolConnection.message("/sb_latched", cdr(string(data="kept"), "std_msgs/msg/String"))
+    )
     time.sleep(0.5)
     with Ros2Process.node("echo", "/sb_latched", "std_msgs/msg/String", "1", "--latched") as echo:
         assert echo.expect_json("msg") == {"data": "kept"}
@@ -141,22 +152,28 @@ def test_latched_topic_reaches_a_late_subscriber(client: RawClient) -> None:
 
 def test_ros2_publisher_reaches_the_client(client: RawClient) -> None:
     client.send(Subscribe("/sb_chatter", "std_msgs/String").encode())
-    with Ros2Process.node("pub", "/sb_chatter", "std_msgs/msg/String", '{"data": "hello"}',
-                          "20", "60"):
-        event = client.expect(lambda e: isinstance(e, MessageReceived)
-                              and e.topic == "/sb_chatter", timeout=20)
+    with Ros2Process.node(
+        "pub", "/sb_chatter", "std_msgs/msg/String", '{"data": "hello"}', "20", "60"
+    ):
+        event = client.expect(
+            lambda e: isinstance(e, MessageReceived) and e.topic == "/sb_chatter", timeout=20
+        )
     msg: Any = TS.deserialize_cdr(event.payload, "std_msgs/msg/String")
     assert msg.data == "hello"
 
 
 def test_sim_calls_a_ros2_service(client: RawClient) -> None:
-    with Ros2Process.node("serve", "/sb_set", "std_srvs/srv/SetBool",
-                          '{"success": true, "message": "done"}') as server:
+    with Ros2Process.node(
+        "serve", "/sb_set", "std_srvs/srv/SetBool", '{"success": true, "message": "done"}'
+    ) as server:
         server.expect_json("ready")
         client.send(RosService("/sb_set", "std_srvs/SetBool").encode())
         req_t = TS.types["std_srvs/msg/SetBool_Request"]
-        client.send(ProtocolConnection.service_request(
-            7, "/sb_set", cdr(req_t(data=True), "std_srvs/msg/SetBool_Request")))
+        client.send(
+            ProtocolConnection.service_request(
+                7, "/sb_set", cdr(req_t(data=True), "std_srvs/msg/SetBool_Request")
+            )
+        )
         event = client.expect(lambda e: isinstance(e, ServiceResponseReceived), timeout=20)
         assert server.expect_json("request") == {"data": True}
     assert event.srv_id == 7
@@ -168,9 +185,13 @@ def test_a_call_nobody_answers_fails_fast(client: RawClient) -> None:
     client.send(RosService("/sb_nobody", "std_srvs/Trigger").encode())
     req_t = TS.types["std_srvs/msg/Trigger_Request"]
     start = time.monotonic()
-    client.send(ProtocolConnection.service_request(
-        9, "/sb_nobody",
-        cdr(req_t(structure_needs_at_least_one_member=0), "std_srvs/msg/Trigger_Request")))
+    client.send(
+        ProtocolConnection.service_request(
+            9,
+            "/sb_nobody",
+            cdr(req_t(structure_needs_at_least_one_member=0), "std_srvs/msg/Trigger_Request"),
+        )
+    )
     event = client.expect(lambda e: command(e, ErrorMessage), timeout=15)
     assert event.command.srv_id == 9
     assert "no ROS 2 server for '/sb_nobody'" in event.command.text
@@ -184,9 +205,13 @@ def test_ros2_client_calls_a_sim_service(client: RawClient) -> None:
         request = client.expect(lambda e: isinstance(e, ServiceRequestReceived), timeout=20)
         assert request.service == "/sb_reset"
         resp_t = TS.types["std_srvs/msg/Trigger_Response"]
-        client.send(ProtocolConnection.service_response(
-            request.srv_id, "/sb_reset",
-            cdr(resp_t(success=True, message="reset"), "std_srvs/msg/Trigger_Response")))
+        client.send(
+            ProtocolConnection.service_response(
+                request.srv_id,
+                "/sb_reset",
+                cdr(resp_t(success=True, message="reset"), "std_srvs/msg/Trigger_Response"),
+            )
+        )
         assert caller.expect_json("response") == {"success": True, "message": "reset"}
 
 
@@ -249,19 +274,30 @@ def test_tf_message_reaches_a_ros2_subscriber(client: RawClient) -> None:
     """tf2_msgs has no wheel: `make ros2` builds it from the shipped definitions."""
     tf_t = TS.types["tf2_msgs/msg/TFMessage"]
     ts_t = TS.types["geometry_msgs/msg/TransformStamped"]
-    tr_t, v3, q = (TS.types[n] for n in ("geometry_msgs/msg/Transform",
-                                         "geometry_msgs/msg/Vector3",
-                                         "geometry_msgs/msg/Quaternion"))
+    tr_t, v3, q = (
+        TS.types[n]
+        for n in (
+            "geometry_msgs/msg/Transform",
+            "geometry_msgs/msg/Vector3",
+            "geometry_msgs/msg/Quaternion",
+        )
+    )
     hdr = TS.types["std_msgs/msg/Header"](
-        stamp=TS.types["builtin_interfaces/msg/Time"](sec=5, nanosec=6), frame_id="world")
-    transform = ts_t(header=hdr, child_frame_id="base_link",
-                     transform=tr_t(translation=v3(x=1.0, y=2.0, z=3.0),
-                                    rotation=q(x=0.0, y=0.0, z=0.0, w=1.0)))
+        stamp=TS.types["builtin_interfaces/msg/Time"](sec=5, nanosec=6), frame_id="world"
+    )
+    transform = ts_t(
+        header=hdr,
+        child_frame_id="base_link",
+        transform=tr_t(translation=v3(x=1.0, y=2.0, z=3.0), rotation=q(x=0.0, y=0.0, z=0.0, w=1.0)),
+    )
     with Ros2Process.node("echo", "/sb_tf", "tf2_msgs/msg/TFMessage", "1") as echo:
         echo.expect_json("ready")
         advertise(client, "/sb_tf", "tf2_msgs/TFMessage")
-        client.send(ProtocolConnection.message(
-            "/sb_tf", cdr(tf_t(transforms=[transform]), "tf2_msgs/msg/TFMessage")))
+        client.send(
+            ProtocolConnection.message(
+                "/sb_tf", cdr(tf_t(transforms=[transform]), "tf2_msgs/msg/TFMessage")
+            )
+        )
         got = echo.expect_json("msg")
     (only,) = got["transforms"]
     assert only["child_frame_id"] == "base_link"
@@ -271,20 +307,29 @@ def test_tf_message_reaches_a_ros2_subscriber(client: RawClient) -> None:
 
 def test_custom_type_reaches_a_ros2_subscriber(client: RawClient) -> None:
     """niryo_moveit (shipped, built by `make ros2`): a package of the user's kind."""
-    TS.register(get_types_from_msg("float64[6] joints\ngeometry_msgs/Pose pick_pose\n"
-                                   "geometry_msgs/Pose place_pose",
-                                   "niryo_moveit/msg/NiryoMoveitJoints"))
+    TS.register(
+        get_types_from_msg(
+            "float64[6] joints\ngeometry_msgs/Pose pick_pose\ngeometry_msgs/Pose place_pose",
+            "niryo_moveit/msg/NiryoMoveitJoints",
+        )
+    )
     joints_t = TS.types["niryo_moveit/msg/NiryoMoveitJoints"]
-    pose_t, point_t, q = (TS.types[n] for n in ("geometry_msgs/msg/Pose",
-                                                "geometry_msgs/msg/Point",
-                                                "geometry_msgs/msg/Quaternion"))
+    pose_t, point_t, q = (
+        TS.types[n]
+        for n in (
+            "geometry_msgs/msg/Pose",
+            "geometry_msgs/msg/Point",
+            "geometry_msgs/msg/Quaternion",
+        )
+    )
     pose = pose_t(position=point_t(x=0.1, y=0.2, z=0.3), orientation=q(x=0.0, y=0.0, z=0.0, w=1.0))
     msg = joints_t(joints=np.arange(6, dtype=np.float64) / 10, pick_pose=pose, place_pose=pose)
     with Ros2Process.node("echo", "/sb_joints", "niryo_moveit/msg/NiryoMoveitJoints", "1") as echo:
         echo.expect_json("ready")
         advertise(client, "/sb_joints", "niryo_moveit/NiryoMoveitJoints")
-        client.send(ProtocolConnection.message(
-            "/sb_joints", cdr(msg, "niryo_moveit/msg/NiryoMoveitJoints")))
+        client.send(
+            ProtocolConnection.message("/sb_joints", cdr(msg, "niryo_moveit/msg/NiryoMoveitJoints"))
+        )
         got = echo.expect_json("msg")
     assert got["joints"] == (np.arange(6, dtype=np.float64) / 10).tolist()
     assert got["pick_pose"]["position"] == {"x": 0.1, "y": 0.2, "z": 0.3}

@@ -20,8 +20,10 @@ from tests.ros2support import child_env, require_ros2
 
 
 def test_ros1_spellings_become_ros2_ones() -> None:
-    text = "Header header  # stamp\ntime[] stamps\nduration wait\nmy_pkg/Thing a\nThing b\n" \
-           "geometry_msgs/Pose[3] poses\nuint8 MODE=1\n---\nbool ok\n"
+    text = (
+        "Header header  # stamp\ntime[] stamps\nduration wait\nmy_pkg/Thing a\nThing b\n"
+        "geometry_msgs/Pose[3] poses\nuint8 MODE=1\n---\nbool ok\n"
+    )
     converted, deps = ros2_definition(text, "my_pkg")
     assert converted.splitlines() == [
         "std_msgs/Header header  # stamp",
@@ -66,13 +68,15 @@ def test_msg_build_makes_a_user_package_importable_in_rclpy(tmp_path: Path) -> N
     pkg = tmp_path / "sb_test_msgs"
     (pkg / "msg").mkdir(parents=True)
     (pkg / "srv").mkdir()
-    (pkg / "msg" / "Reading.msg").write_text(textwrap.dedent("""\
+    (pkg / "msg" / "Reading.msg").write_text(
+        textwrap.dedent("""\
         # a ROS 1 style definition
         Header header
         time taken
         float64[] values
         geometry_msgs/Point where
-        """))
+        """)
+    )
     (pkg / "srv" / "Ask.srv").write_text("Reading reading\n---\nbool ok\n")
     venv = python.parent.parent
     build = [sys.executable, "-m", "simbridge.cli", "msg", "build", str(pkg), "--venv", str(venv)]
@@ -92,6 +96,12 @@ def test_msg_build_makes_a_user_package_importable_in_rclpy(tmp_path: Path) -> N
         print(back.header.frame_id, back.taken.sec, list(back.values), back.where.z)
         print(Ask.Response().ok)
         """)
-    out = subprocess.run([str(python), "-c", check], env=child_env(), capture_output=True,
-                         text=True, timeout=60, check=False)
+    out = subprocess.run(
+        [str(python), "-c", check],
+        env=child_env(),
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=False,
+    )
     assert out.stdout.split() == ["x", "7", "[1.5,", "2.5]", "3.0", "False"], out.stderr

@@ -33,7 +33,11 @@ def in_private_netns(mode: str) -> dict[str, object]:
         pytest.skip(f"cannot create a network namespace here: {probe.stderr.decode().strip()}")
     out = subprocess.run(
         ["unshare", "-rn", sys.executable, "-m", "tests.ros2.net_driver", mode],
-        cwd=ROOT, capture_output=True, text=True, timeout=150, check=False,
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=150,
+        check=False,
     )
     assert out.returncode == 0, out.stdout[-3000:] + out.stderr[-3000:]
     result: dict[str, object] = json.loads(out.stdout.strip().splitlines()[-1])

@@ -72,6 +72,7 @@ def test_sim_clock_drives_a_node_with_use_sim_time(tmp_path: Path, endpoint: int
     offsets = [s - seconds[1] for s in seconds[1:]]
     assert [round(o / 0.5) for o in offsets] == list(range(len(offsets))), offsets
 
+
 def test_rclpy_decodes_what_the_sim_publishes(tmp_path: Path, endpoint: int) -> None:
     """JointState and a camera's CameraInfo (d k r p, Header without seq), as rclpy reads them."""
     (tmp_path / "arm.urdf").write_text(GRAVITY_ARM)

@@ -67,9 +67,7 @@ def _record(tmp_path: Path, endpoint: EndpointThread, out: Path) -> None:
         assert isinstance(node_bus, LocalBus)
         node = Node(node_bus, "/tester")
         try:
-            cmd = registry_for(node_bus.protocol).new(
-                "std_msgs/Float64MultiArray", data=[0.1, 0.2]
-            )
+            cmd = registry_for(node_bus.protocol).new("std_msgs/Float64MultiArray", data=[0.1, 0.2])
             topic = "/joint_group_position_controller/command"
             pub = node.advertise(topic, "std_msgs/Float64MultiArray")
             deadline = time.monotonic() + 5

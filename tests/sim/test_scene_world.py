@@ -441,8 +441,6 @@ def test_run_keeps_scopes_entered_until_the_window_ends_or_it_sleeps(
     assert [x for x in log if x.startswith("exit")][-1] == "exit 200"
 
 
-
-
 @pytest.mark.parametrize("boxes", [False, True])
 def test_refresh_state_gives_what_mj_forward_gives(tmp_path: Path, boxes: bool) -> None:
     """The cheaper refresh for joint states and TF: poses, velocity terms and actuator

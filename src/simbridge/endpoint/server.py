@@ -39,8 +39,7 @@ class EndpointServer:
         self.types: TypeCheck = (
             types
             if types is not None
-            else self.backend.type_check()
-            or RegistryTypeCheck(registry_for(self.backend.protocol))
+            else self.backend.type_check() or RegistryTypeCheck(registry_for(self.backend.protocol))
         )
         self.budget = MemoryBudget(self.options.max_memory, self.options.client_share)
         self._sessions: set[ClientSession] = set()

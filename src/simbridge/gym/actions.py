@@ -69,9 +69,7 @@ class ActionAdapter(ABC):
     def apply(self, world: World, action: NDArray[np.float32]) -> None:
         """Set the drive targets for `action` (clipped to `space` by the caller)."""
 
-    def controls(
-        self, world: World, action: NDArray[np.float32], steps: int
-    ) -> FloatArray | None:
+    def controls(self, world: World, action: NDArray[np.float32], steps: int) -> FloatArray | None:
         """Apply `action`; None when the drives' `ctrl` now in `world.data` holds for the
         next `steps` physics steps (the default), else one `ctrl` row per step."""
         self.apply(world, action)
@@ -325,9 +323,7 @@ class TwistCommand(WheelVelocity):
         assert self.controller is not None, "bind() first"
         self.controller.command(float(action[0]), float(action[1]), world.time)
 
-    def controls(
-        self, world: World, action: NDArray[np.float32], steps: int
-    ) -> FloatArray | None:
+    def controls(self, world: World, action: NDArray[np.float32], steps: int) -> FloatArray | None:
         """One row per physics step: the controller ramps the wheel speeds every step."""
         assert self.controller is not None, "bind() first"
         self.apply(world, action)

@@ -72,8 +72,10 @@ class LinearPolicy:
             )
         unknown = sorted(set(keys) - set(observation_space.spaces))
         if unknown:
-            raise GymError(f"policy keys {unknown} are not observed; observation has "
-                           f"{sorted(observation_space.spaces)}")
+            raise GymError(
+                f"policy keys {unknown} are not observed; observation has "
+                f"{sorted(observation_space.spaces)}"
+            )
         size = sum(int(np.prod(observation_space.spaces[k].shape or ())) for k in keys)
         act = int(action_space.shape[0])
         return cls(

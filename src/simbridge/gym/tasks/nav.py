@@ -25,9 +25,7 @@ from simbridge.sim.world import World
 
 __all__ = ["NAV_SCENE", "NavTask", "make_nav", "odometry_observation"]
 
-NAV_SCENE = Path(
-    str(resources.files("simbridge") / "apps" / "mobile_robot" / "scene.yaml")
-)
+NAV_SCENE = Path(str(resources.files("simbridge") / "apps" / "mobile_robot" / "scene.yaml"))
 """The mobile-robot demo's scene: diffbot in a 4 m x 4 m room, lidar, camera, IMU, odometry."""
 
 
@@ -128,7 +126,7 @@ class NavTask(Task):
         return np.asarray(world.data.qpos[self._free_qpos : self._free_qpos + 2], np.float64)
 
     def observation_spaces(self) -> Mapping[str, spaces.Box]:
-        """"pose" (x, y, cos yaw, sin yaw) and "velocity" (linear m/s, angular rad/s)."""
+        """ "pose" (x, y, cos yaw, sin yaw) and "velocity" (linear m/s, angular rad/s)."""
         return {
             "pose": spaces.Box(-3.0, 3.0, (4,), np.float32),
             "velocity": spaces.Box(-5.0, 5.0, (2,), np.float32),

@@ -32,9 +32,9 @@ ARM_JOINTS = tuple(f"joint_{i}" for i in range(1, 7))
 GOAL_MARKER = "goal_marker"
 
 
-def view_camera(eye: Sequence[float], target: Sequence[float], width: int, height: int) -> (
-    CameraConfig
-):
+def view_camera(
+    eye: Sequence[float], target: Sequence[float], width: int, height: int
+) -> CameraConfig:
     """A fixed world camera at `eye` looking at `target` (for image observations)."""
     dx, dy, dz = (t - e for t, e in zip(target, eye, strict=True))
     pitch = math.atan2(-dz, math.hypot(dx, dy))
@@ -114,7 +114,7 @@ class ReachTask(Task):
         return goal
 
     def observation_spaces(self) -> Mapping[str, spaces.Box]:
-        """"ee_pos": the end effector's position, "goal_delta": goal - ee_pos (m, world)."""
+        """ "ee_pos": the end effector's position, "goal_delta": goal - ee_pos (m, world)."""
         return {
             "ee_pos": spaces.Box(-2.0, 2.0, (3,), np.float32),
             "goal_delta": spaces.Box(-4.0, 4.0, (3,), np.float32),
