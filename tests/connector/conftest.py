@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import socket
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -59,3 +60,14 @@ def make_connector() -> Iterator[Callable[..., Connector]]:
     yield make
     for connector in made:
         connector.close()
+
+
+@pytest.fixture
+def pair() -> Iterator[tuple[socket.socket, socket.socket]]:
+    """A loopback TCP connection (TCP takes part of a send when its buffer is nearly full)."""
+    with socket.create_server(("127.0.0.1", 0)) as server:
+        a = socket.create_connection(server.getsockname())
+        b, _ = server.accept()
+    yield a, b
+    a.close()
+    b.close()

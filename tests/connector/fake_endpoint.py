@@ -10,7 +10,6 @@ from __future__ import annotations
 import contextlib
 import socket
 import threading
-import time
 from collections.abc import Callable
 from typing import Any
 
@@ -27,6 +26,7 @@ from simbridge.protocol import (
     TopicListReply,
     TopicListRequest,
 )
+from tests.waiting import wait_for
 
 ServiceAnswer = Callable[[str, bytes], bytes | None]
 """(service, request) -> response bytes, or None to answer with `__error` + srv_id."""
@@ -189,12 +189,7 @@ class FakeEndpoint:
             return list(self.conns[conn_index].events) if self.conns else []
 
     def wait_for(self, predicate: Callable[[], bool], timeout: float = 5.0) -> bool:
-        deadline = time.monotonic() + timeout
-        while time.monotonic() < deadline:
-            if predicate():
-                return True
-            time.sleep(0.005)
-        return predicate()
+        return wait_for(predicate, timeout)
 
     def wait_conns(self, count: int, timeout: float = 5.0) -> bool:
         return self.wait_for(lambda: len(self.conns) >= count, timeout)

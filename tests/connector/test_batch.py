@@ -6,10 +6,9 @@ from __future__ import annotations
 import socket
 import threading
 import time
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
-import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
@@ -66,17 +65,6 @@ def test_declined_send_queues_with_bounds_and_a_partial_one_queues_the_rest() ->
 
 
 # ---- FrameWriter.write_batch ---------------------------------------------------------------
-
-
-@pytest.fixture
-def pair() -> Iterator[tuple[socket.socket, socket.socket]]:
-    """A loopback TCP connection (TCP takes part of a send when its buffer is nearly full)."""
-    with socket.create_server(("127.0.0.1", 0)) as server:
-        a = socket.create_connection(server.getsockname())
-        b, _ = server.accept()
-    yield a, b
-    a.close()
-    b.close()
 
 
 def _read_exactly(sock: socket.socket, size: int, timeout: float = 5.0) -> bytes:

@@ -5,7 +5,6 @@ the writer thread, in order, with the topic's bound."""
 from __future__ import annotations
 
 import socket
-from collections.abc import Iterator
 
 import pytest
 
@@ -17,16 +16,6 @@ from simbridge.connector.stats import StatsCounters
 from simbridge.connector.writer import FrameWriter, OutTopic
 
 FRAMER = Framer("ROS1")
-
-
-@pytest.fixture
-def pair() -> Iterator[tuple[socket.socket, socket.socket]]:
-    with socket.create_server(("127.0.0.1", 0)) as server:
-        a = socket.create_connection(server.getsockname())
-        b, _ = server.accept()
-    yield a, b
-    a.close()
-    b.close()
 
 
 def _read_exactly(sock: socket.socket, size: int) -> bytes:
