@@ -11,7 +11,6 @@ import struct
 import subprocess
 import sys
 import textwrap
-import threading
 import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -221,17 +220,16 @@ def test_topic_list_comes_from_the_master(master: RosMaster, connector: Connecto
 
 
 def test_endpoint_events_reach_rosout(master: RosMaster, connector: Connector) -> None:
-    lines: list[str] = []
-    with master.running(["rostopic", "echo", "/rosout"]) as echo:
-        assert echo.stdout is not None
-        reader = threading.Thread(target=lambda: lines.extend(echo.stdout or []), daemon=True)
-        reader.start()
+    echo = master.spawn(["rostopic", "echo", "/rosout"])
+    try:
         expected = "publishing /e2e/logged [std_msgs/String] for the sim"
         deadline = time.monotonic() + 30
-        while not any(expected in line for line in list(lines)):  # until echo is connected
+        while expected not in echo.output()[0]:  # until echo is connected
             assert time.monotonic() < deadline, "the endpoint's event never reached /rosout"
             connector.register_publisher("/e2e/logged", "std_msgs/String")
             time.sleep(0.5)
+    finally:
+        terminate(echo)
 
 
 def test_drop_in_private_params_choose_the_address(master: RosMaster) -> None:

@@ -13,7 +13,7 @@ import subprocess
 import sys
 import time
 import xmlrpc.client
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -92,7 +92,7 @@ def _wait_for_topics(master: RosMaster, sim: subprocess.Popen[str]) -> None:
     raise AssertionError(f"the sim's topics never appeared; the endpoint has {_state(master)}")
 
 
-def _finish(processes: dict[str, subprocess.Popen[str]], timeout: float) -> dict[str, str]:
+def _finish(processes: Mapping[str, subprocess.Popen[str]], timeout: float) -> dict[str, str]:
     """Wait for every `rostopic echo -n 1`; returns the failures by topic."""
     failures: dict[str, str] = {}
     deadline = time.monotonic() + timeout
