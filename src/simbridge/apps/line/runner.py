@@ -182,7 +182,7 @@ def run_line(
         stack.enter_context(session)
         world = session.world
         if isinstance(view, LineView):
-            view.show(world, seed or 0)
+            view.show(world, seed or 0, realtime_factor)
         elif view is not None:
             say(f"[line] live view at {stack.enter_context(LiveView(world, view)).url}")
         sim = _SimThread(world, max_sim_s, video_path, realtime_factor)

@@ -16,6 +16,7 @@ from collections.abc import Callable
 from contextlib import ExitStack
 from pathlib import Path
 
+from simbridge.apps.idle import next_request
 from simbridge.apps.pick_and_place.planner_node import LocalPlannerNode
 from simbridge.apps.pick_and_place.result import PickAndPlaceResult
 from simbridge.apps.pick_and_place.ros1_graph import Ros1Graph
@@ -187,39 +188,17 @@ class PickAndPlaceDemo:
         if self.view is not None:
             self.say(f"[pick-and-place] serving {self.view.url}: '{AGAIN_LABEL}' runs again")
         try:
-            while (seed := self._wait_for_request(stop)) is not None:
+            while (seed := self._next_request(stop)) is not None:
                 self.say(f"[pick-and-place] again with seed {seed}")
                 self.run(PickAndPlaceTask.random(seed), seed)
         except KeyboardInterrupt:
             pass
 
-    def _wait_for_request(self, stop: threading.Event) -> int | None:
-        """The next queued seed (None once `stop` is set), stepping the shown world at
-        real time meanwhile on a thread of its own."""
+    def _next_request(self, stop: threading.Event) -> int | None:
+        """The next queued seed, the shown world stepping meanwhile (apps/idle.py)."""
         world = self.world if self.view is not None else None
-        idle = threading.Event()
-        stepper: threading.Thread | None = None
-        if world is not None:
-            factor = self.options.realtime_factor or 1.0
-
-            def keep_stepping() -> None:
-                while not idle.is_set():  # chunks: a stop() before run() starts is not lost
-                    world.run(0.1, factor)
-
-            stepper = threading.Thread(target=keep_stepping, name="pick-and-place-idle")
-            stepper.start()
-        try:
-            while not stop.is_set():
-                try:
-                    return self._requests.get(timeout=0.1)
-                except queue.Empty:
-                    continue
-            return None
-        finally:
-            if world is not None and stepper is not None:
-                idle.set()
-                world.stop()
-                stepper.join(10)
+        factor = self.options.realtime_factor
+        return next_request(self._requests, stop, world, factor, "pick-and-place-idle")
 
     def close(self) -> None:
         """Stop the view, the recorder and the graph."""
