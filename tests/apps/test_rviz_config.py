@@ -121,7 +121,7 @@ def test_pick_and_place_demo_feeds_rviz(monkeypatch: pytest.MonkeyPatch) -> None
             publisher = super().advertise(topic, msg_type, queue_size=queue_size, latch=latch)
             publish = publisher.publish
 
-            def counted(payload: bytes) -> None:
+            def counted(payload: bytes | bytearray) -> None:
                 published[topic] = published.get(topic, 0) + 1
                 publish(payload)
 

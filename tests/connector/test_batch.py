@@ -200,7 +200,9 @@ def test_partial_send_splits_at_the_right_byte(sizes: list[int], accept: int) ->
 
 def _messages(endpoint: FakeEndpoint, topic: str) -> list[bytes]:
     return [
-        e.payload for e in endpoint.events() if isinstance(e, MessageReceived) and e.topic == topic
+        bytes(e.payload)
+        for e in endpoint.events()
+        if isinstance(e, MessageReceived) and e.topic == topic
     ]
 
 

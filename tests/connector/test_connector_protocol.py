@@ -44,7 +44,7 @@ def commands(events: list[Any]) -> list[Any]:
 
 
 def messages(events: list[Any], topic: str) -> list[bytes]:
-    return [e.payload for e in events if isinstance(e, MessageReceived) and e.topic == topic]
+    return [bytes(e.payload) for e in events if isinstance(e, MessageReceived) and e.topic == topic]
 
 
 def test_registrations_and_messages_arrive_in_order(endpoint: FakeEndpoint, make_connector):

@@ -8,7 +8,13 @@ import struct
 import pytest
 
 from simbridge.errors import ProtocolError
-from simbridge.protocol import FrameBudgetError, FrameDecoder, FrameTooLargeError, encode_frame
+from simbridge.protocol import (
+    Frame,
+    FrameBudgetError,
+    FrameDecoder,
+    FrameTooLargeError,
+    encode_frame,
+)
 
 MIB = 1024 * 1024
 
@@ -102,12 +108,24 @@ def test_command_payload_cap_applies_to_commands_only() -> None:
     assert isinstance(FrameTooLargeError("x"), ProtocolError)
 
 
-def test_large_frames_reuse_one_buffer_and_keep_their_bytes() -> None:
+def test_large_payloads_are_handed_over_and_never_written_again() -> None:
+    """Each large payload is the bytearray it was received into (no copy to bytes): a new
+    one per frame, out of the decoder's budget once handed over, and untouched by the
+    frames received after it."""
     ledger = Ledger(10**12)
     decoder = FrameDecoder(reserve=ledger.reserve, release=ledger.release)
-    payloads = [bytes([i]) * (900_000 + i * 1000) for i in range(5)]
-    frames = _receive(decoder, b"".join(encode_frame("/img", p) for p in payloads))
-    assert [f.payload for f in frames] == payloads  # type: ignore[attr-defined]
-    assert ledger.peak <= 2 * 904_000  # one buffer, grown at most once; not one per frame
+    payloads = [bytes([i + 1]) * (900_000 + i * 1000) for i in range(5)]
+    frames: list[Frame] = []
+    for payload in payloads:  # one call per frame: a reused buffer would show
+        got = _receive(decoder, encode_frame("/img", payload))
+        assert len(got) == 1
+        frames += got  # type: ignore[arg-type]
+        assert ledger.held == 0  # handed over: no longer charged to the decoder
+    assert [f.payload for f in frames] == payloads
+    assert all(type(f.payload) is bytearray for f in frames)
+    assert len({id(f.payload) for f in frames}) == len(frames)
+    assert ledger.peak <= max(map(len, payloads))  # one payload's buffer at a time
+    (small,) = decoder.feed(encode_frame("/twist", b"x" * 48))
+    assert type(small.payload) is bytes
     decoder.discard()
     assert ledger.held == 0

@@ -407,7 +407,7 @@ class ConnectorEngine:
     def _handle(self, event: Event) -> bool:
         """Act on one event; False when the connection must be dropped."""
         if isinstance(event, MessageReceived):
-            self._deliver([(event.topic, event.payload)])
+            self._deliver([(event.topic, bytes(event.payload))])  # the API promises bytes
         elif isinstance(event, ServiceResponseReceived):
             with self._lock:
                 call = self._calls.pop(event.srv_id, None)

@@ -49,10 +49,13 @@ class KeepaliveReceived:
 
 @dataclass(slots=True)
 class MessageReceived:
-    """A serialized message for (or from) `topic` (not frozen: built per message)."""
+    """A serialized message for (or from) `topic` (not frozen: built per message).
+
+    A large `payload` is the bytearray it was received into (see `Frame`), now the
+    receiver's own: passing it on saves copying an image once more."""
 
     topic: str
-    payload: bytes
+    payload: bytes | bytearray
 
 
 @dataclass(frozen=True, slots=True)
@@ -172,12 +175,12 @@ class ProtocolConnection:
                 else:
                     self._pending = None
                     if isinstance(pending, ServiceRequestHeader):
-                        append(ServiceRequestReceived(pending.srv_id, dest, frame.payload))
+                        append(ServiceRequestReceived(pending.srv_id, dest, bytes(frame.payload)))
                     else:
-                        append(ServiceResponseReceived(pending.srv_id, dest, frame.payload))
+                        append(ServiceResponseReceived(pending.srv_id, dest, bytes(frame.payload)))
                 continue
             try:
-                command = decode_command(dest, frame.payload, sender=self._peer)
+                command = decode_command(dest, bytes(frame.payload), sender=self._peer)
             except ProtocolError as exc:
                 append(ProtocolViolation(str(exc)))
                 continue

@@ -38,11 +38,14 @@ KEEPALIVE = b"\x00" * 8
 class Frame:
     """One decoded frame; `destination` has trailing NULs (ROS 2 clients) removed.
 
+    `payload` is `bytes`, or for a large payload (`FrameDecoder.LARGE` or more) the
+    bytearray it was received into: handed over, never reused or written by the decoder
+    again, so a large image is not copied once more on its way through.
     Not frozen: one is built per received frame, and frozen dataclasses are slower to build.
     """
 
     destination: str
-    payload: bytes
+    payload: bytes | bytearray
 
     @property
     def is_keepalive(self) -> bool:
@@ -88,7 +91,8 @@ class FrameDecoder:
 
     Two ways in: `feed(data)`, or the zero-copy pair `get_buffer()` / `buffer_updated(n)`
     (asyncio.BufferedProtocol style) where the socket reads straight into the decoder's
-    memory. A large payload is read into its own buffer of exactly its size.
+    memory. A large payload is read into a new buffer of exactly its size, which the
+    frame then carries as its payload (no copy); its memory leaves the decoder's budget.
 
     A length prefix over the bound (FrameTooLargeError, raised before the body is
     buffered) or a destination that is not UTF-8 (ProtocolError) breaks the stream:
@@ -110,7 +114,6 @@ class FrameDecoder:
         "_max_payload",
         "_release",
         "_reserve",
-        "_spare",
         "_start",
     )
 
@@ -137,7 +140,6 @@ class FrameDecoder:
         self._big_dest = ""
         self._big_filled = 0
         self._big_size = 0
-        self._spare: bytearray | None = None
         self._max_payload = max_payload
         self._max_command = max_payload if max_command is None else max_command
         self._reserve = reserve
@@ -187,13 +189,9 @@ class FrameDecoder:
             self._big_filled += nbytes
             if self._big_filled < self._big_size:
                 return []
-            with memoryview(big) as view:
-                frame = Frame(self._big_dest, bytes(view[: self._big_size]))
             self._big, self._big_filled = None, 0
-            if len(big) <= self.FIRST_CHUNK:
-                self._spare = big  # the next large frame reuses it (still reserved)
-            else:
-                self._release(len(big))
+            self._release(len(big))  # handed over: no longer the decoder's to account for
+            frame = Frame(self._big_dest, big)
             return [frame]
         self._end += nbytes
         frames = self._parse()
@@ -230,24 +228,18 @@ class FrameDecoder:
         _extend_zeros(big, extra)
 
     def _large_buffer(self, plen: int, have: int) -> bytearray | None:
-        """A buffer for a large payload: the spare one from the last large frame when big
-        enough (no allocation, no page faults), else a new one; None if refused."""
+        """A new buffer for a large payload (at most FIRST_CHUNK before its bytes arrive;
+        never more than `plen`), or None if the budget refuses it."""
         size = max(min(plen, self.FIRST_CHUNK), have)
-        spare, self._spare = self._spare, None
-        if spare is not None:
-            if len(spare) >= size:
-                return spare
-            self._release(len(spare))
         if not self._reserve(size):
             return None
         return bytearray(size)
 
     def discard(self) -> None:
         """Drop a partly received large frame and hand its memory back (connection closed)."""
-        for buf in (self._big, self._spare):
-            if buf is not None:
-                self._release(len(buf))
-        self._big = self._spare = None
+        if self._big is not None:
+            self._release(len(self._big))
+        self._big = None
         self._big_filled = 0
 
     def _parse(self) -> list[Frame]:

@@ -48,8 +48,9 @@ class BackendPublisher(abc.ABC):
     """An advertised topic; publishes serialized messages as they are."""
 
     @abc.abstractmethod
-    def publish(self, payload: bytes) -> None:
-        """Send one serialized message to every subscriber of the topic."""
+    def publish(self, payload: bytes | bytearray) -> None:
+        """Send one serialized message to every subscriber of the topic. A bytearray is
+        handed over (a large payload as received): nobody writes to it afterwards."""
 
     @abc.abstractmethod
     def close(self) -> None:

@@ -72,7 +72,8 @@ class _Publisher(BackendPublisher):
         self._latch = latch
         self._id = next(bus._ids)
 
-    def publish(self, payload: bytes) -> None:
+    def publish(self, payload: bytes | bytearray) -> None:
+        payload = bytes(payload)  # subscribers and the latch keep bytes (no copy if bytes)
         state = self._state
         if state is None:
             raise EndpointError(f"publisher for {self._topic!r} is closed")

@@ -342,11 +342,11 @@ class _RospyPublisher(Ros1Publisher):
         self.msg_type = cls._type
         super().__init__(live)
 
-    def publish(self, payload: bytes) -> None:
+    def publish(self, payload: bytes | bytearray) -> None:
         if self.closed:
             raise EndpointError(f"publisher of {self.topic!r} is closed")
         try:
-            self._publisher.publish(self._cls(payload))
+            self._publisher.publish(self._cls(bytes(payload)))
         except rospy.ROSException as exc:
             raise EndpointError(f"cannot publish on {self.topic!r}: {exc}") from exc
 

@@ -185,10 +185,10 @@ class NativePublisher(Ros1Publisher):
         self.msg_type = topic.info.name
         super().__init__(live)
 
-    def publish(self, payload: bytes) -> None:
+    def publish(self, payload: bytes | bytearray) -> None:
         if self.closed:
             raise EndpointError(f"publisher of {self.topic!r} is closed")
-        self._topic.publish(payload)
+        self._topic.publish(bytes(payload))  # latched and queued as bytes (no copy if bytes)
 
     def subscriber_count(self) -> int:
         return len(self._topic.connections)

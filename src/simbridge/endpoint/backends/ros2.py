@@ -490,11 +490,11 @@ class Ros2Publisher(_Entity, BackendPublisher):
         self._publish_raw = _raw_publish(self._publisher)
         super().__init__(backend)
 
-    def publish(self, payload: bytes) -> None:
+    def publish(self, payload: bytes | bytearray) -> None:
         if self.closed:
             raise EndpointError(f"publisher of {self.topic!r} is closed")
         try:
-            self._publish_raw(payload if type(payload) is bytes else bytes(payload))
+            self._publish_raw(payload)  # publish_raw takes bytes and bytearray alike
         except Exception as exc:
             counters = self._backend.counters
             counters["publish_errors"] += 1
@@ -524,14 +524,17 @@ class Ros2Publisher(_Entity, BackendPublisher):
         _log.info("stopped publishing %s", self.topic)
 
 
-def _raw_publish(publisher: Any) -> Callable[[bytes], None]:
+def _raw_publish(publisher: Any) -> Callable[[bytes | bytearray], None]:
     """The C++ publisher's `publish_raw`: what `Publisher.publish(bytes)` ends in, without
-    its handle guard and type checks (about 2 us of a Twist's publish). The guard keeps
-    another thread from destroying the publisher meanwhile; here publishing and destroying
-    both happen on the event loop. Falls back to `publish` if rclpy hides it elsewhere."""
+    its handle guard and type checks (about 2 us of a Twist's publish); it takes a bytearray
+    too (a large payload as received, not copied to bytes first). The guard keeps another
+    thread from destroying the publisher meanwhile; here publishing and destroying both
+    happen on the event loop. Falls back to `publish` (bytes only) if rclpy hides it."""
     inner = getattr(publisher, "_Publisher__publisher", None)
     raw = getattr(inner, "publish_raw", None)
-    return raw if callable(raw) else publisher.publish  # type: ignore[no-any-return]
+    if callable(raw):
+        return raw  # type: ignore[no-any-return]
+    return lambda payload: publisher.publish(bytes(payload))
 
 
 class _Ros2Subscription(_Entity, BackendSubscription):
