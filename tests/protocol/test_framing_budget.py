@@ -108,12 +108,23 @@ def test_command_payload_cap_applies_to_commands_only() -> None:
     assert isinstance(FrameTooLargeError("x"), ProtocolError)
 
 
+def test_large_frames_reuse_one_buffer_and_keep_their_bytes() -> None:
+    ledger = Ledger(10**12)
+    decoder = FrameDecoder(reserve=ledger.reserve, release=ledger.release)
+    payloads = [bytes([i]) * (900_000 + i * 1000) for i in range(5)]
+    frames = _receive(decoder, b"".join(encode_frame("/img", p) for p in payloads))
+    assert [f.payload for f in frames] == payloads  # type: ignore[attr-defined]
+    assert ledger.peak <= 2 * 904_000  # one buffer, grown at most once; not one per frame
+    decoder.discard()
+    assert ledger.held == 0
+
+
 def test_large_payloads_are_handed_over_and_never_written_again() -> None:
     """Each large payload is the bytearray it was received into (no copy to bytes): a new
     one per frame, out of the decoder's budget once handed over, and untouched by the
     frames received after it."""
     ledger = Ledger(10**12)
-    decoder = FrameDecoder(reserve=ledger.reserve, release=ledger.release)
+    decoder = FrameDecoder(reserve=ledger.reserve, release=ledger.release, lend_large=True)
     payloads = [bytes([i + 1]) * (900_000 + i * 1000) for i in range(5)]
     frames: list[Frame] = []
     for payload in payloads:  # one call per frame: a reused buffer would show

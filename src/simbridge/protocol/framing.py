@@ -38,9 +38,9 @@ KEEPALIVE = b"\x00" * 8
 class Frame:
     """One decoded frame; `destination` has trailing NULs (ROS 2 clients) removed.
 
-    `payload` is `bytes`, or for a large payload (`FrameDecoder.LARGE` or more) the
-    bytearray it was received into: handed over, never reused or written by the decoder
-    again, so a large image is not copied once more on its way through.
+    `payload` is `bytes`, or from a decoder made with `lend_large`, for a large payload
+    (`FrameDecoder.LARGE` or more), the bytearray it was received into: handed over, never
+    reused or written by the decoder again, so a large image is not copied once more.
     Not frozen: one is built per received frame, and frozen dataclasses are slower to build.
     """
 
@@ -91,8 +91,10 @@ class FrameDecoder:
 
     Two ways in: `feed(data)`, or the zero-copy pair `get_buffer()` / `buffer_updated(n)`
     (asyncio.BufferedProtocol style) where the socket reads straight into the decoder's
-    memory. A large payload is read into a new buffer of exactly its size, which the
-    frame then carries as its payload (no copy); its memory leaves the decoder's budget.
+    memory. A large payload is read into a buffer of exactly its size. With `lend_large`
+    that buffer becomes the frame's payload (no copy; it leaves the decoder's budget and a
+    new one is allocated for the next large frame); else the payload is copied to bytes
+    and the buffer reused.
 
     A length prefix over the bound (FrameTooLargeError, raised before the body is
     buffered) or a destination that is not UTF-8 (ProtocolError) breaks the stream:
@@ -109,11 +111,13 @@ class FrameDecoder:
         "_buf",
         "_dests",
         "_end",
+        "_lend",
         "_max_command",
         "_max_dest",
         "_max_payload",
         "_release",
         "_reserve",
+        "_spare",
         "_start",
     )
 
@@ -132,6 +136,7 @@ class FrameDecoder:
         max_command: int | None = None,
         reserve: Callable[[int], bool] = _always,
         release: Callable[[int], None] = _ignore,
+        lend_large: bool = False,
     ) -> None:
         self._buf = bytearray(self.SCRATCH)
         self._start = 0
@@ -140,6 +145,8 @@ class FrameDecoder:
         self._big_dest = ""
         self._big_filled = 0
         self._big_size = 0
+        self._spare: bytearray | None = None
+        self._lend = lend_large
         self._max_payload = max_payload
         self._max_command = max_payload if max_command is None else max_command
         self._reserve = reserve
@@ -190,8 +197,15 @@ class FrameDecoder:
             if self._big_filled < self._big_size:
                 return []
             self._big, self._big_filled = None, 0
-            self._release(len(big))  # handed over: no longer the decoder's to account for
-            frame = Frame(self._big_dest, big)
+            if self._lend:
+                self._release(len(big))  # handed over: no longer the decoder's to account for
+                return [Frame(self._big_dest, big)]
+            with memoryview(big) as view:
+                frame = Frame(self._big_dest, bytes(view[: self._big_size]))
+            if len(big) <= self.FIRST_CHUNK:
+                self._spare = big  # the next large frame reuses it (still reserved)
+            else:
+                self._release(len(big))
             return [frame]
         self._end += nbytes
         frames = self._parse()
@@ -228,18 +242,25 @@ class FrameDecoder:
         _extend_zeros(big, extra)
 
     def _large_buffer(self, plen: int, have: int) -> bytearray | None:
-        """A new buffer for a large payload (at most FIRST_CHUNK before its bytes arrive;
-        never more than `plen`), or None if the budget refuses it."""
+        """A buffer for a large payload: the spare one from the last large frame when big
+        enough (no allocation, no page faults), else a new one; None if refused. (A
+        lending decoder has no spare: its buffers are exactly their payload's size.)"""
         size = max(min(plen, self.FIRST_CHUNK), have)
+        spare, self._spare = self._spare, None
+        if spare is not None:
+            if len(spare) >= size:
+                return spare
+            self._release(len(spare))
         if not self._reserve(size):
             return None
         return bytearray(size)
 
     def discard(self) -> None:
         """Drop a partly received large frame and hand its memory back (connection closed)."""
-        if self._big is not None:
-            self._release(len(self._big))
-        self._big = None
+        for buf in (self._big, self._spare):
+            if buf is not None:
+                self._release(len(buf))
+        self._big = self._spare = None
         self._big_filled = 0
 
     def _parse(self) -> list[Frame]:
