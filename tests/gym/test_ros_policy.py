@@ -78,3 +78,27 @@ def test_nav_policy_drives_the_mobile_robot_over_ros_with_lidar() -> None:
     # Ranges came from /scan (the same Lidar2D), made finite as in the env.
     assert 0.1 < float(obs["lidar"].min()) < 8.0
     np.testing.assert_allclose(obs["pose"][:2], base[:2], atol=0.05)
+
+
+def test_a_message_dispatched_after_close_publishes_nothing() -> None:
+    """The dispatcher may run a callback it took before `close` unsubscribed: it must not
+    publish on the unregistered command topic (which would be an error)."""
+    env = gym.make("simbridge/Reach-v0").unwrapped
+    assert isinstance(env, SceneEnv)
+    with ExitStack() as stack:
+        endpoint = stack.enter_context(EndpointThread(EndpointOptions(port=0)))
+        connector = stack.enter_context(Connector("127.0.0.1", endpoint.port).connect(wait=5))
+        runner = RosPolicyRunner(env, reach_policy, connector, np.array([0.22, 0.12, 0.2]))
+        runner.start()
+        msg = runner.registry.new(
+            "sensor_msgs/JointState",
+            name=list(env.world.drives.joints),
+            position=[0.0] * len(env.world.drives.joints),
+        )
+        runner._on_joints(msg)  # while open: one control step, published
+        assert runner.steps == 1
+        assert not runner.errors
+        runner.close()
+        runner._on_joints(msg)  # a late dispatch
+        assert runner.steps == 1
+        assert not runner.errors

@@ -81,6 +81,9 @@ class RosPolicyRunner:
         self._readings: dict[str, NDArray[Any]] = {}
         self._started = False
         self._lock = threading.Lock()
+        self._stepping = threading.Lock()
+        """Held by a control step and by `close`, so no step publishes once closed."""
+        self._closed = False
         self._slots = {
             name: (slot.qpos, slot.dof)
             for robot in self.world.robots.values()
@@ -128,7 +131,9 @@ class RosPolicyRunner:
         return self
 
     def close(self) -> None:
-        """Unsubscribe and stop publishing."""
+        """Unsubscribe and stop publishing (a control step running now finishes first)."""
+        with self._stepping:
+            self._closed = True
         self.connector.unsubscribe(self.state_topic)
         for sensor in self.env.sensors:
             if isinstance(sensor, LidarRanges) and sensor.lidar is not None:
@@ -202,6 +207,11 @@ class RosPolicyRunner:
         self._control()
 
     def _control(self) -> None:
+        with self._stepping:
+            if not self._closed:
+                self._control_step()
+
+    def _control_step(self) -> None:
         world = self.world
         model, data = world.model, world.data
         try:
