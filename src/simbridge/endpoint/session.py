@@ -111,7 +111,7 @@ class ClientSession(asyncio.BufferedProtocol):
             max_command=MAX_COMMAND_SIZE,
             reserve=self.memory.take,
             release=self.memory.give,
-            lend_large=True,  # backends take a bytearray: an image is not copied to bytes
+            lend_large=server.backend.lends_large_payloads,
         )
         self.proto = ProtocolConnection("endpoint", decoder=decoder)
         self.stats = SessionStats()

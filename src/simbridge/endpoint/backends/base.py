@@ -113,6 +113,10 @@ class Backend(abc.ABC):
     """Serialization its payloads use: "ROS1" (binary) or "ROS2" (CDR, ROS 2 layouts)."""
     extensions: tuple[str, ...] = ()
     """Protocol extensions it adds to the handshake's (e.g. "actions")."""
+    lends_large_payloads: bool = False
+    """Its publishers take a large payload as the bytearray it was received into (the
+    client's decoder then allocates one per large frame instead of reusing its buffer);
+    worth it only where the publisher would otherwise copy the payload to bytes."""
 
     async def start(self) -> None:  # noqa: B027 - optional hook
         """Connect to the graph; called once on the event loop before any other call."""

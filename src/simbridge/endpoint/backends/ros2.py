@@ -126,6 +126,7 @@ class Ros2Backend(Backend):
     """Bridges the endpoint's clients into a ROS 2 graph through rclpy."""
 
     name = "ros2"
+    lends_large_payloads = True  # publish_raw takes the bytearray as it is
     protocol = "ROS2"
     extensions = (ACTIONS_EXTENSION,)
 
