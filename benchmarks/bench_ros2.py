@@ -25,7 +25,6 @@ import os
 import queue
 import struct
 import subprocess
-import sys
 import tempfile
 import textwrap
 import threading
@@ -430,7 +429,6 @@ def _summary(rounds: list[list[dict[str, Any]]], k: int, load: float) -> dict[st
 
 
 if __name__ == "__main__":
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
     for title, table in run().items():
         print(title)
         for row in table:
