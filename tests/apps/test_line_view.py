@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -14,6 +15,7 @@ from simbridge.apps.line import AGAIN_LABEL, LineResult, LineView, run_line
 pytest.importorskip("viser")
 
 from simbridge.sim.view import ViewOptions
+from tests.apps.idle import assert_only_the_new_world_steps, idle_rate, serving
 from tests.sim.browser import CHROMIUM, open_page
 
 
@@ -27,27 +29,18 @@ def test_the_pages_button_runs_the_line_again_with_a_new_seed(tmp_path: Path) ->
         assert view is not None
         first_world = view.world
         assert AGAIN_LABEL in view.buttons
-        stop = threading.Event()
-        server = threading.Thread(
-            target=line_view.serve,
-            args=(lambda seed: results.append(run_line(seed, 1, view=line_view, progress=None)),),
-            kwargs={"stop": stop},
-        )
-        server.start()
-        try:
-            with open_page(view.url, tmp_path / "chrome") as browser:
-                # viser takes a page's clicks once it reported its camera (connected)
-                deadline = time.monotonic() + 90
-                while not view.server.get_clients() and time.monotonic() < deadline:
-                    time.sleep(0.1)
-                browser.click_button(AGAIN_LABEL)  # the mouse, in headless Chromium
-                deadline = time.monotonic() + 90
-                while len(results) < 2 and time.monotonic() < deadline:
-                    time.sleep(0.05)
-        finally:
-            stop.set()
-            server.join(120)
-        assert not server.is_alive()
+        with (
+            serving(_server(line_view, results), join_s=120),
+            open_page(view.url, tmp_path / "chrome") as browser,
+        ):
+            # viser takes a page's clicks once it reported its camera (connected)
+            deadline = time.monotonic() + 90
+            while not view.server.get_clients() and time.monotonic() < deadline:
+                time.sleep(0.1)
+            browser.click_button(AGAIN_LABEL)  # the mouse, in headless Chromium
+            deadline = time.monotonic() + 90
+            while len(results) < 2 and time.monotonic() < deadline:
+                time.sleep(0.05)
         assert len(results) == 2, "the button started a second run"
         again = results[1]
         assert again.seed == 1
@@ -64,33 +57,25 @@ def test_the_world_keeps_stepping_at_real_time_between_runs() -> None:
         view = line_view.view
         assert view is not None
         first = view.world
-        stop = threading.Event()
-        server = threading.Thread(
-            target=line_view.serve,
-            args=(lambda seed: results.append(run_line(seed, 1, view=line_view, progress=None)),),
-            kwargs={"stop": stop},
-        )
-        server.start()
-        try:
-            time.sleep(0.3)
-            sim0, wall0 = first.time, time.perf_counter()
-            time.sleep(1.5)
-            rate = (first.time - sim0) / (time.perf_counter() - wall0)
+        with serving(_server(line_view, results), join_s=120):
+            rate = idle_rate(first)
             assert 0.2 < rate < 1.15, f"idle stepping at {rate:.2f}x real time (0: flat out)"
             line_view.again()  # what the page's button does
             deadline = time.monotonic() + 90
             while len(results) < 2 and time.monotonic() < deadline:
                 time.sleep(0.05)
             assert len(results) == 2
-            second = view.world
-            assert second is not first
-            held = first.time
-            sim0 = second.time
-            time.sleep(0.5)
-            assert first.time == held, "the previous world no longer steps"
-            assert second.time > sim0, "the new world steps while idle"
-        finally:
-            stop.set()
-            server.join(120)
-        assert not server.is_alive()
+            assert_only_the_new_world_steps(first, view.world)
         assert not any(t.name == "line-idle" for t in threading.enumerate())
+
+
+def _server(line_view: LineView, results: list[LineResult]) -> Callable[[threading.Event], None]:
+    """`LineView.serve`, each button press running the line once more into `results`."""
+
+    def serve(stop: threading.Event) -> None:
+        line_view.serve(
+            lambda seed: results.append(run_line(seed, 1, view=line_view, progress=None)),
+            stop=stop,
+        )
+
+    return serve

@@ -71,3 +71,15 @@ def pair() -> Iterator[tuple[socket.socket, socket.socket]]:
     yield a, b
     a.close()
     b.close()
+
+
+def read_exactly(sock: socket.socket, size: int, timeout: float = 5.0) -> bytes:
+    """`size` bytes from `sock` (fewer only if it closes); `timeout` bounds each read."""
+    sock.settimeout(timeout)
+    data = bytearray()
+    while len(data) < size:
+        chunk = sock.recv(size - len(data))
+        if not chunk:
+            break
+        data += chunk
+    return bytes(data)

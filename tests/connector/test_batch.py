@@ -19,6 +19,7 @@ from simbridge.connector.link import Link
 from simbridge.connector.stats import StatsCounters
 from simbridge.connector.writer import FrameWriter, OutTopic
 from simbridge.protocol import CommandReceived, MessageReceived, Publish, RemovePublisher
+from tests.connector.conftest import read_exactly
 from tests.connector.fake_endpoint import FakeEndpoint
 from tests.waiting import wait_for
 
@@ -67,17 +68,6 @@ def test_declined_send_queues_with_bounds_and_a_partial_one_queues_the_rest() ->
 # ---- FrameWriter.write_batch ---------------------------------------------------------------
 
 
-def _read_exactly(sock: socket.socket, size: int, timeout: float = 5.0) -> bytes:
-    sock.settimeout(timeout)
-    data = bytearray()
-    while len(data) < size:
-        chunk = sock.recv(size - len(data))
-        if not chunk:
-            break
-        data += chunk
-    return bytes(data)
-
-
 Parts = tuple[FrameWriter, BoundedFifo[OutTopic, bytes], StatsCounters]
 
 
@@ -93,7 +83,7 @@ def test_small_batch_is_written_by_the_caller(pair: tuple[socket.socket, socket.
     js, clock = _topic("/joint_states"), _topic("/clock")
     assert writer.write_batch([(js, b"JS", 10), (clock, b"\x01\x02", 10)]) == []
     expected = FRAMER.message("/joint_states", b"JS") + FRAMER.message("/clock", b"\x01\x02")
-    assert _read_exactly(pair[1], len(expected)) == expected
+    assert read_exactly(pair[1], len(expected)) == expected
     assert len(fifo) == 0
     assert writer.idle
     assert (counters.direct_frames_sent, counters.direct_bytes_sent) == (2, len(expected))
@@ -112,7 +102,7 @@ def test_batch_waits_behind_queued_frames_and_without_a_link(
     writer.start()
     try:
         expected = FRAMER.message("/t", b"early") + FRAMER.message("/t", b"late")
-        assert _read_exactly(pair[1], len(expected)) == expected
+        assert read_exactly(pair[1], len(expected)) == expected
     finally:
         writer.stop()
 
@@ -150,7 +140,7 @@ def test_full_socket_buffer_queues_the_unsent_rest_in_order(
     writer.start()
     try:
         expected = b"".join(frames)
-        assert _read_exactly(b, len(expected)) == expected  # no byte lost, none reordered
+        assert read_exactly(b, len(expected)) == expected  # no byte lost, none reordered
         assert wait_for(lambda: writer.idle)
         assert wait_for(lambda: counters.bytes_sent + counters.direct_bytes_sent == len(expected))
         assert counters.frames_sent + counters.direct_frames_sent == len(frames)

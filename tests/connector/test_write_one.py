@@ -14,19 +14,9 @@ from simbridge.connector.framer import Framer
 from simbridge.connector.link import Link
 from simbridge.connector.stats import StatsCounters
 from simbridge.connector.writer import FrameWriter, OutTopic
+from tests.connector.conftest import read_exactly
 
 FRAMER = Framer("ROS1")
-
-
-def _read_exactly(sock: socket.socket, size: int) -> bytes:
-    sock.settimeout(5.0)
-    data = bytearray()
-    while len(data) < size:
-        chunk = sock.recv(size - len(data))
-        if not chunk:
-            break
-        data += chunk
-    return bytes(data)
 
 
 def _writer() -> tuple[FrameWriter, BoundedFifo[OutTopic, bytes], StatsCounters]:
@@ -45,7 +35,7 @@ def test_a_message_on_its_own_is_written_by_the_caller(
     for payload in (b"one", b"two"):
         assert writer.write_one(topic, payload) is False
         frame = FRAMER.message("/ping", payload)
-        assert _read_exactly(pair[1], len(frame)) == frame
+        assert read_exactly(pair[1], len(frame)) == frame
     assert len(fifo) == 0
     assert counters.direct_frames_sent == 2
 
@@ -64,7 +54,7 @@ def test_a_burst_is_left_to_the_writer_thread_in_order_and_bounded(
     writer.start()
     try:
         expected = b"".join(FRAMER.message("/cmd", b"%d" % i) for i in (0, 3, 4, 5))
-        assert _read_exactly(pair[1], len(expected)) == expected
+        assert read_exactly(pair[1], len(expected)) == expected
     finally:
         writer.stop()
 
@@ -85,6 +75,6 @@ def test_a_large_message_or_one_behind_queued_frames_is_not_written_by_the_calle
     writer.start()
     try:
         expected = FRAMER.message("/img", big) + FRAMER.message("/t", b"after")
-        assert _read_exactly(pair[1], len(expected)) == expected
+        assert read_exactly(pair[1], len(expected)) == expected
     finally:
         writer.stop()
