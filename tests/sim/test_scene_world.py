@@ -270,6 +270,40 @@ def test_pause_step_and_reset_from_another_thread(tmp_path: Path) -> None:
     assert not runner.is_alive()
 
 
+def test_pause_with_wait_returns_after_the_step_in_progress(tmp_path: Path) -> None:
+    world = arm_world(tmp_path)
+    in_step, release = threading.Event(), threading.Event()
+
+    def slow(w: World) -> None:
+        if w.time > 0.02 and not release.is_set():
+            in_step.set()
+            release.wait(5)
+
+    world.add_step_callback(slow)
+    runner = threading.Thread(target=world.run, kwargs={"realtime_factor": 0})
+    runner.start()
+    try:
+        assert in_step.wait(5)
+        done: list[bool] = []
+        pauser = threading.Thread(target=lambda: done.append(world.pause(wait=5)))
+        pauser.start()
+        time.sleep(0.05)
+        assert not done  # the step is still running: pause must not claim time is held
+        release.set()
+        pauser.join(5)
+        assert done == [True]
+        held = world.time
+        time.sleep(0.05)
+        assert world.time == held
+        world.resume()
+        assert world.pause(wait=0) is True  # no wait asked: returns at once
+    finally:
+        world.stop()
+        runner.join(5)
+    assert not runner.is_alive()
+    assert world.pause(wait=5) is True  # not running: nothing to wait for
+
+
 def test_viewer_without_display_is_a_clear_error(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:

@@ -57,7 +57,8 @@ class ControlServices:
 
     def _pause(self, request: Any) -> Any:
         if request.data:
-            self.world.pause()
+            # Reply once the step in progress is done, so the time quoted stays put.
+            self.world.pause(wait=self.step_timeout)
         else:
             self.world.resume()
         state = "paused" if request.data else "running"

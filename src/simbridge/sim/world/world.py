@@ -88,6 +88,9 @@ class World:
         self._scopes = CallbackScopes(window=0.001)
         self._running = False
         """Inside `run`, which leaves the scopes itself (not at the end of each `step`)."""
+        self._run_thread: int | None = None
+        self._holding = threading.Event()
+        """Set by `run` while it holds time still between steps (see `pause(wait=...)`)."""
         self._next_id = 0
         self._posted: deque[Callable[[], None]] = deque()
         self._lock = threading.Lock()
@@ -325,13 +328,21 @@ class World:
         """Run `fn()` on the simulation thread before the next step (thread-safe)."""
         self._posted.append(fn)
 
-    def pause(self) -> None:
-        """Stop advancing time in `run` (thread-safe)."""
+    def pause(self, wait: float = 0.0) -> bool:
+        """Stop advancing time in `run` (thread-safe). With `wait` > 0 and `run` going on
+        another thread, wait up to that many seconds for the step in progress to finish,
+        so time no longer changes on return; returns whether it is held (True when there
+        was nothing to wait for)."""
+        self._holding.clear()
         self._paused = True
+        if wait <= 0 or not self._running or self._run_thread == threading.get_ident():
+            return True
+        return self._holding.wait(wait)
 
     def resume(self) -> None:
         """Continue advancing time in `run` (thread-safe)."""
         self._paused = False
+        self._holding.clear()
 
     @property
     def paused(self) -> bool:
@@ -463,6 +474,7 @@ class World:
         start_wall, steps, sim_elapsed = time.perf_counter(), 0, 0.0
         last_sync = 0.0
         scopes = self._scopes
+        self._run_thread = threading.get_ident()
         self._running = True
         try:
             while not self._stop.is_set():
@@ -471,6 +483,7 @@ class World:
                 self.process_posted()
                 if self._paused and self._pending_steps == 0:
                     scopes.close()
+                    self._holding.set()
                     time.sleep(0.002)
                     pacer.restart(self.time)
                     continue
@@ -489,6 +502,8 @@ class World:
                     last_sync = time.perf_counter()
         finally:
             self._running = False
+            self._run_thread = None
+            self._holding.set()  # no step can follow: release `pause(wait=...)` callers
             scopes.close()
             if handle is not None:
                 handle.close()
