@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import asyncio
 import atexit
-import codecs
 import importlib.util
 import os
 import re
@@ -23,12 +22,13 @@ import subprocess
 import sys
 import threading
 import time
-from collections.abc import Awaitable, Callable, Sequence
-from typing import IO, TYPE_CHECKING, TypeVar
+from collections.abc import Awaitable, Callable
+from typing import TYPE_CHECKING, TypeVar
 
 import pytest
 
 from simbridge.connector import ConnectorOptions
+from simbridge.endpoint.backends.drained_process import DrainedProcess
 from simbridge.endpoint.backends.ros1_master import RosCore, free_port, terminate
 
 if TYPE_CHECKING:  # rospy is imported only once require_ros() let the tests run
@@ -124,95 +124,9 @@ def require_ros(module_level: bool = False) -> None:
     pytest.skip("ROS 1 (roscore, rospy) is not installed", allow_module_level=module_level)
 
 
-class _Tail:
-    """The last `limit` characters read from one pipe, and how many were dropped before."""
-
-    def __init__(self, limit: int) -> None:
-        self.limit = limit
-        self.dropped = 0
-        self._text = ""
-        self._lock = threading.Lock()
-
-    def add(self, chunk: str) -> None:
-        with self._lock:
-            text = self._text + chunk
-            if len(text) > self.limit:
-                self.dropped += len(text) - self.limit
-                text = text[-self.limit :]
-            self._text = text
-
-    def text(self) -> str:
-        with self._lock:
-            if self.dropped:
-                return f"[... {self.dropped} earlier characters dropped ...]\n{self._text}"
-            return self._text
-
-
-class DrainedProcess(subprocess.Popen[str]):
-    """A process in its own session whose stdout and stderr are read all the time by two
-    threads into bounded tails (`limit` characters each), so a chatty process never blocks
-    on a full pipe that the test reads only at the end (or never). `output()` is what it
-    wrote so far; `communicate()` waits and returns the tails, as Popen's would."""
-
-    def __init__(self, args: Sequence[str], env: dict[str, str], limit: int = 1 << 20) -> None:
-        super().__init__(
-            list(args),
-            env=env,
-            stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE,
-            stdin=subprocess.DEVNULL,
-            text=True,
-            start_new_session=True,
-        )
-        self._tails = (_Tail(limit), _Tail(limit))
-        self._readers = [
-            threading.Thread(target=self._drain, args=(pipe, tail), daemon=True)
-            for pipe, tail in zip((self.stdout, self.stderr), self._tails, strict=True)
-        ]
-        for reader in self._readers:
-            reader.start()
-
-    @staticmethod
-    def _drain(pipe: IO[str] | None, tail: _Tail) -> None:
-        if pipe is None:
-            return
-        decoder = codecs.getincrementaldecoder("utf-8")(errors="replace")
-        raw = pipe.buffer  # type: ignore[attr-defined]  # the text wrapper's binary pipe
-        while chunk := raw.read1(65536):
-            tail.add(decoder.decode(chunk).replace("\r\n", "\n"))
-        tail.add(decoder.decode(b"", final=True))
-
-    def output(self) -> tuple[str, str]:
-        """(stdout, stderr) read so far."""
-        return self._tails[0].text(), self._tails[1].text()
-
-    def communicate(
-        self, input: str | None = None, timeout: float | None = None
-    ) -> tuple[str, str]:
-        """Wait for the process (TimeoutExpired after `timeout` s) and return its output."""
-        if input is not None:
-            raise ValueError("a DrainedProcess has no stdin")
-        self.wait(timeout)
-        for reader in self._readers:  # EOF soon after exit, unless a child keeps the pipe
-            reader.join(5)
-        return self.output()
-
-
-class RosMaster(RosCore):
-    """A private roscore for tests (the product's RosCore) whose `spawn` (and so `running`)
-    starts a `DrainedProcess`."""
-
-    def start(self, timeout: float = 30) -> RosMaster:
-        """Start roscore and wait until the master and /rosout answer."""
-        super().start(timeout)
-        return self
-
-    def __enter__(self) -> RosMaster:
-        return self.start()
-
-    def spawn(self, args: Sequence[str]) -> DrainedProcess:
-        """Start a ROS process against this master in its own session (stop with terminate)."""
-        return DrainedProcess(args, self.env)
+RosMaster = RosCore
+"""A private roscore for tests: the product's RosCore, whose `spawn` (and so `running`)
+starts a `DrainedProcess` (its output read all the time, so it never blocks)."""
 
 
 _shared: RosMaster | None = None

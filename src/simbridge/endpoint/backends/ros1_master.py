@@ -21,6 +21,7 @@ from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
+from simbridge.endpoint.backends.drained_process import DrainedProcess
 from simbridge.errors import EndpointError
 
 __all__ = ["RosCore", "free_port", "master_answers", "terminate", "unique_node_name"]
@@ -186,20 +187,14 @@ class RosCore:
             check=False,
         )
 
-    def spawn(self, args: Sequence[str]) -> subprocess.Popen[str]:
-        """Start a ROS process against this master in its own session (stop with terminate)."""
-        return subprocess.Popen(
-            list(args),
-            env=self.env,
-            stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE,
-            stdin=subprocess.DEVNULL,
-            text=True,
-            start_new_session=True,
-        )
+    def spawn(self, args: Sequence[str]) -> DrainedProcess:
+        """Start a ROS process against this master in its own session (stop with terminate).
+        Its output is read all the time (`DrainedProcess`), so it never blocks on a full pipe;
+        `output()` gives what it wrote so far."""
+        return DrainedProcess(args, self.env)
 
     @contextlib.contextmanager
-    def running(self, args: Sequence[str]) -> Iterator[subprocess.Popen[str]]:
+    def running(self, args: Sequence[str]) -> Iterator[DrainedProcess]:
         """`spawn` that always terminates the process on exit."""
         process = self.spawn(args)
         try:

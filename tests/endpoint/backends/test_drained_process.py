@@ -1,5 +1,5 @@
-"""tests.ros1support.DrainedProcess: a spawned process's pipes are read all the time into
-bounded tails, so a process that writes more than a pipe holds never blocks."""
+"""DrainedProcess (what RosCore.spawn starts): a spawned process's pipes are read all the
+time into bounded tails, so a process that writes more than a pipe holds never blocks."""
 
 from __future__ import annotations
 
@@ -9,7 +9,8 @@ import time
 
 import pytest
 
-from tests.ros1support import DrainedProcess
+from simbridge.endpoint.backends.drained_process import DrainedProcess
+from simbridge.endpoint.backends.ros1_master import RosCore
 
 CHATTY = "import sys; sys.stderr.write('e' * 300_000 + 'last err'); print('x' * 300_000 + 'end')"
 
@@ -39,3 +40,19 @@ def test_output_so_far_and_timeout_like_popen() -> None:
     finally:
         process.kill()
         process.wait()
+
+
+def test_roscore_spawn_never_blocks_on_a_full_pipe() -> None:
+    """RosCore.spawn (no master needed to start a process): 300 kB on each stream finishes
+    though nobody reads until it has exited (a plain PIPE would hold it at 64 KiB)."""
+    core = RosCore()
+    try:
+        process = core.spawn([sys.executable, "-c", CHATTY])
+        assert isinstance(process, DrainedProcess)
+        assert process.wait(timeout=30) == 0
+        out, err = process.communicate(timeout=5)
+        assert out.endswith("end\n")
+        assert len(out) == 300_004
+        assert err.endswith("last err")
+    finally:
+        core.stop()
