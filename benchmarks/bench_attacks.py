@@ -11,7 +11,10 @@ from __future__ import annotations
 import socket
 import sys
 import time
+from pathlib import Path
 from typing import Any
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # also as a bare script
 
 from benchmarks.attacks import ATTACKS, EndpointProcess, close_all
 from simbridge.protocol import TopicListRequest
@@ -66,5 +69,8 @@ def run(budget_mb: int = BUDGET_MB) -> list[dict[str, Any]]:
 
 if __name__ == "__main__":
     from benchmarks.table import format_table
+    from benchmarks.usage import exit_on_help
+
+    exit_on_help(__doc__, "  --markdown  a Markdown table")
 
     print(format_table(run(), markdown="--markdown" in sys.argv))

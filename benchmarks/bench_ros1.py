@@ -45,7 +45,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from benchmarks.repeats import REPEATS, best_and_median, load_average
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # also as a bare script
+
+from benchmarks.repeats import REPEATS, best_and_median, ceiling_summary, load_average
 
 __all__ = ["run"]
 
@@ -574,7 +576,8 @@ def _throughput(env: dict[str, str], script: Path, repeats: int) -> list[dict[st
                     loads.append(load_average())
                 results.append(measure(env, script, p, f"/bench/p{i}r{r}/{name}"))
             rounds.append(results)
-        throughput.extend(_summary(rounds, k, loads[k]) for k in range(len(MEASURES)))
+        size = len(p.data)
+        throughput.extend(ceiling_summary(rounds, k, loads[k], size) for k in range(len(MEASURES)))
     return throughput
 
 
@@ -606,31 +609,11 @@ def _round_trips(env: dict[str, str], rt_script: Path, repeats: int) -> list[dic
     return round_trips
 
 
-def _summary(rounds: list[list[dict[str, Any]]], k: int, load: float) -> dict[str, Any]:
-    """Measurement `k` over the rounds: best and median rate, share of the same round's
-    ceiling (measurement 0), the worst loss seen."""
-    runs = [rnd[k] for rnd in rounds]
-    rates = [r["msg_per_s"] for r in runs]
-    best, median = best_and_median(rates)
-    shares = [r["msg_per_s"] / rnd[0]["msg_per_s"] for r, rnd in zip(runs, rounds, strict=True)]
-    share_best, share_median = best_and_median(shares)
-    size = len(next(p.data for p in PAYLOADS if p.label == runs[0]["payload"]))
-    return {
-        "direction": runs[0]["direction"],
-        "payload": runs[0]["payload"],
-        "sent": runs[0]["sent"],
-        "load_1min": load,
-        "msg_per_s_best": best,
-        "msg_per_s_median": median,
-        "mb_per_s_best": best * size / 1e6,
-        "of_ceiling_best": share_best,
-        "of_ceiling_median": share_median,
-        "loss_worst": max(r["loss"] for r in runs),
-    }
-
-
 if __name__ == "__main__":
     from benchmarks.table import format_table
+    from benchmarks.usage import exit_on_help
+
+    exit_on_help(__doc__, "  --round-trip  the round trips alone\n  --markdown    Markdown tables")
 
     for title, table in run(round_trip_only="--round-trip" in sys.argv).items():
         print(f"### {title}\n\n{format_table(table, markdown='--markdown' in sys.argv)}\n")

@@ -25,6 +25,7 @@ import os
 import queue
 import struct
 import subprocess
+import sys
 import tempfile
 import textwrap
 import threading
@@ -33,7 +34,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from benchmarks.repeats import REPEATS, best_and_median, load_average
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # also as a bare script
+
+from benchmarks.repeats import REPEATS, best_and_median, ceiling_summary, load_average
 from simbridge.endpoint.backends.ros2_env import ros2_python
 
 __all__ = ["run"]
@@ -389,7 +392,10 @@ def run(repeats: int = REPEATS) -> dict[str, list[dict[str, Any]]]:
                             _ros_to_sim(env, script, data, port, p, topic=topic + "/ros_to_sim"),
                         ]
                     )
-                rows += [_summary(rounds, k, load) for k in range(len(rounds[0]))]
+                rows += [
+                    ceiling_summary(rounds, k, load, len(p.data), "median")
+                    for k in range(len(rounds[0]))
+                ]
             load = load_average()
             latencies = [_latency(env, script, port, f"/bench/latency{r}") for r in range(repeats)]
         finally:
@@ -405,30 +411,10 @@ def run(repeats: int = REPEATS) -> dict[str, list[dict[str, Any]]]:
     }
 
 
-def _summary(rounds: list[list[dict[str, Any]]], k: int, load: float) -> dict[str, Any]:
-    """Measurement `k` over the rounds: best and median rate, share of the same round's
-    ceiling (measurement 0), the worst loss seen."""
-    runs = [rnd[k] for rnd in rounds]
-    best, median = best_and_median([r["msg_per_s"] for r in runs])
-    shares = [
-        r["msg_per_s"] / max(rnd[0]["msg_per_s"], 1e-9) for r, rnd in zip(runs, rounds, strict=True)
-    ]
-    share_best, share_median = best_and_median(shares)
-    return {
-        "direction": runs[0]["direction"],
-        "payload": runs[0]["payload"],
-        "sent": runs[0]["sent"],
-        "load_1min": load,
-        "msg_per_s_best": best,
-        "msg_per_s_median": median,
-        "mb_per_s_median": median * runs[0]["mb_per_s"] / max(runs[0]["msg_per_s"], 1e-9),
-        "of_ceiling_best": share_best,
-        "of_ceiling_median": share_median,
-        "loss_worst": max(r["loss"] for r in runs),
-    }
-
-
 if __name__ == "__main__":
+    from benchmarks.usage import exit_on_help
+
+    exit_on_help(__doc__)
     for title, table in run().items():
         print(title)
         for row in table:

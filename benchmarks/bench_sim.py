@@ -23,7 +23,10 @@ import signal
 import subprocess
 import sys
 from collections.abc import Callable, Iterator
+from pathlib import Path
 from typing import Any
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # also as a bare script
 
 from benchmarks.repeats import REPEATS, best_and_median, load_average
 from simbridge.assets import robot_urdf
@@ -189,5 +192,8 @@ def run(sim_seconds: float = 20.0, repeats: int = REPEATS) -> list[dict[str, Any
 
 if __name__ == "__main__":
     from benchmarks.table import format_table
+    from benchmarks.usage import exit_on_help
+
+    exit_on_help(__doc__, "  --markdown  a Markdown table")
 
     print(format_table(run(), markdown="--markdown" in sys.argv))

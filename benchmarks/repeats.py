@@ -6,8 +6,9 @@ from __future__ import annotations
 import os
 import statistics
 from collections.abc import Sequence
+from typing import Any, Literal
 
-__all__ = ["REPEATS", "best_and_median", "load_average"]
+__all__ = ["REPEATS", "best_and_median", "ceiling_summary", "load_average"]
 
 REPEATS = max(int(os.environ.get("SIMBRIDGE_BENCH_REPEATS", "3")), 1)
 """Runs per figure (at least 3 for the README table; fewer for a quick look)."""
@@ -25,3 +26,33 @@ def best_and_median(values: Sequence[float], lower_is_better: bool = False) -> t
         raise ValueError("no runs to summarize")
     best = min(values) if lower_is_better else max(values)
     return best, statistics.median(values)
+
+
+def ceiling_summary(
+    rounds: Sequence[Sequence[dict[str, Any]]],
+    k: int,
+    load: float,
+    size: int,
+    mb_of: Literal["best", "median"] = "best",
+) -> dict[str, Any]:
+    """Measurement `k` of a throughput benchmark over its rounds: best and median rate
+    (`msg_per_s`), MB/s of the best or median rate for messages of `size` bytes, the share
+    of the same round's ceiling (measurement 0) and the worst `loss` seen."""
+    runs = [rnd[k] for rnd in rounds]
+    best, median = best_and_median([r["msg_per_s"] for r in runs])
+    shares = [
+        r["msg_per_s"] / max(rnd[0]["msg_per_s"], 1e-9) for r, rnd in zip(runs, rounds, strict=True)
+    ]
+    share_best, share_median = best_and_median(shares)
+    return {
+        "direction": runs[0]["direction"],
+        "payload": runs[0]["payload"],
+        "sent": runs[0]["sent"],
+        "load_1min": load,
+        "msg_per_s_best": best,
+        "msg_per_s_median": median,
+        f"mb_per_s_{mb_of}": (best if mb_of == "best" else median) * size / 1e6,
+        "of_ceiling_best": share_best,
+        "of_ceiling_median": share_median,
+        "loss_worst": max(r["loss"] for r in runs),
+    }
