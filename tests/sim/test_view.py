@@ -16,6 +16,7 @@ from simbridge.sim.scene import load_scene
 from simbridge.sim.view import LiveView, ViewOptions, visual_shapes
 from simbridge.sim.world import World
 from tests.sim.browser import CHROMIUM, open_page
+from tests.waiting import wait_for
 
 pytest.importorskip("viser")
 
@@ -78,8 +79,7 @@ def test_shapes_are_the_urdf_visuals(tmp_path: Path) -> None:
 def test_pause_in_the_page_stops_the_sim_clock(running: tuple[World, LiveView]) -> None:
     world, view = running
     time.sleep(0.3)
-    view.toggle_pause()  # what the page's Pause button runs
-    time.sleep(0.1)
+    view.toggle_pause()  # what the page's Pause button runs; returns once time is held
     held = world.time
     time.sleep(0.4)
     assert world.paused
@@ -90,9 +90,36 @@ def test_pause_in_the_page_stops_the_sim_clock(running: tuple[World, LiveView]) 
         time.sleep(0.01)
     assert world.time == pytest.approx(held + 25 * world.timestep)
     view.toggle_pause()
-    time.sleep(0.3)
-    assert world.time > held + 0.1, "resume lets the clock run again"
+    assert wait_for(lambda: world.time > held + 0.1, timeout=10), "resume lets the clock run"
     assert view.frames_sent > 10, "poses keep streaming"
+
+
+def test_pause_button_returns_once_the_step_in_progress_is_done(
+    running: tuple[World, LiveView],
+) -> None:
+    """A step held open on the simulation thread: the button's pause waits for it, so the
+    clock read right after the button stays put (the race CI saw on /simbridge/pause)."""
+    world, view = running
+    in_step, release = threading.Event(), threading.Event()
+
+    def slow(_w: World) -> None:
+        if not release.is_set():
+            in_step.set()
+            release.wait(10)
+
+    world.post(lambda: world.add_step_callback(slow))
+    assert in_step.wait(10)
+    pauser = threading.Thread(target=view.toggle_pause)
+    pauser.start()
+    pauser.join(0.2)
+    assert pauser.is_alive(), "the step is still running: the button must not return yet"
+    release.set()
+    pauser.join(10)
+    assert not pauser.is_alive()
+    held = world.time
+    time.sleep(0.2)
+    assert world.time == held
+    assert view.controls.pause_button.label == "Resume"
 
 
 @pytest.mark.skipif(CHROMIUM is None, reason="Debian's chromium is not installed")
@@ -122,8 +149,8 @@ def test_headless_chromium_draws_the_robot_and_its_pause_button_stops_the_clock(
         assert not world.paused
         browser.click_button("Pause")  # the mouse, in the page
         deadline = time.monotonic() + 30
-        while not world.paused and time.monotonic() < deadline:
-            time.sleep(0.05)
+        while view.controls.pause_button.label != "Resume" and time.monotonic() < deadline:
+            time.sleep(0.05)  # the label changes once the step in progress is done
         assert world.paused, "the page's Pause button paused the world"
         held = world.time
         time.sleep(0.5)

@@ -18,7 +18,10 @@ from simbridge.sim.world.world import World
 if TYPE_CHECKING:
     import viser
 
-__all__ = ["SimControls", "joint_slider_ranges"]
+__all__ = ["PAUSE_WAIT_S", "SimControls", "joint_slider_ranges"]
+
+PAUSE_WAIT_S = 5.0
+"""How long the Pause button waits for the simulation thread to finish its step."""
 
 
 def joint_slider_ranges(world: World) -> dict[str, tuple[float, float, float]]:
@@ -93,13 +96,14 @@ class SimControls:
         world.post(apply)
 
     def toggle_pause(self) -> None:
-        """What the Pause/Resume button does."""
+        """What the Pause/Resume button does. Pausing returns once the step in progress is
+        done (at most PAUSE_WAIT_S), so the clock read after it (and the label) stays put."""
         world = self._world()
         if world.paused:
             world.resume()
             self.pause_button.label = "Pause"
         else:
-            world.pause()
+            world.pause(wait=PAUSE_WAIT_S)
             self.pause_button.label = "Resume"
 
     def step(self, count: int) -> None:
