@@ -107,7 +107,10 @@ def test_pause_button_returns_once_the_step_in_progress_is_done(
             in_step.set()
             release.wait(10)
 
-    world.post(lambda: world.add_step_callback(slow))
+    def install() -> None:
+        world.add_step_callback(slow)
+
+    world.post(install)  # on the simulation thread
     assert in_step.wait(10)
     pauser = threading.Thread(target=view.toggle_pause)
     pauser.start()
