@@ -106,7 +106,7 @@ def test_latched_topic_reaches_a_late_subscriber(endpoint, make_connector, reg):
     pub = sim.register_publisher("/map_name", "std_msgs/String", latch=True)
     pub.publish(reg.new("std_msgs/String", data="warehouse"))
     assert sim.flush(2.0)
-    time.sleep(0.2)
+    sim.endpoint_stats()  # a barrier: the endpoint handled the message before `late` comes
     late = make_connector(endpoint.port).connect()
     got: queue.Queue[Any] = queue.Queue()
     late.subscribe("/map_name", "std_msgs/String", got.put)
