@@ -32,6 +32,7 @@ from simbridge.protocol import (
     encode_frame,
 )
 from tests.endpoint.rawclient import RawClient
+from tests.waiting import wait_for
 
 
 def is_cmd(cls: type) -> Callable[[object], bool]:
@@ -70,13 +71,15 @@ def test_slow_sender_is_closed_with_an_error() -> None:
 
 def test_steady_slow_stream_of_complete_frames_is_not_closed() -> None:
     options = EndpointOptions(
-        port=0, frame_timeout=0.3, min_frame_rate=10**6, keepalive_interval=0.1
+        port=0, frame_timeout=1.0, min_frame_rate=10**6, keepalive_interval=0.1
     )
     with EndpointThread(options) as ep:
         client = RawClient(ep.port)
         client.send(Publish("/slow", "std_msgs/String").encode())
         frame = encode_frame("/slow", struct.pack("<I", 1) + b"x")
-        for _ in range(6):  # each frame completes in two halves, 0.1 s apart
+        # each frame completes in two halves, 0.1 s apart (a busy box may stretch that
+        # tenfold before the frame timeout); the whole stream lasts past the timeout
+        for _ in range(15):
             client.send(frame[:5])
             time.sleep(0.1)
             client.send(frame[5:])
@@ -87,7 +90,8 @@ def test_drip_connections_cannot_lock_out_real_clients() -> None:
     options = EndpointOptions(port=0, max_clients=10, evict_after=0.3, frame_timeout=30)
     with EndpointThread(options) as ep:
         drips = [_drip(ep.port) for _ in range(10)]
-        time.sleep(0.5)
+        assert wait_for(lambda: ep.call(ep.server.stats)["clients"] == 10, timeout=10)
+        time.sleep(0.5)  # every drip has been connected longer than evict_after
         real = RawClient(ep.port)  # evicts the oldest drip instead of being refused
         real.expect(is_cmd(Handshake))
         sync(real)
