@@ -285,7 +285,7 @@ def test_each_robot_has_its_own_diff_drive(tmp_path: Path) -> None:
             with Node(bus, "/driver") as node:
                 pub = node.advertise("/bot_a/cmd_vel", "geometry_msgs/Twist")
                 assert connector.flush(5)
-                time.sleep(0.2)
+                connector.endpoint_stats()  # a barrier: the endpoint holds the subscription
                 root = world.robots["bot_a"].prefix + world.robots["bot_a"].robot.root
                 other = world.robots["bot_b"].prefix + world.robots["bot_b"].robot.root
                 start_a, start_b = world.link_pose(root).xyz, world.link_pose(other).xyz
