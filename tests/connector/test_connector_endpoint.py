@@ -276,10 +276,10 @@ def test_dead_endpoint_detected_within_dead_timeout(make_connector):
         assert sim.handshake.metadata.get("keepalive") == 0.2
         # freeze the endpoint's event loop: the TCP connection stays open but goes silent
         frozen = threading.Event()
-        ep.loop.call_soon_threadsafe(lambda: frozen.wait(3.0))
+        ep.loop.call_soon_threadsafe(lambda: frozen.wait(10.0))
         t0 = time.monotonic()
-        assert wait_for(lambda: not sim.connected, timeout=2.5)
-        assert time.monotonic() - t0 < 0.6 + 1.0
+        assert wait_for(lambda: not sim.connected, timeout=8.0)
+        assert time.monotonic() - t0 < 0.6 + 2.0  # dead_timeout, and slack for a busy box
         frozen.set()
         assert sim.wait_connected(3.0)
 
