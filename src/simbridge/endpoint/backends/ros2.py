@@ -12,7 +12,8 @@ allows that with this executor; its EventsExecutor does not, and it cannot run
 the coroutine service callbacks a sim-implemented service needs). Messages hop
 back to the event loop in batches, one `call_soon_threadsafe` per burst. The
 process's ROS 2 settings (domain, discovery range, the Fast DDS profile) come from
-ros2_env and are logged; large buffers stay in the heap (malloc_tuning).
+ros2_env and are logged; large buffers stay in the heap (malloc_tuning), and the objects
+made at startup are left out of garbage collections (gc_tuning).
 """
 
 from __future__ import annotations
@@ -43,6 +44,7 @@ from simbridge.endpoint.backends.base import (
     ServiceHandler,
     TopicInfo,
 )
+from simbridge.endpoint.backends.gc_tuning import freeze_startup_objects
 from simbridge.endpoint.backends.malloc_tuning import keep_large_buffers
 from simbridge.endpoint.backends.ros2_actions import Ros2Actions
 from simbridge.endpoint.backends.ros2_env import apply_ros2_env
@@ -176,6 +178,7 @@ class Ros2Backend(Backend):
         executor.add_node(node)
         self._context, self._node, self._executor = context, node, executor
         self._loop = asyncio.get_running_loop()
+        freeze_startup_objects()  # rclpy's and the node's objects: out of every collection
         self._thread = threading.Thread(target=self._spin, name="simbridge-rclpy", daemon=True)
         self._thread.start()
         _log.info(
