@@ -157,7 +157,7 @@ def test_play_into_endpoint(tmp_path: Path, endpoint: EndpointThread) -> None:
         listener.subscribe("/joint_states", "sensor_msgs/JointState", got.put)
         listener.subscribe("/clock", "rosgraph_msgs/Clock", clocks.put)
         assert listener.flush(5)
-        time.sleep(0.2)
+        listener.endpoint_stats()  # a barrier: the endpoint holds both subscriptions
         start = time.monotonic()
         stats = play(out, player, PlayOptions(rate=2.0))
         elapsed = time.monotonic() - start

@@ -68,7 +68,7 @@ def rig(tmp_path: Path, bridged: Callable[[World], BridgedWorld]) -> Rig:
     client = ActionClient(user, NAME, ACTION)
     assert client.wait_for_server(5)
     assert user.flush(5)
-    time.sleep(0.2)
+    user.endpoint_stats()  # a barrier: the endpoint holds the client's action topics
     return Rig(bridged_world.world, user, bridged_world.node, client)
 
 
