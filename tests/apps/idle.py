@@ -8,6 +8,7 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 
 from simbridge.sim.world import World
+from tests.waiting import wait_for
 
 __all__ = ["assert_only_the_new_world_steps", "idle_rate", "serving"]
 
@@ -38,6 +39,6 @@ def assert_only_the_new_world_steps(first: World, second: World) -> None:
     """After a new run: the previous world is stopped and the new one steps while idle."""
     assert second is not first
     held, sim0 = first.time, second.time
+    assert wait_for(lambda: second.time > sim0, timeout=10), "the new world steps while idle"
     time.sleep(0.5)
     assert first.time == held, "the previous world no longer steps"
-    assert second.time > sim0, "the new world steps while idle"
