@@ -3,6 +3,7 @@ nothing waits before it, the writer thread otherwise; order, drops and counters 
 
 from __future__ import annotations
 
+import dataclasses
 import socket
 import threading
 import time
@@ -19,7 +20,7 @@ from simbridge.connector.link import Link
 from simbridge.connector.stats import StatsCounters
 from simbridge.connector.writer import FrameWriter, OutTopic
 from simbridge.protocol import CommandReceived, MessageReceived, Publish, RemovePublisher
-from tests.connector.conftest import read_exactly
+from tests.connector.conftest import FAST, read_exactly
 from tests.connector.fake_endpoint import FakeEndpoint
 from tests.waiting import wait_for
 
@@ -199,7 +200,10 @@ def _messages(endpoint: FakeEndpoint, topic: str) -> list[bytes]:
 def test_connector_batch_sends_at_the_end_in_order(
     endpoint: FakeEndpoint, make_connector: Callable[..., Any]
 ) -> None:
-    conn = make_connector(endpoint.port).connect()
+    # frames_sent counts keepalives too: none may go out between the counts (a 0.2 s
+    # interval is exceeded by any stall of a busy box)
+    options = dataclasses.replace(FAST, keepalive_interval=3600.0)
+    conn = make_connector(endpoint.port, options).connect()
     a = conn.register_publisher("/a", "std_msgs/String")
     b = conn.register_publisher("/b", "std_msgs/String")
     assert wait_for(lambda: conn.flush(0) and len(conn._out) == 0)
