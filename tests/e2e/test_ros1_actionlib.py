@@ -47,6 +47,13 @@ def goal(names, t, positions):
                                                 time_from_start=rospy.Duration(t))]
     return g
 
+def until_active(c):
+    # the goal and the cancel (or a second client's goal) travel on different topics:
+    # send the next only once the server took the goal, not after a guessed delay
+    deadline = time.time() + 60
+    while c.get_state() != GoalStatus.ACTIVE and time.time() < deadline:
+        time.sleep(0.02)
+
 def client():
     c = actionlib.SimpleActionClient(
         "/arm_left/arm_controller/follow_joint_trajectory", FollowJointTrajectoryAction)
@@ -59,14 +66,14 @@ left.wait_for_result(rospy.Duration(30))
 out["success"] = [left.get_state(), left.get_result().error_code]
 
 left.send_goal(goal(["elbow"], 5.0, [1.2]))
-time.sleep(1.0)
+until_active(left)
 left.cancel_goal()
 left.wait_for_result(rospy.Duration(30))
 out["cancel"] = [left.get_state(), left.get_result().error_code]
 
 other = client()
 left.send_goal(goal(["elbow"], 5.0, [1.2]))
-time.sleep(1.0)
+until_active(left)
 other.send_goal(goal(["elbow"], 0.3, [0.1]))
 left.wait_for_result(rospy.Duration(30))
 other.wait_for_result(rospy.Duration(30))
