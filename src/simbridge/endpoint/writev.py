@@ -1,17 +1,28 @@
-"""Writing a batch of frames to an asyncio transport with as few copies as the kernel allows."""
+"""Scatter-gather writes to a socket with as few copies as the kernel allows.
+
+`write_chunks` writes through an asyncio transport (what the kernel does not take at
+once is copied into the transport's buffer, joined with the rest). `SocketWriter` owns a
+non-blocking socket's writes instead: what the kernel does not take is kept as views of
+the caller's buffers and written from them when the socket has room, so a camera image
+crosses user space no more than once however slowly its reader reads.
+"""
 
 from __future__ import annotations
 
 import asyncio
+import itertools
 import os
-from collections.abc import Sequence
+from collections import deque
+from collections.abc import Callable, Sequence
 
-__all__ = ["WRITE_ALONE", "write_chunks"]
+__all__ = ["WRITE_ALONE", "SocketWriter", "write_chunks"]
 
 _IOV_MAX = 1024
 """Most buffers one writev takes (Linux IOV_MAX)."""
 WRITE_ALONE = 64 * 1024
 """Chunks at least this long go to the transport as they are; smaller ones are joined."""
+
+Chunk = bytes | bytearray | memoryview
 
 
 def write_chunks(
@@ -45,3 +56,94 @@ def write_chunks(
         transport.write(rest)
     if small:
         transport.write(b"".join(small) if len(small) > 1 else small[0])
+
+
+class SocketWriter:
+    """Writes chunks to a non-blocking socket in order, straight from the chunks.
+
+    While nothing is queued a write is one `writev`. What the kernel does not take is
+    queued as the chunks themselves (a partly sent one as a view of its rest: nothing is
+    copied or joined) and written with `writev` whenever the socket has room, on the
+    event loop. `on_drained` is called when the queue empties; `on_error` once, with the
+    error, when a write fails (nothing is written after that). Callers must not modify
+    a chunk once written.
+    """
+
+    __slots__ = ("_fd", "_loop", "_on_drained", "_on_error", "_queue", "closed", "queued")
+
+    def __init__(
+        self,
+        loop: asyncio.AbstractEventLoop,
+        fd: int,
+        on_drained: Callable[[], None],
+        on_error: Callable[[OSError], None],
+    ) -> None:
+        self._loop = loop
+        self._fd = fd
+        self._on_drained = on_drained
+        self._on_error = on_error
+        self._queue: deque[Chunk] = deque()
+        self.queued = 0
+        """Bytes written but not yet taken by the kernel."""
+        self.closed = False
+
+    def write(self, chunks: Sequence[Chunk]) -> None:
+        """Send `chunks` after everything written before them."""
+        if self.closed or not chunks:
+            return
+        queue = self._queue
+        if queue:
+            for chunk in chunks:
+                queue.append(chunk)
+                self.queued += len(chunk)
+            return
+        sent = self._writev(chunks[:_IOV_MAX])
+        if sent < 0:
+            return
+        for chunk in chunks:
+            size = len(chunk)
+            if sent >= size:
+                sent -= size
+                continue
+            queue.append(memoryview(chunk)[sent:] if sent else chunk)
+            self.queued += size - sent
+            sent = 0
+        if queue:
+            self._loop.add_writer(self._fd, self._writable)
+
+    def close(self) -> None:
+        """Stop writing and forget what is queued (the socket is the caller's to close)."""
+        if not self.closed:
+            self.closed = True
+            if self._queue:
+                self._loop.remove_writer(self._fd)
+            self._queue.clear()
+            self.queued = 0
+
+    def _writable(self) -> None:
+        queue = self._queue
+        sent = self._writev(list(itertools.islice(queue, _IOV_MAX)))
+        if sent < 0:
+            return
+        self.queued -= sent
+        while sent:
+            size = len(queue[0])
+            if sent < size:
+                queue[0] = memoryview(queue[0])[sent:]
+                break
+            queue.popleft()
+            sent -= size
+        if not queue:
+            self._loop.remove_writer(self._fd)
+            self._on_drained()
+
+    def _writev(self, chunks: Sequence[Chunk]) -> int:
+        """Bytes the kernel took (0 when it had no room), or -1 after an error."""
+        try:
+            return os.writev(self._fd, chunks)
+        except (BlockingIOError, InterruptedError):
+            return 0
+        except OSError as exc:
+            self.close()
+            self._on_error(exc)
+            return -1

@@ -23,6 +23,7 @@ from simbridge.endpoint import EndpointOptions, EndpointThread
 from simbridge.protocol import (
     CommandReceived,
     MessageReceived,
+    Publish,
     StatsReply,
     StatsRequest,
     TopicListReply,
@@ -172,6 +173,60 @@ def test_a_subscriber_that_does_not_read_loses_only_past_queue_size(master: RosM
     assert indices == sorted(indices)
     assert indices[-1] == count - 1  # the newest is kept
     assert len(indices) + dropped == count
+
+
+def test_large_messages_reach_a_lagging_subscriber_whole_and_in_order(master: RosMaster) -> None:
+    """Through the endpoint, 1 MB messages (sent from the buffers the client's frames were
+    received into) to a ROS subscriber that reads slowly, and a latched one to a late
+    subscriber: every byte arrives, in order, and with queue_size 0 nothing is dropped."""
+    count = 12
+    topic = "/sb/native/large"
+    messages = [ros_string(f"{i:08d}" + chr(97 + i) * (1 << 20)) for i in range(count)]
+    options = EndpointOptions(port=0, idle_timeout=0)
+    with EndpointThread(options, Ros1Backend()) as ep:
+        client = RawClient(ep.port)
+        client.send(Publish(topic, "std_msgs/String", queue_size=0, latch=True).encode())
+        client.send(TopicListRequest().encode())
+        client.expect(
+            lambda e: isinstance(e, CommandReceived) and isinstance(e.command, TopicListReply)
+        )
+        host, port = tcpros_address(topic)
+        sock = socket.create_connection((host, port))
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 64 * 1024)
+        sock.sendall(subscriber_header(topic))
+        decoder = TcprosDecoder(4 << 20)
+        while decoder.header is None:
+            data = sock.recv(65536)
+            assert data, "the server closed without a header"
+            decoder.feed(data)
+        for message in messages:
+            client.send(encode_frame(topic, message))
+        got: list[bytes] = []
+        deadline = time.monotonic() + 60
+        while len(got) < count:
+            assert time.monotonic() < deadline, f"got {len(got)} of {count}"
+            data = sock.recv(256 * 1024)
+            assert data, "the endpoint closed the connection"
+            got += decoder.feed(data)
+            time.sleep(0.002)  # a slow reader: the endpoint's writes are taken in part
+        late = socket.create_connection((host, port))
+        late.sendall(subscriber_header(topic))
+        late_decoder = TcprosDecoder(4 << 20)
+        latched: list[bytes] = []
+        while not latched:
+            data = late.recv(1 << 20)
+            assert data, "the endpoint closed the late connection"
+            latched += late_decoder.feed(data)
+        client.send(StatsRequest().encode())
+        stats = client.expect(
+            lambda e: isinstance(e, CommandReceived) and isinstance(e.command, StatsReply)
+        ).command
+        for each in (sock, late):
+            each.close()
+        client.close()
+    assert got == messages
+    assert latched == messages[-1:]
+    assert stats.stats["server"]["backend_counters"]["ros1_dropped_to_ros"] == 0
 
 
 def test_blocked_consumer_pushes_back_on_a_rospy_publisher_without_loss(

@@ -95,6 +95,8 @@ class Ros1Backend(Backend):
         self._live: set[Registration] = set()
         self._native: NativeData | None = None
         self._lost_watchers: list[Callable[[str], None]] = []
+        self.lends_large_payloads = self._options.transport == "native"
+        """The native path sends a large payload from the buffer it was received into."""
 
     @property
     def identity(self) -> NodeIdentity:

@@ -188,7 +188,7 @@ class NativePublisher(Ros1Publisher):
     def publish(self, payload: bytes | bytearray) -> None:
         if self.closed:
             raise EndpointError(f"publisher of {self.topic!r} is closed")
-        self._topic.publish(bytes(payload))  # latched and queued as bytes (no copy if bytes)
+        self._topic.publish(payload)  # a bytearray is handed over: sent from where it lies
 
     def subscriber_count(self) -> int:
         return len(self._topic.connections)

@@ -2,10 +2,14 @@
 
 Runs on the endpoint's event loop, so a publish is a few appends and one write per
 connection per read of the client's frames (everything one read brings in goes out in
-one `write`, right at the end of that read: see `endpoint.deferred`), with no thread
-hand-off. A connection whose kernel buffer is full holds its
-messages in a queue bounded by the registration's `queue_size` (and a byte cap);
-past that the oldest are dropped and counted, as rospy's publisher queue does.
+one `writev`, right at the end of that read: see `endpoint.deferred`), with no thread
+hand-off. The sockets are the server's own, not asyncio transports: what the kernel
+does not take at once waits as the messages' own bytes (`endpoint.writev.SocketWriter`),
+where a transport would copy the rest of each camera image into its buffer and copy it
+again as that buffer drains. A connection with more than `WRITE_HIGH_WATER` bytes
+waiting holds further messages in a queue bounded by the registration's `queue_size`
+(and a byte cap); past that the oldest are dropped and counted, as rospy's publisher
+queue does.
 """
 
 from __future__ import annotations
@@ -20,7 +24,7 @@ from collections.abc import Callable
 
 from simbridge.endpoint.backends.ros1_raw import RawMessageType
 from simbridge.endpoint.deferred import DeferredWrites, deferred_writes
-from simbridge.endpoint.writev import write_chunks
+from simbridge.endpoint.writev import SocketWriter
 from simbridge.protocol.tcpros import TcprosDecoder, TcprosError, encode_header
 
 __all__ = ["PublishedTopic", "TopicServer", "connection_ids"]
@@ -35,7 +39,12 @@ MAX_HELD_BYTES = 512 << 20
 unbounded in count, as in rospy, but not in bytes)."""
 
 WRITE_HIGH_WATER = 1 << 20
-"""Bytes asyncio may buffer for one connection before the endpoint holds messages itself."""
+"""Bytes the kernel has not taken yet, past which a connection holds further messages
+(subject to queue_size) until all of them are taken."""
+
+_ACCEPT_BACKLOG = 128
+_ACCEPTS_PER_WAKE = 32
+"""Connections accepted per readiness of the listening socket (then the loop moves on)."""
 
 
 _U32 = struct.Struct("<I")
@@ -61,13 +70,14 @@ class PublishedTopic:
         self.queue_size = queue_size
         self.refs = 0
         self.connections: list[_SubscriberConnection] = []
-        self.latched: tuple[bytes, bytes] | None = None
+        self.latched: tuple[bytes, bytes | bytearray] | None = None
         """The length prefix and payload of the last message, when latching."""
         self.dropped = 0
         self.watchers: list[Callable[[int], None]] = []
 
-    def publish(self, payload: bytes) -> None:
-        """Send one serialized message to every connected subscriber."""
+    def publish(self, payload: bytes | bytearray) -> None:
+        """Send one serialized message to every connected subscriber (a bytearray is
+        sent as it is: nobody may write to it afterwards)."""
         prefix = _U32.pack(len(payload))
         if self.latch:
             self.latched = (prefix, payload)
@@ -122,7 +132,7 @@ class TopicServer:
         """Connections refused (bad header, unknown topic, wrong md5sum)."""
         self.dropped = 0
         """Messages dropped for ROS subscribers that did not keep up (past queue_size)."""
-        self._server: asyncio.Server | None = None
+        self._listener: socket.socket | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
         self._writes: DeferredWrites | None = None
         self._dirty: list[_SubscriberConnection] = []
@@ -130,24 +140,51 @@ class TopicServer:
         self.port = 0
 
     async def start(self, bind_host: str) -> None:
-        """Listen on `bind_host` at a free port."""
-        self._loop = asyncio.get_running_loop()
-        self._writes = deferred_writes(self._loop)
-        self._server = await self._loop.create_server(
-            lambda: _SubscriberConnection(self), bind_host, 0
-        )
-        self.port = self._server.sockets[0].getsockname()[1]
+        """Listen on `bind_host` (an address) at a free port."""
+        loop = asyncio.get_running_loop()
+        family, kind, proto, _, address = (
+            await loop.getaddrinfo(bind_host, 0, type=socket.SOCK_STREAM, flags=socket.AI_PASSIVE)
+        )[0]
+        listener = socket.socket(family, kind, proto)
+        try:
+            listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+            listener.bind(address)
+            listener.listen(_ACCEPT_BACKLOG)
+            listener.setblocking(False)
+        except BaseException:
+            listener.close()
+            raise
+        self._loop = loop
+        self._writes = deferred_writes(loop)
+        self._listener = listener
+        self.port = listener.getsockname()[1]
+        loop.add_reader(listener.fileno(), self._accept)
+
+    def _accept(self) -> None:
+        listener, loop = self._listener, self._loop
+        if listener is None or loop is None:
+            return
+        for _ in range(_ACCEPTS_PER_WAKE):
+            try:
+                sock, _ = listener.accept()
+            except (BlockingIOError, InterruptedError):
+                return
+            except OSError as exc:  # out of file descriptors: those waiting stay queued
+                _log.warning("cannot accept a TCPROS connection: %s", exc)
+                return
+            _SubscriberConnection(self, sock, loop)
 
     def close(self) -> None:
         """Stop listening and close every connection."""
-        if self._server is not None:
-            self._server.close()
-            self._server = None
+        listener, self._listener = self._listener, None
+        if listener is not None and self._loop is not None:
+            self._loop.remove_reader(listener.fileno())
+            listener.close()
         for topic in list(self.topics.values()):
             topic.close()
         self.topics.clear()
         for connection in list(self._connections):
-            connection.close()
+            connection.abort()
 
     def publication(
         self, name: str, info: RawMessageType, latch: bool, queue_size: int
@@ -183,46 +220,59 @@ class TopicServer:
             connection.flush()
 
 
-class _SubscriberConnection(asyncio.Protocol):
+class _SubscriberConnection:
     """One ROS subscriber connected to the server: header exchange, then outgoing frames."""
 
-    def __init__(self, server: TopicServer) -> None:
+    def __init__(
+        self, server: TopicServer, sock: socket.socket, loop: asyncio.AbstractEventLoop
+    ) -> None:
         self._server = server
+        self._sock = sock
+        self._fd = sock.fileno()
+        self._loop = loop
         self._decoder = TcprosDecoder(server.max_message)
-        self._transport: asyncio.Transport | None = None
         self._topic: PublishedTopic | None = None
-        self._pending: list[bytes] = []
+        self._pending: list[bytes | bytearray] = []
         self._pending_bytes = 0
-        self._fd = -1
-        self._held: deque[tuple[bytes, bytes]] = deque()
+        self._held: deque[tuple[bytes, bytes | bytearray]] = deque()
         self._held_bytes = 0
         self._paused = False
-        self._timer: asyncio.TimerHandle | None = None
+        self._closing = False
+        self._closed = False
         self.peer = "?"
         self.callerid = "?"
         """The subscriber node, from its header."""
         self.id = next(connection_ids)
-
-    def connection_made(self, transport: asyncio.BaseTransport) -> None:
-        assert isinstance(transport, asyncio.Transport)
-        self._transport = transport
-        self._server._connections.add(self)
-        # Resume only once asyncio holds nothing, so the next messages go out with one
-        # writev from their own bytes; the kernel's socket buffer keeps the link busy.
-        transport.set_write_buffer_limits(high=WRITE_HIGH_WATER, low=0)
-        sock = transport.get_extra_info("socket")
-        self._fd = sock.fileno() if sock is not None else -1
-        peer = transport.get_extra_info("peername")
+        sock.setblocking(False)
+        self._writer = SocketWriter(loop, self._fd, self._drained, self._write_failed)
+        try:
+            peer = sock.getpeername()
+        except OSError:
+            peer = None
         self.peer = f"{peer[0]}:{peer[1]}" if isinstance(peer, tuple) else str(peer)
-        loop = asyncio.get_running_loop()
-        self._timer = loop.call_later(HEADER_TIMEOUT, self._header_timeout)
+        server._connections.add(self)
+        loop.add_reader(self._fd, self._readable)
+        self._timer: asyncio.TimerHandle | None = loop.call_later(
+            HEADER_TIMEOUT, self._header_timeout
+        )
 
     def _header_timeout(self) -> None:
         if self._topic is None:
             self._refuse(f"no connection header within {HEADER_TIMEOUT} s")
 
-    def data_received(self, data: bytes) -> None:
-        if self._topic is not None or self._transport is None or self._transport.is_closing():
+    def _readable(self) -> None:
+        try:
+            data = self._sock.recv(65536)
+        except (BlockingIOError, InterruptedError):
+            return
+        except OSError as exc:
+            _log.debug("a subscriber connection from %s failed: %s", self.peer, exc)
+            self.abort()
+            return
+        if not data:  # the subscriber left
+            self.abort()
+            return
+        if self._topic is not None or self._closing:
             return  # subscribers send nothing after their header
         try:
             self._decoder.feed(data)
@@ -236,6 +286,7 @@ class _SubscriberConnection(asyncio.Protocol):
     def _accept(self, header: dict[str, str]) -> None:
         if self._timer is not None:
             self._timer.cancel()
+            self._timer = None
         if "service" in header:
             self._refuse("this port serves topics only; services are on the node's rospy port")
             return
@@ -260,13 +311,9 @@ class _SubscriberConnection(asyncio.Protocol):
                     f"[{topic.info.name}/{topic.info.md5sum}] Dropping connection."
                 )
             return
-        transport = self._transport
-        assert transport is not None
         if header.get("tcp_nodelay", "0").strip() == "1":
-            sock = transport.get_extra_info("socket")
-            if sock is not None:
-                sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-        transport.write(topic.header(self._server.callerid))
+            self._sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        self._writer.write([topic.header(self._server.callerid)])
         self.callerid = header["callerid"]
         self._topic = topic
         topic.add(self)
@@ -275,11 +322,11 @@ class _SubscriberConnection(asyncio.Protocol):
     def _refuse(self, reason: str) -> None:
         self._server.refused += 1
         _log.warning("refused a TCPROS connection from %s: %s", self.peer, reason)
-        if self._transport is not None and not self._transport.is_closing():
-            self._transport.write(encode_header({"error": reason}))
-            self._transport.close()
+        if not self._closing and not self._closed:
+            self._writer.write([encode_header({"error": reason})])
+            self.close()
 
-    def send(self, prefix: bytes, payload: bytes) -> None:
+    def send(self, prefix: bytes, payload: bytes | bytearray) -> None:
         """Queue one message (its length prefix and bytes); it leaves once the read that
         published it is done, or is held while the subscriber is not reading."""
         if self._paused:
@@ -291,9 +338,9 @@ class _SubscriberConnection(asyncio.Protocol):
         self._pending.append(payload)
         self._pending_bytes += len(prefix) + len(payload)
         if self._pending_bytes >= _FLUSH_AT:
-            self.flush()  # the transport pauses us if its buffer is full
+            self.flush()  # past WRITE_HIGH_WATER the next ones are held
 
-    def _hold(self, prefix: bytes, payload: bytes) -> None:
+    def _hold(self, prefix: bytes, payload: bytes | bytearray) -> None:
         topic = self._topic
         assert topic is not None
         limit = topic.queue_size
@@ -310,20 +357,22 @@ class _SubscriberConnection(asyncio.Protocol):
         self._held_bytes += size
 
     def flush(self) -> None:
-        """Write what was queued: with one scatter-gather syscall straight from the
-        messages' bytes while the transport holds nothing, the rest through the transport
-        (small pieces joined, large ones on their own)."""
+        """Write what was queued: one scatter-gather syscall straight from the messages'
+        bytes while nothing waits before them; the rest waits as it is (no copy)."""
         pending, self._pending = self._pending, []
         self._pending_bytes = 0
-        transport = self._transport
-        if transport is None or transport.is_closing() or not pending:
+        if not pending or self._closing or self._closed:
             return
-        write_chunks(transport, self._fd, pending)
+        writer = self._writer
+        writer.write(pending)
+        if writer.queued > WRITE_HIGH_WATER:
+            self._paused = True
 
-    def pause_writing(self) -> None:
-        self._paused = True
-
-    def resume_writing(self) -> None:
+    def _drained(self) -> None:
+        """The kernel took everything written: send what was held meanwhile."""
+        if self._closing:
+            self.abort()
+            return
         self._paused = False
         held = self._held
         while held and not self._paused:
@@ -334,19 +383,38 @@ class _SubscriberConnection(asyncio.Protocol):
             self._pending_bytes += len(prefix) + len(payload)
             if self._pending_bytes >= _FLUSH_AT:
                 self.flush()
-        self.flush()
+        if not self._paused:
+            self.flush()
+
+    def _write_failed(self, exc: OSError) -> None:
+        _log.debug("a subscriber connection to %s failed: %s", self.peer, exc)
+        self.abort()
 
     def close(self) -> None:
-        if self._transport is not None:
-            self._transport.close()
+        """Close once what was written has been sent (at once if nothing waits)."""
+        if self._closed or self._closing:
+            return
+        self._closing = True
+        self._held.clear()
+        self._held_bytes = 0
+        self._pending.clear()
+        if not self._writer.queued:
+            self.abort()
 
-    def connection_lost(self, exc: Exception | None) -> None:
+    def abort(self) -> None:
+        """Close now, dropping anything not yet sent."""
+        if self._closed:
+            return
+        self._closed = self._closing = True
         if self._timer is not None:
             self._timer.cancel()
+            self._timer = None
+        self._writer.close()
+        self._loop.remove_reader(self._fd)
+        self._sock.close()
         self._server._connections.discard(self)
         self._held.clear()
         self._pending.clear()
         if self._topic is not None:
             self._topic.remove(self)
             _log.debug("a subscriber of %s at %s left", self._topic.name, self.peer)
-        self._transport = None
