@@ -1,7 +1,8 @@
 """The ROS 2 backend: the endpoint is a real rclpy node (`/simbridge_endpoint`).
 
-Topics are relayed as raw CDR in both directions: `publisher.publish(bytes)` and
-`create_subscription(..., raw=True)`, nothing decoded on the hot path. Services
+Topics are relayed as raw CDR in both directions: `publisher.publish(bytes)` (a large
+payload in place through rcl, ros2_rcl) and `create_subscription(..., raw=True)`,
+nothing decoded on the hot path. Services
 have no raw mode in rclpy, so their requests and responses are decoded and
 encoded with the installed interface classes; so are action goals, feedback and
 results (the `actions` extension, in ros2_actions).
@@ -48,6 +49,7 @@ from simbridge.endpoint.backends.gc_tuning import freeze_startup_objects
 from simbridge.endpoint.backends.malloc_tuning import keep_large_buffers
 from simbridge.endpoint.backends.ros2_actions import Ros2Actions
 from simbridge.endpoint.backends.ros2_env import apply_ros2_env
+from simbridge.endpoint.backends.ros2_rcl import direct_publish
 from simbridge.endpoint.backends.ros2_types import Ros2Types, tcp_type_name
 from simbridge.endpoint.backends.subscriber_watch import SubscriberWatch
 from simbridge.endpoint.typecheck import TypeCheck
@@ -492,13 +494,19 @@ class Ros2Publisher(_Entity, BackendPublisher):
         self.topic: str = self._publisher.topic_name
         self.msg_class = cls
         self._publish_raw = _raw_publish(self._publisher)
+        self._publish_lent = direct_publish(self._publisher) or self._publish_raw
+        """Large payloads arrive as the bytearray they were received into (lent by the
+        session): published in place, without publish_raw's copy (ros2_rcl)."""
         super().__init__(backend)
 
     def publish(self, payload: bytes | bytearray) -> None:
         if self.closed:
             raise EndpointError(f"publisher of {self.topic!r} is closed")
         try:
-            self._publish_raw(payload)  # publish_raw takes bytes and bytearray alike
+            if type(payload) is bytearray:
+                self._publish_lent(payload)
+            else:
+                self._publish_raw(payload)
         except Exception as exc:
             counters = self._backend.counters
             counters["publish_errors"] += 1
