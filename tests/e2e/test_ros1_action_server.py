@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import os
 import subprocess
-import time
 from pathlib import Path
 from typing import Any
 
@@ -80,12 +79,24 @@ def test_connector_client_against_simple_action_server(tmp_path: Path) -> None:
             stderr=subprocess.PIPE, text=True, start_new_session=True,
         )  # fmt: skip
         connector = Connector("127.0.0.1", port, ConnectorOptions()).connect(wait=10)
+        watcher = Connector("127.0.0.1", port, ConnectorOptions()).connect(wait=10)
         try:
             assert server.stdout is not None
             assert server.stdout.readline().strip() == "ready"
             client = ActionClient(connector, "/gripper/gripper_cmd", ACTION)
             assert client.wait_for_server(30)
-            time.sleep(1.0)  # rospy connects to the endpoint's new publishers
+            # the status came; rospy's goal subscriber connects to the endpoint's publisher
+            # on its own time, and a goal sent before that is lost (ROS 1 keeps none): a
+            # second client publishing the goal and cancel topics is told when the server
+            # subscribed (it stays registered to the end: the topics' publishers are shared)
+            watched = [
+                watcher.register_publisher(topic, msg_type, report_subscribers=True)
+                for topic, msg_type in (
+                    ("/gripper/gripper_cmd/goal", f"{ACTION}ActionGoal"),
+                    ("/gripper/gripper_cmd/cancel", "actionlib_msgs/GoalID"),
+                )
+            ]
+            assert wait_for(lambda: all((p.subscriber_count or 0) >= 1 for p in watched), 30)
 
             feedback: list[Any] = []
             done = client.send_goal(_goal(0.04, 0.5), on_feedback=feedback.append)
@@ -112,6 +123,7 @@ def test_connector_client_against_simple_action_server(tmp_path: Path) -> None:
             assert newer.status == SUCCEEDED
             client.close()
         finally:
+            watcher.close()
             connector.close()
             terminate(server)
             endpoint.stop()
