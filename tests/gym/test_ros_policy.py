@@ -39,6 +39,9 @@ def _run(scene: Path, env: SceneEnv, policy: Policy, goal: np.ndarray, sim_s: fl
         assert connector.flush(5)
         assert session.connector is not None
         assert session.connector.flush(5)
+        # barriers: the endpoint holds both sides' subscriptions before the sim runs
+        connector.endpoint_stats()
+        session.connector.endpoint_stats()
         session.run(duration=sim_s, realtime_factor=1.0)
         return session.world, runner
 
