@@ -48,6 +48,7 @@ def bridge_world(world: World, cleanup: list[Callable[[], None]]) -> BridgedWorl
     node = Node(endpoint.backend, "/tester")
     cleanup.append(node.close)
     assert sim.flush(5)
+    sim.endpoint_stats()  # a barrier: the endpoint holds the bridge's topics and services
     runner = threading.Thread(target=world.run, kwargs={"realtime_factor": 1.0})
     runner.start()
     cleanup.append(lambda: runner.join(5))

@@ -185,6 +185,7 @@ def test_one_cmd_vel_moves_the_base_then_the_timeout_stops_it() -> None:
         assert isinstance(endpoint.backend, LocalBus)
         node = stack.enter_context(Node(endpoint.backend, "/teleop"))
         assert connector.flush(5)
+        connector.endpoint_stats()  # a barrier: the endpoint holds the /cmd_vel subscription
         cmd = node.advertise("/cmd_vel", "geometry_msgs/Twist")
         world.step(100)  # settle on the wheels and caster
         start = world.link_pose("base_link").translation.copy()
@@ -194,6 +195,7 @@ def test_one_cmd_vel_moves_the_base_then_the_timeout_stops_it() -> None:
         while link.controller.timed_out(world.time) and time.monotonic() < deadline:
             time.sleep(0.001)
             world.process_posted()
+        assert not link.controller.timed_out(world.time), "the command never arrived"
         commanded_at = world.time
         world.step(1000)  # 2 s: ramp up 0.2 s, cruise until the 0.5 s timeout, brake 0.2 s
         moved = world.link_pose("base_link").translation - start
