@@ -87,6 +87,7 @@ def test_wall_clock_cmd_vel_drives_the_mobile_robot_scene() -> None:
             with SimulationSession(MOBILE_SCENE, address, connect_timeout=5) as session:
                 assert session.connector is not None
                 assert session.connector.flush(5)
+                session.connector.endpoint_stats()  # a barrier: /cmd_vel is subscribed
                 sender.start()
                 try:
                     stats = session.run(duration=2.5)
