@@ -140,3 +140,55 @@ def test_large_payloads_are_handed_over_and_never_written_again() -> None:
     assert type(small.payload) is bytes
     decoder.discard()
     assert ledger.held == 0
+
+
+def test_a_recycled_payload_receives_the_next_frame_of_its_size() -> None:
+    """A lent payload given back is the buffer of the next large frame of that very size
+    (charged to the decoder meanwhile); one of another size gets a new buffer, and the
+    spare's memory is released."""
+    ledger = Ledger(10**12)
+    decoder = FrameDecoder(reserve=ledger.reserve, release=ledger.release, lend_large=True)
+    (first,) = decoder.feed(encode_frame("/img", b"\x01" * 900_000))
+    assert type(first.payload) is bytearray
+    decoder.recycle(first.payload)
+    assert ledger.held == 900_000  # the decoder's again
+    (second,) = decoder.feed(encode_frame("/img", b"\x02" * 900_000))
+    assert second.payload is first.payload
+    assert second.payload == b"\x02" * 900_000
+    assert ledger.held == 0
+    assert isinstance(second.payload, bytearray)
+    decoder.recycle(second.payload)
+    (other,) = decoder.feed(encode_frame("/img", b"\x03" * 800_000))
+    assert other.payload is not second.payload
+    assert other.payload == b"\x03" * 800_000
+    assert ledger.held == 0
+    assert ledger.peak <= 900_000 + 800_000
+    decoder.recycle(bytearray(FrameDecoder.FIRST_CHUNK + 1))  # too large to keep
+    assert ledger.held == 0
+    assert isinstance(other.payload, bytearray)
+    decoder.recycle(other.payload)
+    decoder.discard()
+    assert ledger.held == 0
+
+
+def test_recycle_is_ignored_by_a_decoder_that_does_not_lend() -> None:
+    ledger = Ledger(10**12)
+    decoder = FrameDecoder(reserve=ledger.reserve, release=ledger.release)
+    decoder.recycle(bytearray(900_000))
+    assert ledger.held == 0
+    (frame,) = decoder.feed(encode_frame("/img", b"\x04" * 900_000))
+    assert frame.payload == b"\x04" * 900_000
+    assert type(frame.payload) is bytes
+
+
+def test_recycle_within_the_budget_only() -> None:
+    ledger = Ledger(1_000_000)
+    decoder = FrameDecoder(reserve=ledger.reserve, release=ledger.release, lend_large=True)
+    (frame,) = decoder.feed(encode_frame("/img", b"\x05" * 900_000))
+    ledger.held = 500_000  # someone else's share meanwhile
+    assert isinstance(frame.payload, bytearray)
+    decoder.recycle(frame.payload)
+    assert ledger.held == 500_000  # refused: not kept
+    ledger.held = 0
+    (again,) = decoder.feed(encode_frame("/img", b"\x06" * 900_000))
+    assert again.payload is not frame.payload

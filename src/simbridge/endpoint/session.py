@@ -114,6 +114,8 @@ class ClientSession(asyncio.BufferedProtocol):
             lend_large=server.backend.lends_large_payloads,
         )
         self.proto = ProtocolConnection("endpoint", decoder=decoder)
+        self._recycle = decoder.recycle if server.backend.releases_lent_payloads else None
+        """Gives a published lent payload back to the decoder, for the next large frame."""
         self.stats = SessionStats()
         self.peer = "?"
         self.transport: asyncio.Transport | None = None
@@ -236,6 +238,7 @@ class ClientSession(asyncio.BufferedProtocol):
         stats = self.stats
         stats.bytes_in += nbytes
         publishers = self.publishers
+        recycle = self._recycle
         events = self.proto.buffer_updated(nbytes)
         if events or not self.frame_started:
             # Slow-sender clock: restarts whenever a frame completes.
@@ -251,7 +254,10 @@ class ClientSession(asyncio.BufferedProtocol):
                 if type(event) is MessageReceived:
                     entry = publishers.get(event.topic)
                     if entry is not None:
-                        entry[1].publish(event.payload)
+                        payload = event.payload
+                        entry[1].publish(payload)
+                        if recycle is not None and type(payload) is bytearray:
+                            recycle(payload)
                     else:
                         self._unregistered(event.topic)
                 elif type(event) is KeepaliveReceived:

@@ -93,8 +93,8 @@ class FrameDecoder:
     (asyncio.BufferedProtocol style) where the socket reads straight into the decoder's
     memory. A large payload is read into a buffer of exactly its size. With `lend_large`
     that buffer becomes the frame's payload (no copy; it leaves the decoder's budget and a
-    new one is allocated for the next large frame); else the payload is copied to bytes
-    and the buffer reused.
+    new one is allocated for the next large frame, unless the receiver gives it back with
+    `recycle`); else the payload is copied to bytes and the buffer reused.
 
     A length prefix over the bound (FrameTooLargeError, raised before the body is
     buffered) or a destination that is not UTF-8 (ProtocolError) breaks the stream:
@@ -244,16 +244,26 @@ class FrameDecoder:
     def _large_buffer(self, plen: int, have: int) -> bytearray | None:
         """A buffer for a large payload: the spare one from the last large frame when big
         enough (no allocation, no page faults), else a new one; None if refused. (A
-        lending decoder has no spare: its buffers are exactly their payload's size.)"""
+        lending decoder's buffers are exactly their payload's size, so its spare, one
+        given back by `recycle`, fits only a payload of its very size.)"""
         size = max(min(plen, self.FIRST_CHUNK), have)
         spare, self._spare = self._spare, None
         if spare is not None:
-            if len(spare) >= size:
+            if len(spare) == plen if self._lend else len(spare) >= size:
                 return spare
             self._release(len(spare))
         if not self._reserve(size):
             return None
         return bytearray(size)
+
+    def recycle(self, buffer: bytearray) -> None:
+        """Take back a lent payload its receiver is done with (it keeps no reference or
+        view): the next large frame of the same size is received into it, saving the
+        allocation and zero-fill of a new buffer (an image stream's frames are one size).
+        Kept only when no other is, up to FIRST_CHUNK bytes, and within the budget."""
+        size = len(buffer)
+        if self._lend and self._spare is None and size <= self.FIRST_CHUNK and self._reserve(size):
+            self._spare = buffer
 
     def discard(self) -> None:
         """Drop a partly received large frame and hand its memory back (connection closed)."""

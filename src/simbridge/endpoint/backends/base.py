@@ -117,6 +117,10 @@ class Backend(abc.ABC):
     """Its publishers take a large payload as the bytearray it was received into (the
     client's decoder then allocates one per large frame instead of reusing its buffer);
     worth it only where the publisher would otherwise copy the payload to bytes."""
+    releases_lent_payloads: bool = False
+    """Its publishers are done with a lent payload when publish() returns (they copied
+    what they send), so the session gives the buffer back to the client's decoder, which
+    receives the next large frame of that size into it (no allocation, no zero-fill)."""
 
     async def start(self) -> None:  # noqa: B027 - optional hook
         """Connect to the graph; called once on the event loop before any other call."""

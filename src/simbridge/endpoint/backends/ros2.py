@@ -130,7 +130,8 @@ class Ros2Backend(Backend):
     """Bridges the endpoint's clients into a ROS 2 graph through rclpy."""
 
     name = "ros2"
-    lends_large_payloads = True  # publish_raw takes the bytearray as it is
+    lends_large_payloads = True  # published in place (ros2_rcl)
+    releases_lent_payloads = True  # rcl copies it into Fast DDS before returning
     protocol = "ROS2"
     extensions = (ACTIONS_EXTENSION,)
 
