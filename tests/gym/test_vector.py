@@ -2,13 +2,15 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import gymnasium as gym
 import numpy as np
 import pytest
 
 import simbridge.gym  # registers the ids
 from simbridge.errors import GymError
-from simbridge.gym import SceneVectorEnv
+from simbridge.gym import SceneEnv, SceneVectorEnv
 
 
 def _actions(space: gym.Space[np.ndarray], steps: int, seed: int) -> list[np.ndarray]:
@@ -16,9 +18,17 @@ def _actions(space: gym.Space[np.ndarray], steps: int, seed: int) -> list[np.nda
     return [space.sample() for _ in range(steps)]
 
 
-@pytest.mark.parametrize("env_id", simbridge.gym.ENV_IDS)
-def test_batched_worlds_match_single_envs_bit_for_bit(env_id: str) -> None:
-    vec = gym.make_vec(env_id, num_envs=3)
+# Reach alone takes the all-batched path; joint deltas batch the action too; the camera makes
+# the worlds' data current every step; the others run their action and task world by world
+_CASES: list[tuple[str, dict[str, Any]]] = [(env_id, {}) for env_id in simbridge.gym.ENV_IDS] + [
+    ("simbridge/Reach-v0", {"action": "joint_delta"}),
+    ("simbridge/Reach-v0", {"image_size": (12, 16)}),
+]
+
+
+@pytest.mark.parametrize(("env_id", "kwargs"), _CASES)
+def test_batched_worlds_match_single_envs_bit_for_bit(env_id: str, kwargs: dict[str, Any]) -> None:
+    vec = gym.make_vec(env_id, num_envs=3, **kwargs)
     assert isinstance(vec, SceneVectorEnv)
     assert len({id(w.model) for w in vec.worlds}) == 1, "one compiled model for every world"
     assert len({id(w.data) for w in vec.worlds}) == 3
@@ -34,7 +44,7 @@ def test_batched_worlds_match_single_envs_bit_for_bit(env_id: str) -> None:
         outcomes.append(np.stack([reward, info["is_success"]]))
     vec.close()
     for i in range(3):
-        env = gym.make(env_id)
+        env = gym.make(env_id, **kwargs)
         obs, _ = env.reset(seed=20 + i)
         single = [obs]
         for t, action in enumerate(actions):
@@ -151,3 +161,48 @@ def test_worlds_ending_apart_match_single_envs_across_autoresets() -> None:
                 np.testing.assert_array_equal(obs[key][i], value, err_msg=f"{i} {t} {key}")
     assert resets >= 1, "world 0 never reached its goal: the test stepped no partial batch"
     vec.close()
+
+
+def test_worlds_read_after_batched_steps_hold_the_single_envs_state() -> None:
+    """Reach's steps leave the worlds' own data alone; reading `worlds` brings it up to date:
+    state, poses, drive targets and controls as the single env's after the same steps."""
+    vec = gym.make_vec("simbridge/Reach-v0", num_envs=2)
+    assert isinstance(vec, SceneVectorEnv)
+    singles = [gym.make("simbridge/Reach-v0").unwrapped for _ in range(2)]
+    assert all(isinstance(env, SceneEnv) for env in singles)
+    vec.reset(seed=40)
+    for i, env in enumerate(singles):
+        env.reset(seed=40 + i)
+    for action in _actions(vec.action_space, 6, 3):
+        vec.step(action)
+        for env, row in zip(singles, action, strict=True):
+            env.step(row)
+    joints = [f"joint_{i}" for i in range(1, 7)]
+    for world, env in zip(vec.worlds, singles, strict=True):
+        assert isinstance(env, SceneEnv)
+        alone = env.world
+        for field in ("qpos", "qvel", "ctrl", "xpos", "xquat", "cvel", "qacc_warmstart"):
+            np.testing.assert_array_equal(
+                getattr(world.data, field), getattr(alone.data, field), err_msg=field
+            )
+        assert world.time == alone.time
+        for joint in joints:
+            assert world.drives.target(joint) == alone.drives.target(joint), joint
+    frames = vec.render()
+    assert frames is None, "no render mode: no frames"
+    vec.close()
+
+
+def test_vector_renders_the_worlds_as_their_single_envs_do() -> None:
+    vec = gym.make_vec("simbridge/Reach-v0", num_envs=2, render_mode="rgb_array")
+    single = gym.make("simbridge/Reach-v0", render_mode="rgb_array")
+    vec.reset(seed=50)
+    single.reset(seed=51)
+    for action in _actions(vec.action_space, 4, 5):
+        vec.step(action)
+        single.step(action[1])
+    frames = vec.render()
+    assert frames is not None
+    np.testing.assert_array_equal(frames[1], single.render())
+    vec.close()
+    single.close()

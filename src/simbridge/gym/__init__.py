@@ -20,6 +20,7 @@ from simbridge.gym.actions import (
     WheelVelocity,
 )
 from simbridge.gym.ars import ARSConfig, ARSResult, LinearPolicy, train_ars
+from simbridge.gym.batch import WorldBatch
 from simbridge.gym.env import Observation, SceneEnv, look_at
 from simbridge.gym.registration import ENV_IDS, register_envs
 from simbridge.gym.ros_policy import Policy, RosPolicyRunner
@@ -50,6 +51,7 @@ __all__ = [
     "Task",
     "TwistCommand",
     "WheelVelocity",
+    "WorldBatch",
     "look_at",
     "register_envs",
     "train_ars",

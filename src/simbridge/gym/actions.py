@@ -5,6 +5,8 @@ class) into drive targets, exactly as the ROS command interfaces do: position ta
 the joint drives (`/joint_group_position_controller/command`) and a differential-drive
 controller for twists (`/cmd_vel`). `controls` returns None when the drives' `ctrl`
 (already in the world's data) holds for every coming physics step, or one row per step.
+`JointDelta` and `EndEffectorDelta` (position only) also act on all the worlds of a vector
+env at once (`apply_many` on a `WorldBatch`), with the bits `apply` gives each world.
 """
 
 from __future__ import annotations
@@ -18,6 +20,8 @@ from gymnasium import spaces
 from numpy.typing import NDArray
 
 from simbridge.errors import GymError
+from simbridge.gym.batch import WorldBatch
+from simbridge.gym.batch_math import BatchedDampedLeastSquares, BodyJacobians
 from simbridge.sim.control import DiffDriveController, DiffDriveLimits, DriveMode
 from simbridge.sim.control.drive_bank import Actuators
 from simbridge.sim.ros import measure_wheels
@@ -56,6 +60,21 @@ class ActionAdapter(ABC):
 
     space: spaces.Box
     joints: tuple[str, ...]
+    batch_fields: tuple[str, ...] = ()
+    """The derived fields `apply_many` reads from the `WorldBatch` (e.g. "xpos")."""
+
+    @property
+    def batched(self) -> bool:
+        """Whether `apply_many` serves this adapter (no by default: the vector env then
+        applies each world's action to its own world)."""
+        return False
+
+    def apply_many(self, batch: WorldBatch, actions: NDArray[np.float32]) -> None:
+        """`apply` of every world in `batch` at once (`actions`: one row each), for the
+        vector env, when `batched`. All the worlds' adapters come from one factory, so this
+        one, bound to the first world, stands for all: every row must get the bits `apply`
+        gives its world."""
+        raise GymError(f"{type(self).__name__} has no batched form")
 
     def bind(self, world: World) -> None:
         """Check the joints exist and have drives; set drive modes."""
@@ -99,6 +118,15 @@ class JointDelta(ActionAdapter):
         """Move each joint's position target by its entry of `action`."""
         drives = world.drives
         drives.set_positions(self._actuators, drives.positions(self._actuators) + action)
+
+    @property
+    def batched(self) -> bool:
+        """Always."""
+        return True
+
+    def apply_many(self, batch: WorldBatch, actions: NDArray[np.float32]) -> None:
+        """`apply` of every world: each row's targets move by its action."""
+        batch.set_positions(self._actuators, batch.positions[:, self._actuators] + actions)
 
 
 class DampedLeastSquares:
@@ -152,6 +180,8 @@ class EndEffectorDelta(ActionAdapter):
     3x3 world rotation) the body's orientation is held there as well (6-D task).
     """
 
+    batch_fields = ("xpos", "cdof", "subtree_com")
+
     def __init__(
         self,
         body: str,
@@ -175,6 +205,10 @@ class EndEffectorDelta(ActionAdapter):
         self._jacp = self._jacr = np.zeros((3, 0))
         self._actuators: Actuators = slice(0, 0)
         self._solver = DampedLeastSquares(3, len(self.joints), damping)
+        self._solvers = (
+            BatchedDampedLeastSquares(len(self.joints), damping) if damping > 0 else None
+        )
+        self._jacobians: BodyJacobians | None = None
         self._data: mujoco.MjData | None = None
         self._qpos_all = np.zeros(0)
 
@@ -191,6 +225,7 @@ class EndEffectorDelta(ActionAdapter):
         self._jacp = np.zeros((3, world.model.nv))
         self._jacr = np.zeros((3, world.model.nv))
         self._data, self._qpos_all = world.data, world.data.qpos  # a view, kept
+        self._jacobians = BodyJacobians(world.model, self._body_id, self._dofs)
 
     def joint_step(self, world: World, delta: FloatArray) -> FloatArray:
         """Joint increments moving the body by `delta` (m) from the state in `world.data`
@@ -212,6 +247,20 @@ class EndEffectorDelta(ActionAdapter):
         qpos = self._qpos_all if data is self._data else data.qpos
         targets = qpos[self._qpos] + self.joint_step(world, action.astype(np.float64))
         world.drives.set_positions(self._actuators, targets)
+
+    @property
+    def batched(self) -> bool:
+        """Without an orientation to hold (the 3-D task), and with damping."""
+        return self.orientation is None and self.damping > 0
+
+    def apply_many(self, batch: WorldBatch, actions: NDArray[np.float32]) -> None:
+        """`apply` of every world: Jacobians from the batch's kinematics, then one damped
+        least-squares solve over all rows."""
+        assert self._jacobians is not None, "bind() first"
+        assert self._solvers is not None, "batched only with damping"
+        jacobian = self._jacobians(batch["xpos"], batch["cdof"], batch["subtree_com"])
+        step = self._solvers.solve(jacobian, np.ascontiguousarray(actions.T, np.float64))
+        batch.set_positions(self._actuators, batch.qpos[:, self._qpos] + step.T)
 
     def solve(self, world: World, position: FloatArray, iterations: int = 200) -> bool:
         """Teleport the joints kinematically so the body reaches `position` (and the held

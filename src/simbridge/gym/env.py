@@ -15,6 +15,7 @@ from numpy.typing import NDArray
 
 from simbridge.errors import GymError
 from simbridge.gym.actions import ActionAdapter, index_of
+from simbridge.gym.batch import WorldBatch
 from simbridge.gym.sensors import SensorObservation
 from simbridge.gym.task import Task
 from simbridge.sim.scene import Scene
@@ -249,29 +250,23 @@ class SceneEnv(Env[Observation, NDArray[np.float32]]):
     @staticmethod
     def observe_many(
         envs: Sequence[SceneEnv],
-        out: Observation,
-        rows: list[int] | slice,
-        *,
-        qpos: NDArray[np.float64],
-        qvel: NDArray[np.float64],
+        batch: WorldBatch,
         goals: NDArray[np.float64],
+        out: Observation,
     ) -> None:
-        """`observe_into` of many envs made by one factory, into `rows` (indices or a
-        slice) of `out`, from
-        their worlds' `qpos` and `qvel` (one row each) and `goals`: the vector env's way,
-        with NumPy over all rows where `observe_into` works on one. Every row gets the
-        bits `observe_into` gives it (the same casts and elementwise operations)."""
+        """`observe_into` of every world of a vector env (envs made by one factory, world i
+        in row i of `batch` and of `out`), with NumPy over all rows where `observe_into`
+        works on one; every row gets the bits `observe_into` gives it (the same casts and
+        elementwise operations). Sensors read each world (their data must be current)."""
         first = envs[0]
         if first.joints:
-            out["joint_pos"][rows] = qpos[:, first._qpos]
-            out["joint_vel"][rows] = qvel[:, first._dofs]
+            out["joint_pos"][...] = batch.qpos[:, first._qpos]
+            out["joint_vel"][...] = batch.qvel[:, first._dofs]
         tasks = [env.task for env in envs]
-        worlds = [env.world for env in envs]
-        type(first.task).observe_many(tasks, worlds, goals, out, rows)
-        out["goal"][rows] = goals
+        type(first.task).observe_many(tasks, batch, goals, out)
+        out["goal"][...] = goals
         if first.sensors:
-            indices = range(len(out["goal"]))[rows] if isinstance(rows, slice) else rows
-            for env, row in zip(envs, indices, strict=True):
+            for row, env in enumerate(envs):
                 for sensor in env.sensors:
                     out[sensor.key][row] = sensor.read(env.world)
 

@@ -10,6 +10,7 @@ import numpy as np
 from gymnasium import spaces
 from numpy.typing import NDArray
 
+from simbridge.gym.batch import WorldBatch
 from simbridge.sim.world import ModelExtension, World
 
 __all__ = ["Task"]
@@ -28,6 +29,12 @@ class Task(ABC):
 
     goal_space: spaces.Box
     """Bounds of the goal vector (part of the observation as "goal")."""
+    batched: bool = False
+    """Whether `evaluate_many` and `observe_many` read only the `WorldBatch`'s arrays
+    (`batch_fields` and the state), never the worlds: a vector env then leaves the
+    worlds' own data alone between resets."""
+    batch_fields: tuple[str, ...] = ()
+    """The derived fields (e.g. "xpos") the batched methods read from the `WorldBatch`."""
 
     def extensions(self) -> Sequence[ModelExtension]:
         """Edits of the MJCF document before compiling (e.g. a goal marker); none by default."""
@@ -67,34 +74,31 @@ class Task(ABC):
     def observe_many(
         cls,
         tasks: Sequence[Task],
-        worlds: Sequence[World],
+        batch: WorldBatch,
         goals: NDArray[np.float64],
         out: Mapping[str, NDArray[np.float32]],
-        rows: list[int] | slice,
     ) -> None:
-        """`observe_into` of many worlds (each with its own task, all of this class, bound
-        to one model) into `rows` (indices or a slice) of `out`, for the vector env. The
-        default asks each task; a subclass may do all rows at once, as long as every row
-        gets the same bits as `observe_into` gives it (elementwise NumPy in the same order
-        does)."""
-        first = next(iter(out.values()))
-        indices = range(len(first))[rows] if isinstance(rows, slice) else rows
-        for task, world, goal, row in zip(tasks, worlds, goals, indices, strict=True):
+        """`observe_into` of every world of a vector env (each with its own task, all of
+        this class, bound to one model) into its row of `out`. The default asks each task
+        on its world (`batch.worlds`). A subclass that sets `batched` does all rows at once
+        from the batch's arrays, as long as every row gets the bits `observe_into` gives it
+        (elementwise NumPy in the same order does)."""
+        for row, (task, world, goal) in enumerate(zip(tasks, batch.worlds, goals, strict=True)):
             task.observe_into(world, goal, out, row)
 
     @classmethod
     def evaluate_many(
         cls,
         tasks: Sequence[Task],
-        worlds: Sequence[World],
+        batch: WorldBatch,
         goals: NDArray[np.float64],
         actions: NDArray[np.float32],
     ) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.bool_]]:
-        """`evaluate` of many worlds as arrays (reward, success, terminated), on the terms
-        of `observe_many`."""
+        """`evaluate` of every world of a vector env as arrays (reward, success,
+        terminated), on the terms of `observe_many`."""
         results = [
             task.evaluate(world, goal, action)
-            for task, world, goal, action in zip(tasks, worlds, goals, actions, strict=True)
+            for task, world, goal, action in zip(tasks, batch.worlds, goals, actions, strict=True)
         ]
         return (
             np.array([r[0] for r in results], np.float64),

@@ -1,16 +1,22 @@
 """`SceneVectorEnv`: many worlds on one compiled model, their physics stepped in one C call.
 
 Every sub-environment is a `SceneEnv` on a `World.clone()` of the first (one `MjModel`,
-one `MjData` each): resets, drive targets, observations and rewards run there, in
-Python, one world after another. The physics of a vector step is one call of MuJoCo's
-`mujoco.batch.Batch`: each world's integration state (`mjSTATE_INTEGRATION`: positions,
-velocities, controls, warm start, ...) goes into a row, the batch runs `frame_skip`
-`mj_step`s of every row on its thread pool in C (no GIL, no Python between substeps),
-and the rows come back into the worlds' data, which `SceneEnv.refresh` brings up to date.
-MuJoCo documents the batch as bit-identical to `mj_step` on one `MjData` per simulation,
-so a sub-environment matches its single-env twin bit for bit. Autoreset follows
-Gymnasium's default (next step): the step after an episode ended resets that world and
-returns its first observation with reward 0.
+one `MjData` each). The physics of every world lives in a row of a persistent
+`mujoco.batch.Batch` (its integration state, `mjSTATE_INTEGRATION`: positions,
+velocities, controls, warm start, ...): one call runs `frame_skip` `mj_step`s of every
+row on the batch's thread pool in C (no GIL, no Python between substeps) and brings the
+rows' positions and velocities terms up to date (`mjSTAGE_VEL`, which the next step
+continues from at no cost). MuJoCo documents the batch as bit-identical to `mj_step` on
+one `MjData` per simulation.
+
+The rest of a step runs on the calling thread. Where the action adapter and the task
+have batched forms (`ActionAdapter.apply_many`, `Task.evaluate_many` and
+`Task.observe_many` on a `WorldBatch`), it is a few NumPy operations over all the worlds,
+and the worlds' own `MjData` is left alone until something reads it (a reset, a render,
+`worlds`). Otherwise each world's data is brought up to date and its action applied,
+world after world, as a single env does. Either way world i gets its single env's bits.
+Autoreset follows Gymnasium's default (next step): the step after an episode ended
+resets that world and returns its first observation with reward 0.
 """
 
 from __future__ import annotations
@@ -28,6 +34,7 @@ from mujoco.batch import Batch
 from numpy.typing import NDArray
 
 from simbridge.errors import GymError
+from simbridge.gym.batch import WorldBatch
 from simbridge.gym.env import Observation, SceneEnv
 from simbridge.sim.world import World
 
@@ -39,6 +46,10 @@ EnvFactory = Callable[..., SceneEnv]
 VectorStep = tuple[
     Observation, NDArray[np.float64], NDArray[np.bool_], NDArray[np.bool_], dict[str, Any]
 ]
+
+_STAGE = int(mujoco.mjtStage.mjSTAGE_VEL)
+"""What the batch computes after its steps: poses, Jacobians, body velocities (as a single
+env's `SceneEnv.refresh`), and the rest the next step's first substep starts from."""
 
 
 class SceneVectorEnv(VectorEnv[Observation, NDArray[np.float32], NDArray[Any]]):
@@ -63,7 +74,7 @@ class SceneVectorEnv(VectorEnv[Observation, NDArray[np.float32], NDArray[Any]]):
         if threads < 0:
             raise GymError(f"threads must be >= 0 (0: one per CPU), got {threads}")
         first = make_env(**env_kwargs)
-        self.envs = [first] + [
+        self._envs = [first] + [
             make_env(world=first.world.clone(), **env_kwargs) for _ in range(num_envs - 1)
         ]
         self.num_envs = num_envs
@@ -78,30 +89,43 @@ class SceneVectorEnv(VectorEnv[Observation, NDArray[np.float32], NDArray[Any]]):
         self.frame_skip = first.frame_skip
         # built after every env bound its drives: the batch runs on a copy of the model
         threads = max(1, min(threads or os.cpu_count() or 1, num_envs))
-        self._batch = Batch(self.model, num_envs, nthread=threads)
-        self._spec = int(mujoco.mjtState.mjSTATE_INTEGRATION)
-        self._state = self._batch.state
-        self._rows = list(self._state)  # each world's state row, a live view
-        # where qpos and qvel lie in a state row
-        self._qpos = self._component(mujoco.mjtState.mjSTATE_QPOS)
-        self._qvel = self._component(mujoco.mjtState.mjSTATE_QVEL)
-        self._datas = [env.world.data for env in self.envs]
-        self._ctrl = self._batch.bind("ctrl")  # the rows' controls, a view
+        self._batch = Batch(self.model, num_envs, nthread=threads, persistent=True)
+        task, action = first.task, first.action
+        fields = (*task.batch_fields, *action.batch_fields)
+        self._data = WorldBatch(self._batch, [env.world for env in self._envs], fields)
+        self._tasks = [env.task for env in self._envs]
+        self._evaluate_many = type(task).evaluate_many
+        # every part batched: the worlds' data is left alone between resets
+        self._batched_action = action.batched
+        self._batched = action.batched and task.batched and not first.sensors
+        self._stale = np.zeros(num_envs, np.bool_)
+        """Worlds whose data lags their row (brought up to date when read: `_sync`)."""
+        self._goals = np.zeros((num_envs, *task.goal_space.shape))
         space = first.action_space
         self._action_low, self._action_high = space.low, space.high
         self._elapsed = np.zeros(num_envs, np.int64)
         self._autoreset = np.zeros(num_envs, np.bool_)
+        self._everyone = np.ones(num_envs, np.bool_)
+        self._everyone.flags.writeable = False
 
-    def _component(self, component: mujoco.mjtState) -> slice:
-        """The columns of one component (mjSTATE_QPOS, ...) in the integration state."""
-        before = int(component) - 1  # the components ordered before it
-        start = mujoco.mj_stateSize(self.model, self._spec & before)
-        return slice(start, start + mujoco.mj_stateSize(self.model, int(component)))
+    @property
+    def envs(self) -> list[SceneEnv]:
+        """The sub-environments, their worlds brought up to date."""
+        self._sync(self._stale)
+        return list(self._envs)
 
     @property
     def worlds(self) -> list[World]:
-        """The sub-environments' worlds (same model)."""
+        """The sub-environments' worlds (same model), brought up to date."""
         return [env.world for env in self.envs]
+
+    def _sync(self, which: NDArray[np.bool_]) -> None:
+        """Bring the data of the stale worlds among `which` up to date with their rows: the
+        state, the drive targets and what a single env's step leaves derived."""
+        for i in np.flatnonzero(which & self._stale).tolist():
+            self._data.store(i)
+            self._envs[i].refresh()
+        self._stale &= ~which
 
     def reset(
         self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None
@@ -115,109 +139,90 @@ class SceneVectorEnv(VectorEnv[Observation, NDArray[np.float32], NDArray[Any]]):
             seeds = list(seed)
         if len(seeds) != self.num_envs:
             raise GymError(f"reset needs {self.num_envs} seeds, got {len(seeds)}")
-        observations = self.envs[0].empty_observations(self.num_envs)
         success = np.zeros(self.num_envs, np.bool_)
-        for i, (env, env_seed) in enumerate(zip(self.envs, seeds, strict=True)):
-            success[i] = env.begin_episode(env_seed)
-            env.observe_into(observations, i)
+        for i, env_seed in enumerate(seeds):
+            success[i] = self._begin(i, env_seed)
+        self._stale[:] = False
+        observations = self._envs[0].empty_observations(self.num_envs)
+        SceneEnv.observe_many(self._envs, self._data, self._goals, observations)
         self._elapsed[:] = 0
         self._autoreset[:] = False
         return observations, self._info(success)
 
+    def _begin(self, i: int, seed: int | None = None) -> bool:
+        """A new episode in world i (its data and its row); whether it is already solved."""
+        env = self._envs[i]
+        solved = env.begin_episode(seed)
+        self._data.load(i)
+        self._goals[i] = env.goal
+        return solved
+
     def step(self, actions: NDArray[Any]) -> VectorStep:
         """One step of every world (worlds whose episode ended last step are reset instead)."""
         clipped = self._clip(actions)
-        rows = list(clipped)  # one view per world, made once
-        count, model, spec, frame_skip = self.num_envs, self.model, self._spec, self.frame_skip
+        count = self.num_envs
         resetting = self._autoreset
-        worlds = list(
-            zip(self.envs, self._datas, self._rows, rows, resetting.tolist(), strict=True)
-        )
-        held: list[int] = []  # worlds whose drives' ctrl holds over the frame skip
-        varying: dict[int, NDArray[np.float64]] = {}  # the others' ctrl, one row per substep
-        for i, (env, data, state, action, resets) in enumerate(worlds):
-            if resets:
-                continue
-            ctrl = env.action.controls(env.world, action, frame_skip)
-            mujoco.mj_getState(model, data, state, spec)
-            if ctrl is None:
-                held.append(i)
-            else:
-                varying[i] = ctrl
-        self._simulate(held, varying)
-        observations = self.envs[0].empty_observations(count)
-        rewards = np.zeros(count, np.float64)
-        terminated = np.zeros(count, np.bool_)
+        resets = np.flatnonzero(resetting).tolist()
+        stepping = None if not resets else np.flatnonzero(~resetting).astype(np.int32)
+        if self._batched_action:  # every row, the resetting ones' overwritten below
+            self._envs[0].action.apply_many(self._data, clipped)
+            if stepping is None or len(stepping):
+                self._batch.step(stepping, nstep=self.frame_skip, stage=_STAGE)
+        else:
+            self._apply_each(clipped, resetting)
+        self._data.pull()
         success = np.zeros(count, np.bool_)
-        stepped: list[int] = []
-        for i, (env, data, state, _, resets) in enumerate(worlds):
-            if resets:
-                success[i] = env.begin_episode()
-                env.observe_into(observations, i)
-            else:
-                mujoco.mj_setState(model, data, state, spec)
-                env.refresh()
-                stepped.append(i)
-        if stepped:
-            self._finish(
-                stepped,
-                actions=clipped if len(stepped) == count else clipped[stepped],
-                observations=observations,
-                rewards=rewards,
-                success=success,
-                terminated=terminated,
-            )
+        for i in resets:
+            success[i] = self._begin(i)
+        self._stale |= ~resetting
+        if not self._batched:  # per-world code reads the worlds' data
+            self._sync(self._everyone)
+        reward, solved, terminated = self._evaluate_many(
+            self._tasks, self._data, self._goals, clipped
+        )
+        if not math.isfinite(float(reward.sum())):
+            raise GymError(f"task {type(self._tasks[0]).__name__} returned rewards {reward}")
+        observations = self._envs[0].empty_observations(count)
+        SceneEnv.observe_many(self._envs, self._data, self._goals, observations)
+        if resets:  # what a reset returns: reward 0, not terminated, its own success
+            reward[resetting], terminated[resetting] = 0.0, False
+            success[~resetting] = solved[~resetting]
+        else:
+            success = solved
         self._elapsed = np.where(resetting, 0, self._elapsed + 1)
         limit = self.max_episode_steps
         truncated = ~resetting & (limit is not None) & (self._elapsed >= (limit or 0))
         self._autoreset = terminated | truncated
-        return observations, rewards, terminated, truncated, self._info(success)
+        return observations, reward, terminated, truncated, self._info(success)
 
-    def _finish(
-        self,
-        stepped: list[int],
-        *,
-        actions: NDArray[np.float32],
-        observations: Observation,
-        rewards: NDArray[np.float64],
-        success: NDArray[np.bool_],
-        terminated: NDArray[np.bool_],
-    ) -> None:
-        """Reward, success, termination and observation of the worlds in `stepped` (their
-        data up to date), over all of them at once where the task allows
-        (`Task.evaluate_many`, `SceneEnv.observe_many`)."""
-        everyone = len(stepped) == self.num_envs  # the usual case: basic indexing, no copies
-        rows: list[int] | slice = slice(None) if everyone else stepped
-        envs = self.envs if everyone else [self.envs[i] for i in stepped]
-        goals = np.array([env.goal for env in envs])
-        tasks = [env.task for env in envs]
-        worlds = [env.world for env in envs]
-        reward, solved, ended = type(tasks[0]).evaluate_many(tasks, worlds, goals, actions)
-        if not math.isfinite(float(reward.sum())):
-            raise GymError(f"task {type(tasks[0]).__name__} returned rewards {reward}")
-        rewards[rows], success[rows], terminated[rows] = reward, solved, ended
-        state = self._state[rows]
-        SceneEnv.observe_many(
-            envs,
-            observations,
-            rows,
-            qpos=state[:, self._qpos],
-            qvel=state[:, self._qvel],
-            goals=goals,
-        )
-
-    def _simulate(self, held: list[int], varying: dict[int, NDArray[np.float64]]) -> None:
-        """`frame_skip` physics steps of the rows of `held` (their ctrl as it is) and of
-        `varying` (a ctrl row per substep), each kind in one batch call per call."""
+    def _apply_each(self, clipped: NDArray[np.float32], resetting: NDArray[np.bool_]) -> None:
+        """Each stepping world's action applied to its own world (brought up to date
+        first), its row saved, then the physics: worlds whose drives' ctrl holds over the
+        frame skip in one batch call, the others (a ctrl row per substep) a call per
+        substep."""
+        self._sync(~resetting)
+        held: list[int] = []
+        varying: dict[int, NDArray[np.float64]] = {}
+        for i, (env, action, resets) in enumerate(
+            zip(self._envs, clipped, resetting.tolist(), strict=True)
+        ):
+            if resets:
+                continue
+            ctrl = env.action.controls(env.world, action, self.frame_skip)
+            self._data.save(i)
+            if ctrl is None:
+                held.append(i)
+            else:
+                varying[i] = ctrl
         if held:
             ids = None if len(held) == self.num_envs else np.array(held, np.int32)
-            self._batch.step(ids, nstep=self.frame_skip)
+            self._batch.step(ids, nstep=self.frame_skip, stage=_STAGE)
         if varying:
             ids = np.array(list(varying), np.int32)
             rows = np.stack(list(varying.values()))  # (worlds, substeps, nu)
             for substep in range(rows.shape[1]):
-                self._ctrl[ids] = rows[:, substep]
-                self._batch.step(ids)
+                self._data.ctrl[ids] = rows[:, substep]
+                self._batch.step(ids, stage=_STAGE)
 
     def _clip(self, actions: NDArray[Any]) -> NDArray[np.float32]:
         """Every world's action at once, as `SceneEnv.clip_action` clips one."""
@@ -244,5 +249,5 @@ class SceneVectorEnv(VectorEnv[Observation, NDArray[np.float32], NDArray[Any]]):
 
     def close_extras(self, **kwargs: Any) -> None:
         """Free the worlds' renderers."""
-        for env in self.envs:
+        for env in self._envs:
             env.close()

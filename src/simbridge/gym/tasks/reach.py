@@ -17,6 +17,7 @@ from numpy.typing import NDArray
 
 from simbridge.errors import GymError
 from simbridge.gym.actions import ActionAdapter, EndEffectorDelta, JointDelta
+from simbridge.gym.batch import WorldBatch
 from simbridge.gym.env import SceneEnv, look_at
 from simbridge.gym.sensors import CameraImage, SensorObservation
 from simbridge.gym.task import Task
@@ -71,6 +72,8 @@ class ReachTask(Task):
     """
 
     goal_space = spaces.Box(-1.0, 1.0, (3,), np.float32)
+    batched = True
+    batch_fields = ("xpos",)
 
     def __init__(
         self,
@@ -142,30 +145,28 @@ class ReachTask(Task):
     def observe_many(
         cls,
         tasks: Sequence[Task],
-        worlds: Sequence[World],
+        batch: WorldBatch,
         goals: NDArray[np.float64],
         out: Mapping[str, NDArray[np.float32]],
-        rows: list[int] | slice,
     ) -> None:
         """`observe_into` of every world at once (the same casts and subtraction)."""
-        ee = _end_effectors(tasks, worlds)
-        out["ee_pos"][rows] = ee
-        out["goal_delta"][rows] = np.subtract(goals, ee)
+        ee = batch["xpos"][:, _first(tasks)._body]
+        out["ee_pos"][...] = ee
+        out["goal_delta"][...] = np.subtract(goals, ee)
 
     @classmethod
     def evaluate_many(
         cls,
         tasks: Sequence[Task],
-        worlds: Sequence[World],
+        batch: WorldBatch,
         goals: NDArray[np.float64],
         actions: NDArray[np.float32],
     ) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.bool_]]:
         """`evaluate` of every world at once: the distance summed in `distance`'s order."""
-        delta = _end_effectors(tasks, worlds) - goals
+        first = _first(tasks)
+        delta = batch["xpos"][:, first._body] - goals
         x, y, z = delta[:, 0], delta[:, 1], delta[:, 2]
         distance = np.sqrt(x * x + y * y + z * z)
-        first = tasks[0]
-        assert isinstance(first, ReachTask)
         reached = distance < first.tolerance
         return -distance, reached, reached.copy()
 
@@ -191,13 +192,11 @@ class ReachTask(Task):
         return self.distance(world, goal) < self.tolerance
 
 
-def _end_effectors(tasks: Sequence[Task], worlds: Sequence[World]) -> NDArray[np.float64]:
-    """(n, 3): each world's end-effector position, through the views the tasks kept."""
-    rows = []
-    for task, world in zip(tasks, worlds, strict=True):
-        assert isinstance(task, ReachTask)
-        rows.append(task._ee if task._ee_data is world.data else world.data.xpos[task._body])
-    return np.array(rows)
+def _first(tasks: Sequence[Task]) -> ReachTask:
+    """The first of a vector env's tasks, which stands for all (one factory, one model)."""
+    first = tasks[0]
+    assert isinstance(first, ReachTask)
+    return first
 
 
 def make_reach(

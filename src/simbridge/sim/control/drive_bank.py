@@ -153,14 +153,23 @@ class DriveBank:
     def set_positions(self, actuators: Actuators, positions: NDArray[np.float64]) -> None:
         """`set_position` (target velocity 0) of many joints at once: `actuators` from
         `actuators(joints)`, `positions` in the same order."""
-        clamped = np.maximum(positions, self._low[actuators])
-        np.minimum(clamped, self._high[actuators], out=clamped)
+        clamped, ctrl = self.position_controls(actuators, positions)
         self._position[actuators] = clamped
         self._velocity[actuators] = 0.0
+        self._ctrl[actuators] = ctrl
+
+    def position_controls(
+        self, actuators: Actuators, positions: NDArray[np.float64]
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The clamped targets and the `ctrl` that `set_positions(actuators, positions)`
+        writes, changing nothing. `positions` may have leading axes: a learning env's many
+        worlds on this model (same gains and limits; this bank's effort targets) at once."""
+        clamped = np.maximum(positions, self._low[actuators])
+        np.minimum(clamped, self._high[actuators], out=clamped)
         ctrl = self._kp[actuators] * clamped
         if self._any_effort:  # EFFORT drives take their effort whatever the position
             ctrl = np.where(self._is_effort[actuators], self._effort[actuators], ctrl)
-        self._ctrl[actuators] = ctrl
+        return clamped, ctrl
 
     def set_targets(
         self, actuators: Actuators, positions: NDArray[np.float64], velocities: NDArray[np.float64]
