@@ -19,6 +19,7 @@ from simbridge.endpoint.backends.base import (
     BackendSubscription,
 )
 from simbridge.endpoint.deferred import deferred_writes
+from simbridge.endpoint.pushback import ReadPushback
 from simbridge.endpoint.session_actions import SessionActions
 from simbridge.endpoint.stats import SessionStats
 from simbridge.endpoint.writev import WRITE_ALONE, write_chunks
@@ -137,6 +138,9 @@ class ClientSession(asyncio.BufferedProtocol):
         """Writes leave at the end of the read that caused them (or of the loop iteration)."""
         self._paused = False
         self._paused_at = 0.0
+        self._pushback = ReadPushback(server.loop)
+        """Stops reading this client while ROS is behind on a topic it publishes that may
+        not drop (queue_size 0)."""
         self._control: deque[bytes] = deque()
         self._backlogged: dict[str, _Outbox] = {}
         self._closing = False
@@ -162,6 +166,7 @@ class ClientSession(asyncio.BufferedProtocol):
     def connection_made(self, transport: asyncio.BaseTransport) -> None:
         assert isinstance(transport, asyncio.Transport)
         self.transport = transport
+        self._pushback.transport = transport
         sock = transport.get_extra_info("socket")
         if sock is not None:
             sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
@@ -194,6 +199,7 @@ class ClientSession(asyncio.BufferedProtocol):
         self.server._sessions.discard(self)
         log.info("client %s disconnected%s", self.peer, f" ({exc})" if exc else "")
         self._release_all()
+        self._pushback.close()
         self.proto.decoder.discard()
         self._control.clear()
         self._backlogged.clear()
@@ -509,6 +515,11 @@ class ClientSession(asyncio.BufferedProtocol):
             )
             self.publishers[command.topic] = (msg_type, publisher)
             self._unregistered_seen.pop(command.topic, None)
+            pushback = self._pushback
+            publisher.watch_backlog(
+                functools.partial(pushback.behind, publisher),
+                functools.partial(pushback.caught_up, publisher),
+            )
             if command.report_subscribers:
                 topic = command.topic
                 send = self._send_control
@@ -648,6 +659,7 @@ class ClientSession(asyncio.BufferedProtocol):
         entry = self.publishers.pop(topic, None)
         if entry is not None:
             entry[1].close()
+            self._pushback.caught_up(entry[1])
 
     def _drop_subscription(self, topic: str) -> None:
         entry = self.subscriptions.pop(topic, None)

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import asyncio
 import json
+import select
 import socket
 import struct
 import threading
@@ -20,6 +21,7 @@ from tests.endpoint.tcpros_publisher import Plan, RawPublisher
 from tests.ros1support import RosMaster, require_ros, ros_string, until, with_backend
 
 from simbridge.endpoint import EndpointOptions, EndpointThread
+from simbridge.endpoint.pushback import PUSHBACK_LIMIT
 from simbridge.protocol import (
     CommandReceived,
     MessageReceived,
@@ -199,8 +201,7 @@ def test_large_messages_reach_a_lagging_subscriber_whole_and_in_order(master: Ro
             data = sock.recv(65536)
             assert data, "the server closed without a header"
             decoder.feed(data)
-        for message in messages:
-            client.send(encode_frame(topic, message))
+        sender = _send_in_background(client, [encode_frame(topic, m) for m in messages])
         got: list[bytes] = []
         deadline = time.monotonic() + 60
         while len(got) < count:
@@ -209,6 +210,7 @@ def test_large_messages_reach_a_lagging_subscriber_whole_and_in_order(master: Ro
             assert data, "the endpoint closed the connection"
             got += decoder.feed(data)
             time.sleep(0.002)  # a slow reader: the endpoint's writes are taken in part
+        sender.join(10)
         late = socket.create_connection((host, port))
         late.sendall(subscriber_header(topic))
         late_decoder = TcprosDecoder(4 << 20)
@@ -227,6 +229,77 @@ def test_large_messages_reach_a_lagging_subscriber_whole_and_in_order(master: Ro
     assert got == messages
     assert latched == messages[-1:]
     assert stats.stats["server"]["backend_counters"]["ros1_dropped_to_ros"] == 0
+
+
+def test_a_stalled_subscriber_pushes_back_on_the_client_then_lets_go(master: RosMaster) -> None:
+    """queue_size 0 may not drop: while its ROS subscriber takes nothing, the endpoint
+    stops reading the publishing client (a request sent after 40 MB of messages is not
+    answered) for at most PUSHBACK_LIMIT seconds; once the subscriber reads, every
+    message arrives in order and none was dropped."""
+    count = 40
+    topic = "/sb/native/stalled"
+    messages = [ros_string(f"{i:08d}" + "s" * (1 << 20)) for i in range(count)]
+    options = EndpointOptions(port=0, idle_timeout=0)
+    with EndpointThread(options, Ros1Backend()) as ep:
+        client = RawClient(ep.port)
+        client.send(Publish(topic, "std_msgs/String", queue_size=0).encode())
+        _topic_list(client)
+        host, port = tcpros_address(topic)
+        sock = socket.socket()
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 64 * 1024)
+        sock.connect((host, port))
+        sock.sendall(subscriber_header(topic))
+        decoder = TcprosDecoder(4 << 20)
+        while decoder.header is None:  # then it reads nothing for a while
+            data = sock.recv(65536)
+            assert data, "the server closed without a header"
+            decoder.feed(data)
+        frames = [encode_frame(topic, m) for m in messages]
+        started = time.monotonic()
+        sender = _send_in_background(client, [*frames, TopicListRequest().encode()])
+        while not any(
+            isinstance(e, CommandReceived) and isinstance(e.command, TopicListReply)
+            for e in client.events
+        ):
+            assert time.monotonic() - started < 60, "the topic list was never answered"
+            if select.select([client.sock], [], [], 0.1)[0]:
+                client.events += client.proto.receive_data(client.sock.recv(1 << 20))
+        held_for = time.monotonic() - started
+        got: list[bytes] = []
+        deadline = time.monotonic() + 60
+        while len(got) < count:
+            assert time.monotonic() < deadline, f"got {len(got)} of {count}"
+            data = sock.recv(1 << 20)
+            assert data, "the endpoint closed the connection"
+            got += decoder.feed(data)
+        sender.join(10)
+        client.send(StatsRequest().encode())
+        stats = client.expect(
+            lambda e: isinstance(e, CommandReceived) and isinstance(e.command, StatsReply)
+        ).command
+        sock.close()
+        client.close()
+    assert held_for >= PUSHBACK_LIMIT * 0.9  # not read meanwhile: the subscriber took nothing
+    assert got == messages
+    counters = stats.stats["server"]["backend_counters"]
+    assert counters["ros1_pushbacks"] >= 1
+    assert counters["ros1_dropped_to_ros"] == 0
+
+
+def _send_in_background(client: RawClient, frames: list[bytes]) -> threading.Thread:
+    """Send `frames` on a thread (the endpoint may push back on the client meanwhile); the
+    socket blocks without a timeout until then (read it only when select says so)."""
+    client.sock.settimeout(None)
+    thread = threading.Thread(target=lambda: client.sock.sendall(b"".join(frames)), daemon=True)
+    thread.start()
+    return thread
+
+
+def _topic_list(client: RawClient) -> None:
+    client.send(TopicListRequest().encode())
+    client.expect(
+        lambda e: isinstance(e, CommandReceived) and isinstance(e.command, TopicListReply)
+    )
 
 
 def test_blocked_consumer_pushes_back_on_a_rospy_publisher_without_loss(

@@ -63,6 +63,13 @@ class BackendPublisher(abc.ABC):
         """
         return False
 
+    def watch_backlog(self, behind: Callable[[], None], caught_up: Callable[[], None]) -> bool:
+        """Call `behind()` when a subscriber falls behind on a topic that must not drop
+        (queue_size 0), so the caller stops reading from its client, and `caught_up()`
+        when none is behind any more. Returns False when the backend never pushes back
+        (it holds or drops by queue_size instead; the default)."""
+        return False
+
 
 class BackendSubscription(abc.ABC):
     """A live subscription; close it to stop the callbacks."""

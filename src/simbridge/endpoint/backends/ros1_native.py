@@ -87,12 +87,14 @@ class NativeData:
         return rows
 
     def stats(self) -> dict[str, int]:
-        """Counters for `__stats`: drops towards slow ROS subscribers, refused and failed
-        connections, and dropped connections to publishers made again."""
+        """Counters for `__stats`: drops towards slow ROS subscribers, times a subscriber
+        fell behind on a topic that may not drop (its publishers' clients pushed back on),
+        refused and failed connections, and dropped connections to publishers made again."""
         server = self._server
         topics = list(self._subscribed.values())
         return {
             "ros1_dropped_to_ros": server.dropped if server else 0,
+            "ros1_pushbacks": server.pushbacks if server else 0,
             "ros1_refused_connections": server.refused if server else 0,
             "ros1_failed_connections": self._failed_before + sum(t.errors for t in topics),
             "ros1_reconnects": self._reconnects_before + sum(t.reconnects for t in topics),
@@ -181,6 +183,7 @@ class NativePublisher(Ros1Publisher):
         self._topic = topic
         self._registration = registration
         self._watchers: list[Callable[[int], None]] = []
+        self._backlog: list[tuple[Callable[[], None], Callable[[], None]]] = []
         self.topic = topic.name
         self.msg_type = topic.info.name
         super().__init__(live)
@@ -200,10 +203,23 @@ class NativePublisher(Ros1Publisher):
         callback(self.subscriber_count())
         return True
 
+    def watch_backlog(self, behind: Callable[[], None], caught_up: Callable[[], None]) -> bool:
+        """Call `behind()` while a subscriber is behind on this topic and it may not drop
+        (queue_size 0), `caught_up()` when none is any more."""
+        self._backlog.append((behind, caught_up))
+        self._topic.backlog_watchers.append((behind, caught_up))
+        if self._topic.behind:
+            behind()
+        return True
+
     def _unregister(self) -> None:
         for callback in self._watchers:
             if callback in self._topic.watchers:
                 self._topic.watchers.remove(callback)
+        for pair in self._backlog:
+            if pair in self._topic.backlog_watchers:
+                self._topic.backlog_watchers.remove(pair)
+            pair[1]()  # a closed publisher holds nobody back
         self._registration.unregister()
         self._data._release(self._topic)
         _log.info("stopped publishing %s", self.topic)

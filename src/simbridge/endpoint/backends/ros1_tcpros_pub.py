@@ -9,7 +9,8 @@ where a transport would copy the rest of each camera image into its buffer and c
 again as that buffer drains. A connection with more than `WRITE_HIGH_WATER` bytes
 waiting holds further messages in a queue bounded by the registration's `queue_size`
 (and a byte cap); past that the oldest are dropped and counted, as rospy's publisher
-queue does.
+queue does. A topic with queue_size 0 may not drop: while one of its connections is
+behind, its publishers' clients are not read (`endpoint.pushback`).
 """
 
 from __future__ import annotations
@@ -74,6 +75,11 @@ class PublishedTopic:
         """The length prefix and payload of the last message, when latching."""
         self.dropped = 0
         self.watchers: list[Callable[[int], None]] = []
+        self.behind: set[_SubscriberConnection] = set()
+        """Connections holding messages for a subscriber that is not keeping up, while the
+        topic may not drop (queue_size 0): the publishing clients are not read meanwhile."""
+        self.backlog_watchers: list[tuple[Callable[[], None], Callable[[], None]]] = []
+        """(behind, caught_up) callbacks of the publishers (`watch_backlog`)."""
 
     def publish(self, payload: bytes | bytearray) -> None:
         """Send one serialized message to every connected subscriber (a bytearray is
@@ -109,16 +115,39 @@ class PublishedTopic:
         self._changed()
 
     def remove(self, connection: _SubscriberConnection) -> None:
+        self.caught_up(connection)
         if connection in self.connections:
             self.connections.remove(connection)
             self._changed()
+
+    def fell_behind(self, connection: _SubscriberConnection) -> None:
+        """`connection` holds messages its subscriber has not taken: with queue_size 0
+        (nothing may be dropped) the publishers' clients are pushed back on."""
+        if self.queue_size != 0 or connection in self.behind:
+            return
+        self.behind.add(connection)
+        if len(self.behind) == 1:
+            self.server.pushbacks += 1
+            for behind, _ in list(self.backlog_watchers):
+                behind()
+
+    def caught_up(self, connection: _SubscriberConnection) -> None:
+        """`connection`'s subscriber took everything (or left)."""
+        if connection not in self.behind:
+            return
+        self.behind.discard(connection)
+        if not self.behind:
+            for _, caught_up in list(self.backlog_watchers):
+                caught_up()
 
     def close(self) -> None:
         """Close every connection (the topic is no longer published)."""
         for connection in list(self.connections):
             connection.close()
+            self.caught_up(connection)
         self.connections.clear()
         self.watchers.clear()
+        self.backlog_watchers.clear()
 
 
 class TopicServer:
@@ -132,6 +161,8 @@ class TopicServer:
         """Connections refused (bad header, unknown topic, wrong md5sum)."""
         self.dropped = 0
         """Messages dropped for ROS subscribers that did not keep up (past queue_size)."""
+        self.pushbacks = 0
+        """Times a topic that may not drop had a subscriber fall behind (see `fell_behind`)."""
         self._listener: socket.socket | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
         self._writes: DeferredWrites | None = None
@@ -367,6 +398,8 @@ class _SubscriberConnection:
         writer.write(pending)
         if writer.queued > WRITE_HIGH_WATER:
             self._paused = True
+            if self._topic is not None:
+                self._topic.fell_behind(self)
 
     def _drained(self) -> None:
         """The kernel took everything written: send what was held meanwhile."""
@@ -385,6 +418,8 @@ class _SubscriberConnection:
                 self.flush()
         if not self._paused:
             self.flush()
+        if not self._paused and self._topic is not None:
+            self._topic.caught_up(self)
 
     def _write_failed(self, exc: OSError) -> None:
         _log.debug("a subscriber connection to %s failed: %s", self.peer, exc)

@@ -1,0 +1,92 @@
+"""TCP back-pressure towards a client whose messages the ROS graph is not taking.
+
+A topic registered with queue_size 0 must not lose messages. When a ROS subscriber of
+such a topic falls behind, the backend says so (`BackendPublisher.watch_backlog`) and the
+client's session stops reading its socket until the subscriber has caught up: the
+client's own bounded queues wait instead of the endpoint piling up its camera images
+(hundreds of MB of freshly allocated memory, read as fast as the client can send them,
+on the CPU the subscriber needs). A subscriber that stays behind longer than the limit
+no longer holds the client: reading resumes and the topic falls back to holding and
+dropping, as before.
+"""
+
+from __future__ import annotations
+
+import asyncio
+
+__all__ = ["PUSHBACK_LIMIT", "ReadPushback"]
+
+PUSHBACK_LIMIT = 2.0
+"""Seconds one episode may keep a client's socket unread (well below the idle timeout
+and the slow-sender limit, which would otherwise close it)."""
+
+
+class ReadPushback:
+    """Pauses reading one client's transport while any of its publishers is behind."""
+
+    __slots__ = (
+        "_behind",
+        "_expired",
+        "_limit",
+        "_loop",
+        "_paused",
+        "_timer",
+        "pauses",
+        "transport",
+    )
+
+    def __init__(self, loop: asyncio.AbstractEventLoop, limit: float = PUSHBACK_LIMIT) -> None:
+        self._loop = loop
+        self._limit = limit
+        self._behind: set[object] = set()
+        self._timer: asyncio.TimerHandle | None = None
+        self._expired = False
+        self._paused = False
+        self.pauses = 0
+        """How many times reading was paused."""
+        self.transport: asyncio.Transport | None = None
+
+    def behind(self, key: object) -> None:
+        """The publisher `key` fell behind: stop reading (unless this episode expired)."""
+        if key in self._behind:
+            return
+        self._behind.add(key)
+        if len(self._behind) > 1 or self._expired:
+            return
+        transport = self.transport
+        if transport is None or transport.is_closing():
+            return
+        transport.pause_reading()
+        self._paused = True
+        self.pauses += 1
+        self._timer = self._loop.call_later(self._limit, self._expire)
+
+    def caught_up(self, key: object) -> None:
+        """The publisher `key` caught up (or is gone): read again once none is behind."""
+        if key not in self._behind:
+            return
+        self._behind.discard(key)
+        if not self._behind:
+            self._expired = False
+            self._resume()
+
+    def close(self) -> None:
+        """Forget every publisher (the session ends)."""
+        self._behind.clear()
+        self._resume()
+        self.transport = None
+
+    def _expire(self) -> None:
+        self._timer = None
+        self._expired = True
+        self._resume()
+
+    def _resume(self) -> None:
+        if self._timer is not None:
+            self._timer.cancel()
+            self._timer = None
+        if self._paused:
+            self._paused = False
+            transport = self.transport
+            if transport is not None and not transport.is_closing():
+                transport.resume_reading()
