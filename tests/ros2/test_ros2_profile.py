@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import textwrap
 
 import pytest
@@ -48,6 +49,11 @@ def test_profile_parses_and_deep_publishers_reserve_their_samples() -> None:
     finally:
         proc.stop()
     assert "XMLPARSER" not in output, output
-    assert "Error" not in output, output
+    # Fast DDS numbers every participant's shared-memory port from 7000 up, machine-wide
+    # (whatever the domain): while another participant holds one, it logs an Error for it
+    # and takes the next. That says something about the machine, not about the profile.
+    port_taken = re.compile(r"Failed init_port fastrtps_port\d+: open_and_lock_file failed")
+    errors = [line for line in output.splitlines() if "Error" in line]
+    assert [line for line in errors if not port_taken.search(line)] == [], output
     per_sample = (result["deep"] - result["shallow"]) / WRITER_ALLOCATED_SAMPLES
     assert per_sample > 64, f"{result}: the deep publisher reserved nothing per sample"
