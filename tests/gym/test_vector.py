@@ -124,9 +124,11 @@ def test_physics_threads_do_not_change_the_results() -> None:
             np.testing.assert_array_equal(one[key], two[key], err_msg=f"step {t} {key}")
 
 
-def test_vector_rejects_a_negative_thread_count() -> None:
+def test_vector_rejects_bad_thread_counts_and_episode_lengths() -> None:
     with pytest.raises(GymError, match="threads"):
         gym.make_vec("simbridge/Reach-v0", num_envs=2, threads=-1)
+    with pytest.raises(GymError, match="max_episode_steps"):
+        gym.make_vec("simbridge/Reach-v0", num_envs=2, max_episode_steps=0)
 
 
 def test_worlds_ending_apart_match_single_envs_across_autoresets() -> None:

@@ -2,10 +2,10 @@
 
 The physics of `SceneVectorEnv` lives in the rows of a `mujoco.batch.Batch`. Batched task
 and action code (`Task.evaluate_many`, `ActionAdapter.apply_many`) reads and writes those
-rows and the derived fields the batch computes, all worlds at once, instead of each
-world's own `MjData`. When every part of a step is batched, the vector env leaves the
-worlds' data behind between resets and brings a world up to date (`store`) only when
-something reads it (rendering, `SceneVectorEnv.worlds`).
+rows and the derived fields the batch computes (its own output arrays: no copies), all
+worlds at once, instead of each world's own `MjData`. When every part of a step is
+batched, the vector env leaves the worlds' data behind between resets and brings a world
+up to date (`store`) only when something reads it (rendering, `SceneVectorEnv.worlds`).
 """
 
 from __future__ import annotations
@@ -20,14 +20,20 @@ from numpy.typing import NDArray
 from simbridge.sim.control.drive_bank import Actuators
 from simbridge.sim.world import World
 
-__all__ = ["WorldBatch"]
+__all__ = ["STAGE", "WorldBatch"]
 
 FloatArray = NDArray[np.float64]
+
+STAGE = int(mujoco.mjtStage.mjSTAGE_VEL)
+"""What the batch computes after its steps: poses, Jacobians and body velocities (as a
+single env's `SceneEnv.refresh`), and the rest that the next step's first substep starts
+from in a persistent batch, so that it costs nothing extra."""
 
 
 class WorldBatch:
     """Row i of every array is world i: state fields live (views of the batch's rows),
-    derived fields copied after each physics call, drive position targets kept here.
+    derived fields as the batch's last call on each row left them, drive position
+    targets kept here.
 
     - `qpos`, `qvel`, `ctrl`: views of the state rows; a write to `ctrl` is the world's
       control for its next physics steps.
@@ -51,8 +57,11 @@ class WorldBatch:
         self.ctrl = batch.bind("ctrl")
         self.positions = np.zeros((self.size, self.model.nu))
         self._rows = list(self.state)  # each world's state row, a view
-        self._outputs = {name: batch.bind(name) for name in sorted(set(fields))}
-        self._fields = {name: np.zeros(out.shape, out.dtype) for name, out in self._outputs.items()}
+        self._batch = batch
+        # bound now: the batch fills an output from its next call on
+        self._fields: dict[str, FloatArray] = {
+            name: batch.bind(name) for name in sorted(set(fields))
+        }
         self._drives = first.drives  # the drive law: one model, the same gains and limits
         self._aimed = np.zeros(self.model.nu, np.bool_)
         """Actuators `set_positions` aimed, whose targets `store` hands to the worlds' drives."""
@@ -75,20 +84,19 @@ class WorldBatch:
         self.ctrl[:, actuators] = ctrl
         self._aimed[actuators] = True
 
-    def pull(self) -> None:
-        """Copy the derived fields out of the batch after a physics call."""
-        for name, out in self._outputs.items():
-            np.copyto(self._fields[name], out)
-
     def load(self, row: int) -> None:
-        """Row `row` from its world's data (after a reset there): state, derived fields and
-        drive targets."""
+        """Row `row` from its world's data (after a reset there): state and drive targets
+        (`derive` then brings its derived fields up to date)."""
         world = self.worlds[row]
-        data = world.data
-        mujoco.mj_getState(self.model, data, self._rows[row], self.spec)
-        for name, values in self._fields.items():
-            values[row] = getattr(data, name)
+        mujoco.mj_getState(self.model, world.data, self._rows[row], self.spec)
         self.positions[row] = world.drives.positions(self._all)
+
+    def derive(self, rows: list[int]) -> None:
+        """The derived fields of `rows` (sorted) from their state, after `load`: poses,
+        Jacobians and velocities (`mjSTAGE_VEL`, which their next step starts from)."""
+        if self._fields and rows:
+            ids = None if len(rows) == self.size else np.array(rows, np.int32)
+            self._batch.forward(ids, stage=STAGE)
 
     def store(self, row: int) -> None:
         """World `row`'s data from its row: the state, and the targets of the drives that

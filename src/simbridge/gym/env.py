@@ -250,19 +250,20 @@ class SceneEnv(Env[Observation, NDArray[np.float32]]):
     @staticmethod
     def observe_many(
         envs: Sequence[SceneEnv],
+        tasks: Sequence[Task],
         batch: WorldBatch,
         goals: NDArray[np.float64],
         out: Observation,
     ) -> None:
-        """`observe_into` of every world of a vector env (envs made by one factory, world i
-        in row i of `batch` and of `out`), with NumPy over all rows where `observe_into`
-        works on one; every row gets the bits `observe_into` gives it (the same casts and
-        elementwise operations). Sensors read each world (their data must be current)."""
+        """`observe_into` of every world of a vector env (envs made by one factory, with
+        their `tasks`, world i in row i of `batch` and of `out`), with NumPy over all rows
+        where `observe_into` works on one; every row gets the bits `observe_into` gives it
+        (the same casts and elementwise operations). Sensors read each world (their data
+        must be current)."""
         first = envs[0]
         if first.joints:
             out["joint_pos"][...] = batch.qpos[:, first._qpos]
             out["joint_vel"][...] = batch.qvel[:, first._dofs]
-        tasks = [env.task for env in envs]
         type(first.task).observe_many(tasks, batch, goals, out)
         out["goal"][...] = goals
         if first.sensors:

@@ -26,7 +26,6 @@ import os
 from collections.abc import Callable
 from typing import Any
 
-import mujoco
 import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
@@ -34,7 +33,7 @@ from mujoco.batch import Batch
 from numpy.typing import NDArray
 
 from simbridge.errors import GymError
-from simbridge.gym.batch import WorldBatch
+from simbridge.gym.batch import STAGE, WorldBatch
 from simbridge.gym.env import Observation, SceneEnv
 from simbridge.sim.world import World
 
@@ -46,10 +45,6 @@ EnvFactory = Callable[..., SceneEnv]
 VectorStep = tuple[
     Observation, NDArray[np.float64], NDArray[np.bool_], NDArray[np.bool_], dict[str, Any]
 ]
-
-_STAGE = int(mujoco.mjtStage.mjSTAGE_VEL)
-"""What the batch computes after its steps: poses, Jacobians, body velocities (as a single
-env's `SceneEnv.refresh`), and the rest the next step's first substep starts from."""
 
 
 class SceneVectorEnv(VectorEnv[Observation, NDArray[np.float32], NDArray[Any]]):
@@ -73,6 +68,8 @@ class SceneVectorEnv(VectorEnv[Observation, NDArray[np.float32], NDArray[Any]]):
             raise GymError(f"num_envs must be >= 1, got {num_envs}")
         if threads < 0:
             raise GymError(f"threads must be >= 0 (0: one per CPU), got {threads}")
+        if max_episode_steps is not None and max_episode_steps < 1:
+            raise GymError(f"max_episode_steps must be >= 1 or None, got {max_episode_steps}")
         first = make_env(**env_kwargs)
         self._envs = [first] + [
             make_env(world=first.world.clone(), **env_kwargs) for _ in range(num_envs - 1)
@@ -142,9 +139,10 @@ class SceneVectorEnv(VectorEnv[Observation, NDArray[np.float32], NDArray[Any]]):
         success = np.zeros(self.num_envs, np.bool_)
         for i, env_seed in enumerate(seeds):
             success[i] = self._begin(i, env_seed)
+        self._data.derive(list(range(self.num_envs)))
         self._stale[:] = False
         observations = self._envs[0].empty_observations(self.num_envs)
-        SceneEnv.observe_many(self._envs, self._data, self._goals, observations)
+        SceneEnv.observe_many(self._envs, self._tasks, self._data, self._goals, observations)
         self._elapsed[:] = 0
         self._autoreset[:] = False
         return observations, self._info(success)
@@ -160,21 +158,23 @@ class SceneVectorEnv(VectorEnv[Observation, NDArray[np.float32], NDArray[Any]]):
     def step(self, actions: NDArray[Any]) -> VectorStep:
         """One step of every world (worlds whose episode ended last step are reset instead)."""
         clipped = self._clip(actions)
-        count = self.num_envs
         resetting = self._autoreset
-        resets = np.flatnonzero(resetting).tolist()
-        stepping = None if not resets else np.flatnonzero(~resetting).astype(np.int32)
+        resets = np.flatnonzero(resetting).tolist() if resetting.any() else []
         if self._batched_action:  # every row, the resetting ones' overwritten below
             self._envs[0].action.apply_many(self._data, clipped)
-            if stepping is None or len(stepping):
-                self._batch.step(stepping, nstep=self.frame_skip, stage=_STAGE)
+            if not resets:
+                self._batch.step(None, nstep=self.frame_skip, stage=STAGE)
+            elif len(resets) < self.num_envs:
+                stepping = np.flatnonzero(~resetting).astype(np.int32)
+                self._batch.step(stepping, nstep=self.frame_skip, stage=STAGE)
         else:
             self._apply_each(clipped, resetting)
-        self._data.pull()
-        success = np.zeros(count, np.bool_)
-        for i in resets:
-            success[i] = self._begin(i)
-        self._stale |= ~resetting
+        if resets:
+            success = np.zeros(self.num_envs, np.bool_)
+            for i in resets:
+                success[i] = self._begin(i)
+            self._data.derive(resets)
+        np.logical_not(resetting, out=self._stale)  # stepped: behind; reset: current
         if not self._batched:  # per-world code reads the worlds' data
             self._sync(self._everyone)
         reward, solved, terminated = self._evaluate_many(
@@ -182,16 +182,18 @@ class SceneVectorEnv(VectorEnv[Observation, NDArray[np.float32], NDArray[Any]]):
         )
         if not math.isfinite(float(reward.sum())):
             raise GymError(f"task {type(self._tasks[0]).__name__} returned rewards {reward}")
-        observations = self._envs[0].empty_observations(count)
-        SceneEnv.observe_many(self._envs, self._data, self._goals, observations)
+        observations = self._envs[0].empty_observations(self.num_envs)
+        SceneEnv.observe_many(self._envs, self._tasks, self._data, self._goals, observations)
+        elapsed = self._elapsed
+        elapsed += 1
         if resets:  # what a reset returns: reward 0, not terminated, its own success
             reward[resetting], terminated[resetting] = 0.0, False
             success[~resetting] = solved[~resetting]
+            elapsed[resetting] = 0
         else:
             success = solved
-        self._elapsed = np.where(resetting, 0, self._elapsed + 1)
         limit = self.max_episode_steps
-        truncated = ~resetting & (limit is not None) & (self._elapsed >= (limit or 0))
+        truncated = elapsed >= limit if limit is not None else np.zeros(self.num_envs, np.bool_)
         self._autoreset = terminated | truncated
         return observations, reward, terminated, truncated, self._info(success)
 
@@ -216,13 +218,13 @@ class SceneVectorEnv(VectorEnv[Observation, NDArray[np.float32], NDArray[Any]]):
                 varying[i] = ctrl
         if held:
             ids = None if len(held) == self.num_envs else np.array(held, np.int32)
-            self._batch.step(ids, nstep=self.frame_skip, stage=_STAGE)
+            self._batch.step(ids, nstep=self.frame_skip, stage=STAGE)
         if varying:
             ids = np.array(list(varying), np.int32)
             rows = np.stack(list(varying.values()))  # (worlds, substeps, nu)
             for substep in range(rows.shape[1]):
                 self._data.ctrl[ids] = rows[:, substep]
-                self._batch.step(ids, stage=_STAGE)
+                self._batch.step(ids, stage=STAGE)
 
     def _clip(self, actions: NDArray[Any]) -> NDArray[np.float32]:
         """Every world's action at once, as `SceneEnv.clip_action` clips one."""

@@ -152,7 +152,7 @@ class ReachTask(Task):
         """`observe_into` of every world at once (the same casts and subtraction)."""
         ee = batch["xpos"][:, _first(tasks)._body]
         out["ee_pos"][...] = ee
-        out["goal_delta"][...] = np.subtract(goals, ee)
+        np.subtract(goals, ee, out=out["goal_delta"], casting="same_kind")
 
     @classmethod
     def evaluate_many(
@@ -165,8 +165,8 @@ class ReachTask(Task):
         """`evaluate` of every world at once: the distance summed in `distance`'s order."""
         first = _first(tasks)
         delta = batch["xpos"][:, first._body] - goals
-        x, y, z = delta[:, 0], delta[:, 1], delta[:, 2]
-        distance = np.sqrt(x * x + y * y + z * z)
+        squares = delta * delta
+        distance = np.sqrt((squares[:, 0] + squares[:, 1]) + squares[:, 2])
         reached = distance < first.tolerance
         return -distance, reached, reached.copy()
 
