@@ -16,13 +16,17 @@ call, and strided ones cost several times a contiguous one.
 
 from __future__ import annotations
 
+import math
+from collections.abc import Callable, Iterable
+from typing import Any
+
 import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
 from simbridge.errors import GymError
 
-__all__ = ["BatchedDampedLeastSquares", "BodyJacobians", "mju_dot"]
+__all__ = ["SCALAR_WORLDS", "BatchedDampedLeastSquares", "BodyJacobians", "mju_dot"]
 
 FloatArray = NDArray[np.float64]
 
@@ -91,6 +95,35 @@ class BodyJacobians:
         return jacobian
 
 
+SCALAR_WORLDS = 16
+"""Up to this many worlds, the Cholesky solve runs on Python floats world by world: a
+few dozen float operations per world cost less than as many NumPy calls."""
+
+
+def _cholesky_solve(
+    system: Iterable[Any], error: Iterable[Any], sqrt: Callable[[Any], Any]
+) -> tuple[Any, Any, Any]:
+    """x with (L L^T) x = error, L the Cholesky factor of the symmetric 3x3 `system` (its
+    lower triangle: 00, 10, 20, 11, 21, 22), as `mju_cholFactor` (mindiag 0) and
+    `mju_cholSolve` compute it: for floats (with `math.sqrt`) or for arrays of many
+    worlds (with `np.sqrt`) alike."""
+    g00, g10, g20, g11, g21, g22 = system
+    e0, e1, e2 = error
+    l00 = sqrt(g00)
+    inverse = 1.0 / l00
+    l10, l20 = g10 * inverse, g20 * inverse
+    l11 = sqrt(g11 - (0.0 + l10 * l10))
+    l21 = (g21 - (0.0 + l20 * l10)) * (1.0 / l11)
+    l22 = sqrt(g22 - (0.0 + (l20 * l20 + l21 * l21)))
+    y0 = e0 / l00
+    y1 = (e1 - (0.0 + l10 * y0)) / l11
+    y2 = (e2 - (0.0 + (l20 * y0 + l21 * y1))) / l22
+    x2 = y2 / l22
+    x1 = (y1 - l21 * x2) / l11
+    x0 = ((y0 - l20 * x2) - l10 * x1) / l00
+    return x0, x1, x2
+
+
 class BatchedDampedLeastSquares:
     """`DampedLeastSquares` (dq = J^T (J J^T + damping^2 I)^-1 error) of many (3 x cols)
     Jacobians at once (a body's position task), in `DampedLeastSquares.solve`'s order of
@@ -118,21 +151,15 @@ class BatchedDampedLeastSquares:
         augmented[:cols] = jacobian.transpose(1, 0, 2)
         # mju_mulMatMatT: the lower triangle's dots (00, 10, 20, 11, 21, 22), term by term
         products = np.take(augmented, _LEFT, 1) * np.take(augmented, _RIGHT, 1)
-        g00, g10, g20, g11, g21, g22 = mju_dot(products)
-        # mju_cholFactor
-        l00 = np.sqrt(g00)
-        inverse = 1.0 / l00
-        l10, l20 = g10 * inverse, g20 * inverse
-        l11 = np.sqrt(g11 - (0.0 + l10 * l10))
-        l21 = (g21 - (0.0 + l20 * l10)) * (1.0 / l11)
-        l22 = np.sqrt(g22 - (0.0 + (l20 * l20 + l21 * l21)))
-        # mju_cholSolve
-        y0 = error[0] / l00
-        y1 = (error[1] - (0.0 + l10 * y0)) / l11
-        y2 = (error[2] - (0.0 + (l20 * y0 + l21 * y1))) / l22
-        x2 = y2 / l22
-        x1 = (y1 - l21 * x2) / l11
-        x0 = ((y0 - l20 * x2) - l10 * x1) / l00
+        entries = mju_dot(products)  # g00, g10, g20, g11, g21, g22
+        if count <= SCALAR_WORLDS:  # Python floats: the same IEEE operations, cheaper here
+            systems, errors = zip(*entries.tolist(), strict=True), zip(*error.tolist(), strict=True)
+            solutions = [
+                _cholesky_solve(g, e, math.sqrt) for g, e in zip(systems, errors, strict=True)
+            ]
+            x0, x1, x2 = np.array(solutions).T
+        else:
+            x0, x1, x2 = _cholesky_solve(entries, error, np.sqrt)
         # mju_mulMatTVec over the J part
         rows = augmented[:cols]
         step: FloatArray = ((0.0 + rows[:, 0] * x0) + rows[:, 1] * x1) + rows[:, 2] * x2
