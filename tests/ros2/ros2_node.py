@@ -6,6 +6,9 @@ pytest, which runs beside rospy). One JSON object per line on stdout.
     ros2_node.py pub TOPIC pkg/msg/Type JSON RATE COUNT
         once a subscription matched (30 s at most), publish JSON (field values) COUNT times
         at RATE Hz; {"sent": n} at the end
+    ros2_node.py burst TOPIC COUNT
+        once a subscription matched, publish std_msgs/msg/UInt32 0..COUNT-1 as fast as
+        it can (reliable, a history as deep as COUNT); {"sent": n} once all are acknowledged
     ros2_node.py serve SERVICE pkg/srv/Type JSON
         answer every request with JSON; print {"request": {...}} per call
     ros2_node.py call SERVICE pkg/srv/Type JSON TIMEOUT
@@ -29,6 +32,7 @@ import time
 from typing import Any
 
 import rclpy
+import rclpy.duration
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 
@@ -105,6 +109,18 @@ def run(node: Any, argv: list[str]) -> None:
         for _ in range(count):
             publisher.publish(msg)
             rclpy.spin_once(node, timeout_sec=1.0 / rate)
+        emit({"sent": count})
+    elif mode == "burst":
+        topic, count = argv[1], int(argv[2])
+        cls = load("std_msgs/msg/UInt32")
+        qos = QoSProfile(depth=count, reliability=ReliabilityPolicy.RELIABLE)
+        publisher = node.create_publisher(cls, topic, qos)
+        deadline = time.monotonic() + 30
+        while publisher.get_subscription_count() == 0 and time.monotonic() < deadline:
+            rclpy.spin_once(node, timeout_sec=0.05)
+        for i in range(count):
+            publisher.publish(cls(data=i))
+        publisher.wait_for_all_acked(rclpy.duration.Duration(seconds=30))
         emit({"sent": count})
     elif mode == "serve":
         service, cls, values = argv[1], load(argv[2]), json.loads(argv[3])

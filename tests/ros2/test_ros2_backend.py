@@ -24,6 +24,7 @@ from simbridge.protocol import (
     ProtocolConnection,
     Publish,
     RemovePublisher,
+    RemoveSubscriber,
     RosService,
     ServiceRequestReceived,
     ServiceResponseReceived,
@@ -160,6 +161,46 @@ def test_ros2_publisher_reaches_the_client(client: RawClient) -> None:
         )
     msg: Any = TS.deserialize_cdr(event.payload, "std_msgs/msg/String")
     assert msg.data == "hello"
+
+
+def _received(client: RawClient, topics: list[str], count: int) -> dict[str, list[int]]:
+    """The std_msgs/UInt32 values each topic brings, until every topic has `count`."""
+    got: dict[str, list[int]] = {topic: [] for topic in topics}
+    deadline = time.monotonic() + 60
+    while any(len(v) < count for v in got.values()) and time.monotonic() < deadline:
+        client.poll(0.2)
+        for event in client.events:
+            if isinstance(event, MessageReceived) and event.topic in got:
+                msg: Any = TS.deserialize_cdr(bytes(event.payload), "std_msgs/msg/UInt32")
+                got[event.topic].append(msg.data)
+        client.events.clear()
+    return got
+
+
+def test_bursts_reach_the_client_whole_and_in_order(client: RawClient) -> None:
+    """Two ROS 2 publishers' bursts at once arrive whole and in order (the event loop takes
+    them, woken by the waiting thread); a subscription removed and made again still is."""
+    count = 3000
+    topics = ["/sb_burst_a", "/sb_burst_b"]
+    for topic in topics:
+        client.send(Subscribe(topic, "std_msgs/UInt32", queue_size=2 * count).encode())
+    publishers = [Ros2Process.node("burst", topic, str(count)) for topic in topics]
+    try:
+        got = _received(client, topics, count)
+        for publisher in publishers:
+            assert publisher.expect_json("sent", timeout=60) == count
+    finally:
+        for publisher in publishers:
+            publisher.stop()
+    assert got == {topic: list(range(count)) for topic in topics}
+
+    client.send(RemoveSubscriber(topics[0]).encode())
+    time.sleep(0.5)
+    client.send(Subscribe(topics[0], "std_msgs/UInt32", queue_size=2 * count).encode())
+    with Ros2Process.node("burst", topics[0], str(count)) as publisher:
+        again = _received(client, topics[:1], count)
+        assert publisher.expect_json("sent", timeout=60) == count
+    assert again == {topics[0]: list(range(count))}
 
 
 def test_sim_calls_a_ros2_service(client: RawClient) -> None:

@@ -7,14 +7,15 @@ have no raw mode in rclpy, so their requests and responses are decoded and
 encoded with the installed interface classes; so are action goals, feedback and
 results (the `actions` extension, in ros2_actions).
 
-rclpy runs one SingleThreadedExecutor on a thread of its own. Publishers,
-subscriptions and clients are created from the endpoint's event loop (rclpy
-allows that with this executor; its EventsExecutor does not, and it cannot run
-the coroutine service callbacks a sim-implemented service needs). Messages hop
-back to the event loop in batches, one `call_soon_threadsafe` per burst. The
-process's ROS 2 settings (domain, discovery range, the Fast DDS profile) come from
-ros2_env and are logged; large buffers stay in the heap (malloc_tuning), and the objects
-made at startup are left out of garbage collections (gc_tuning).
+rclpy runs one SingleThreadedExecutor on a thread of its own for services, clients
+and actions. Publishers, subscriptions and clients are created from the endpoint's
+event loop (rclpy allows that with this executor; its EventsExecutor does not, and
+it cannot run the coroutine service callbacks a sim-implemented service needs).
+Subscribed messages are taken on the event loop itself, woken by a thread that only
+waits (ros2_takes). The process's ROS 2 settings (domain, discovery range, the Fast
+DDS profile) come from ros2_env and are logged; large buffers stay in the heap
+(malloc_tuning), and the objects made at startup are left out of garbage collections
+(gc_tuning).
 """
 
 from __future__ import annotations
@@ -23,7 +24,6 @@ import asyncio
 import logging
 import threading
 import time
-from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -50,6 +50,7 @@ from simbridge.endpoint.backends.malloc_tuning import keep_large_buffers
 from simbridge.endpoint.backends.ros2_actions import Ros2Actions
 from simbridge.endpoint.backends.ros2_env import apply_ros2_env
 from simbridge.endpoint.backends.ros2_rcl import direct_publish
+from simbridge.endpoint.backends.ros2_takes import LoopTakes
 from simbridge.endpoint.backends.ros2_types import Ros2Types, tcp_type_name
 from simbridge.endpoint.backends.subscriber_watch import SubscriberWatch
 from simbridge.endpoint.typecheck import TypeCheck
@@ -60,8 +61,10 @@ __all__ = ["Ros2Backend", "Ros2Options", "Ros2TypeCheck", "ros2_cli_args"]
 
 _log = logging.getLogger(__name__)
 
-_TAKE_BURST = 256
-"""Messages one subscription callback takes beyond its own before yielding to others."""
+_TAKE_ROUND = 256
+"""Most messages the loop takes from one subscription before it serves anything else."""
+_TAKE_ROUND_BYTES = 4 * 1024 * 1024
+"""Most bytes it takes from one subscription in a round (a few camera images)."""
 
 _ERROR_LOG_INTERVAL = 5.0
 """Shortest time between two log lines about failed publishes."""
@@ -147,8 +150,7 @@ class Ros2Backend(Backend):
         self._descriptions: dict[str, Ros2Publisher] = {}
         """`__set_param` of `*/robot_description`: its latched topic's publisher."""
         self._live: set[_Entity] = set()
-        self._inbox: deque[tuple[Callable[[list[bytes]], None], list[bytes]]] = deque()
-        self._inbox_scheduled = False
+        self._takes: LoopTakes | None = None
         self.settings: dict[str, str] = {}
         self.counters: dict[str, int] = {"publish_errors": 0, "service_failures": 0}
         self._actions = Ros2Actions(self)
@@ -182,6 +184,7 @@ class Ros2Backend(Backend):
         self._context, self._node, self._executor = context, node, executor
         self._loop = asyncio.get_running_loop()
         freeze_startup_objects()  # rclpy's and the node's objects: out of every collection
+        self._takes = LoopTakes(context, self._loop)
         self._thread = threading.Thread(target=self._spin, name="simbridge-rclpy", daemon=True)
         self._thread.start()
         _log.info(
@@ -213,6 +216,9 @@ class Ros2Backend(Backend):
             entity.close()
         self._clients.clear()
         await self._actions.close()
+        if self._takes is not None:
+            await self._takes.close()
+            self._takes = None
         context = self._context
         with_thread = self._thread
         try:
@@ -229,23 +235,6 @@ class Ros2Backend(Backend):
 
     def stats(self) -> dict[str, int]:
         return dict(self.counters)
-
-    def _post(self, deliver: Callable[[list[bytes]], None], batch: list[bytes]) -> None:
-        """From the rclpy thread: queue a batch of messages for the event loop, waking it
-        only when no drain is pending (one wake-up per burst, not per message)."""
-        self._inbox.append((deliver, batch))
-        if not self._inbox_scheduled and self._loop is not None:
-            self._inbox_scheduled = True
-            _call_soon(self._loop, self._drain)
-
-    def _drain(self) -> None:
-        """On the event loop: deliver everything queued (the flag is cleared first, so a
-        message posted meanwhile is either drained here or schedules another drain)."""
-        self._inbox_scheduled = False
-        inbox = self._inbox
-        while inbox:
-            deliver, batch = inbox.popleft()
-            deliver(batch)
 
     # ---- topics ----------------------------------------------------------------------
 
@@ -269,10 +258,11 @@ class Ros2Backend(Backend):
         self, topic: str, msg_type: str, callback: MessageCallback
     ) -> BackendSubscription:
         """A raw subscription whose QoS matches the topic's publishers."""
-        loop = self._started()
+        self._started()
         cls = self._types.message(msg_type)
+        assert self._takes is not None
         subscription = _Ros2Subscription(
-            self, topic, cls, self._adapted_qos(topic), loop=loop, callback=callback
+            self, topic, cls, self._adapted_qos(topic), takes=self._takes, callback=callback
         )
         _log.info("subscribed to %s [%s] for the sim", topic, msg_type)
         return subscription
@@ -551,7 +541,7 @@ def _raw_publish(publisher: Any) -> Callable[[bytes | bytearray], None]:
 
 
 class _Ros2Subscription(_Entity, BackendSubscription):
-    """A raw rclpy subscription delivering CDR bytes on the event loop."""
+    """A raw rclpy subscription whose CDR bytes the event loop takes (ros2_takes)."""
 
     def __init__(
         self,
@@ -560,49 +550,54 @@ class _Ros2Subscription(_Entity, BackendSubscription):
         cls: Any,
         qos: QoSProfile,
         *,
-        loop: asyncio.AbstractEventLoop,
+        takes: LoopTakes,
         callback: MessageCallback,
     ) -> None:
-        self._loop = loop
         self._callback = callback
         self._cls = cls
+        self._takes = takes
         try:
             self._subscription = backend.node.create_subscription(
-                cls, topic, self._on_message, qos, raw=True
+                cls, topic, _never_called, qos, callback_group=takes.callback_group, raw=True
             )
         except Exception as exc:
             raise EndpointError(f"cannot subscribe to {topic!r}: {exc}") from exc
         self.topic: str = self._subscription.topic_name
+        self.handle: Any = self._subscription.handle
         super().__init__(backend)
+        takes.add(self)
 
-    def _on_message(self, payload: bytes) -> None:
-        """Runs on the rclpy thread. Also takes what else is waiting (up to _TAKE_BURST):
-        the executor would otherwise rebuild its wait set for every message of a burst.
-        The event loop gets the burst as one batch."""
-        batch = [payload]
-        handle = self._subscription.handle
+    def take_round(self) -> None:
+        """On the loop: take what is waiting, up to _TAKE_ROUND messages or
+        _TAKE_ROUND_BYTES, handing each to the callback as it comes."""
+        if self.closed:
+            return
+        handle, cls, callback = self.handle, self._cls, self._callback
+        size = 0
         try:
             with handle:
-                take, cls, append = handle.take_message, self._cls, batch.append
-                for _ in range(_TAKE_BURST):
+                take = handle.take_message
+                for _ in range(_TAKE_ROUND):
                     taken = take(cls, True)
                     if taken is None:
-                        break
-                    append(taken[0])
-        except Exception as exc:  # destroyed meanwhile: the executor's next take will say so
-            _log.debug("taking from %s: %s", self.topic, exc)
-        self._backend._post(self._deliver, batch)
-
-    def _deliver(self, batch: list[bytes]) -> None:
-        callback = self._callback
-        for payload in batch:
-            if self.closed:
-                return
-            callback(payload)
+                        return
+                    payload = taken[0]
+                    callback(payload)
+                    size += len(payload)
+                    if size >= _TAKE_ROUND_BYTES or self.closed:
+                        return
+        except Exception as exc:  # destroyed meanwhile, or the callback failed
+            if not self.closed:
+                _log.error("taking from %s failed", self.topic, exc_info=exc)
 
     def _destroy(self) -> None:
+        self._takes.remove(self)
         self._backend.node.destroy_subscription(self._subscription)
         _log.info("unsubscribed from %s", self.topic)
+
+
+def _never_called(_payload: bytes) -> None:
+    """The rclpy callback of a subscription the executor never runs (its group says so)."""
 
 
 class _Ros2ServiceServer(_Entity, BackendServiceServer):
