@@ -9,7 +9,7 @@ shares code with the endpoint's relaying.
 from __future__ import annotations
 
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from typing import Any
 
 import numpy as np
@@ -275,20 +275,30 @@ def graph_topics() -> dict[str, list[str]]:
         return dict(graph.expect_json("topics"))
 
 
+def graph_until(
+    predicate: Callable[[dict[str, list[str]]], bool], timeout: float = 60
+) -> dict[str, list[str]]:
+    """graph_topics() until `predicate` holds of it or `timeout` s passed; the last one
+    (DDS discovery of a change takes its time, more on a busy box)."""
+    deadline = time.monotonic() + timeout
+    topics = graph_topics()
+    while not predicate(topics) and time.monotonic() < deadline:
+        topics = graph_topics()
+    return topics
+
+
 def test_disconnect_and_remove_unregister(endpoint: int) -> None:
     first, second = RawClient(endpoint), RawClient(endpoint)
     try:
         first.send(Publish("/sb_gone", "std_msgs/String").encode())
         first.send(UnityService("/sb_gone_srv", "std_srvs/Trigger").encode())
         second.send(Publish("/sb_removed", "std_msgs/String").encode())
-        time.sleep(0.5)
-        before = graph_topics()
+        before = graph_until(lambda t: "/sb_gone" in t and "/sb_removed" in t)
         assert "/sb_gone" in before
         assert "/sb_removed" in before
         first.close()
         second.send(RemovePublisher("/sb_removed").encode())
-        time.sleep(0.5)
-        after = graph_topics()
+        after = graph_until(lambda t: "/sb_gone" not in t and "/sb_removed" not in t)
         assert "/sb_gone" not in after
         assert "/sb_removed" not in after
     finally:
