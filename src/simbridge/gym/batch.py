@@ -40,7 +40,8 @@ class WorldBatch:
     - `batch[name]`: the derived `MjData` field `name` (one of `fields`, e.g. "xpos"),
       up to date with the state as a single env's data is after its step (`refresh`).
     - `positions`: every drive's position target (as `DriveBank` keeps them), set by
-      `set_positions` and by a reset.
+      a reset and by `set_positions` (batched adapters; the others aim the worlds' own
+      drives).
     - `worlds`: the worlds themselves, whose data is current only where the vector env
       runs per-world code (a task or an action adapter without a batched form).
     """
@@ -108,8 +109,7 @@ class WorldBatch:
             world.drives.set_positions(aimed, self.positions[row, aimed])
 
     def save(self, row: int) -> None:
-        """Row `row`'s state and drive targets from its world's data, after per-world code
-        (an action adapter without a batched form) changed them."""
+        """Row `row`'s state from its world's data, after per-world code (an action adapter
+        without a batched form, whose targets stay in the world's drives) changed it."""
         world = self.worlds[row]
         mujoco.mj_getState(self.model, world.data, self._rows[row], self.spec)
-        self.positions[row] = world.drives.positions(self._all)
