@@ -120,8 +120,8 @@ def test_silent_endpoint_is_detected_and_reconnected(make_connector):
         assert ep.wait_for(lambda: conn.handshake is not None)
         ep.silent = True
         t0 = time.monotonic()
-        assert ep.wait_for(lambda: not conn.connected, timeout=3.0)
-        assert time.monotonic() - t0 < FAST.dead_timeout + 1.0
+        assert ep.wait_for(lambda: not conn.connected, timeout=5.0)
+        assert time.monotonic() - t0 < FAST.dead_timeout + 2.0  # slack for a busy box
         ep.silent = False
         assert ep.wait_conns(2)
         assert conn.wait_connected(3.0)
