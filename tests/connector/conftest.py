@@ -22,6 +22,9 @@ FAST = ConnectorOptions(
     request_timeout=3.0,
 )
 
+WORKERS = {"simbridge-connector-1", "simbridge-connector-2"}
+"""The names of a connector's two dispatcher workers (they read and run callbacks)."""
+
 
 def _our_threads() -> list[threading.Thread]:
     return [

@@ -38,7 +38,7 @@ def test_every_hand_off_is_run_in_order() -> None:
         while sent < total:
             size = min(rng.choice([1, 1, 2, 5, 300]), total - sent)
             batch = [(sink, str(sent + i).encode()) for i in range(size)]
-            assert dispatcher.inbox.put_messages(batch) == []
+            assert dispatcher.put_messages(batch) == []
             sent += size
             if rng.random() < 0.05:
                 task_after(sent)

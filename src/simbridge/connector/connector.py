@@ -9,7 +9,6 @@ from __future__ import annotations
 import asyncio
 import json
 import logging
-import threading
 import time
 from collections import deque
 from concurrent.futures import Future
@@ -70,14 +69,11 @@ class Connector(ConnectorEngine):
         with self._lock:
             if self._closing.is_set():
                 raise ConnectorError("this connector was closed; create a new one")
-            if self._manager is None:
+            if not self._started:
+                self._started = True
                 self._writer.start()
                 self._dispatcher.start()
-                self._manager = threading.Thread(
-                    target=self._run, name="simbridge-connector", daemon=True
-                )
-                self._manager.start()
-        if wait is not None and not self._connected.wait(wait):
+        if wait is not None and not self.wait_connected(wait):
             self.close()
             raise ConnectorError(
                 f"no ROS-TCP endpoint answered at {self.host}:{self.port} within {wait} s"
@@ -102,12 +98,12 @@ class Connector(ConnectorEngine):
             # FIN after the queued data; the reader drains until the endpoint closes too,
             # so the kernel never answers unread input with a reset that loses our data
             link.half_close()
-        manager = self._manager
-        if manager is not None and manager is not threading.current_thread():
-            manager.join(timeout=grace + 1.0)
+        dispatcher = self._dispatcher
+        dispatcher.yield_io()  # called from a callback: the other worker drains
+        if self._started and not dispatcher.holds_io and not dispatcher.wait_io_done(grace + 1.0):
             if link is not None:
                 link.fail()
-            manager.join(timeout=5.0)
+            dispatcher.wait_io_done(5.0)
         self._writer.stop()
         self._dispatcher.stop()
         with self._lock:
@@ -116,7 +112,7 @@ class Connector(ConnectorEngine):
             call.fail(f"connector closed before {call.service} was called")
 
     def __enter__(self) -> Connector:
-        if self._manager is None:
+        if not self._started:
             self.connect()
         return self
 
@@ -148,6 +144,8 @@ class Connector(ConnectorEngine):
 
     def wait_connected(self, timeout: float | None = None) -> bool:
         """Block until connected; False when `timeout` passed first."""
+        if not self._connected.is_set():
+            self._dispatcher.yield_io()  # from a callback: the other worker connects
         return self._connected.wait(timeout)
 
     def flush(self, timeout: float | None = None) -> bool:
@@ -260,7 +258,8 @@ class Connector(ConnectorEngine):
         raw: bool = False,
         queue_size: int | None = None,
     ) -> Subscription:
-        """Call `callback` (on the dispatch thread) with every message on `topic`.
+        """Call `callback` (on a connector worker, one callback at a time) with every
+        message on `topic`.
 
         `raw=True` passes the payload bytes instead of a decoded message. Several
         callbacks may share a topic if they agree on its type.
@@ -371,7 +370,7 @@ class Connector(ConnectorEngine):
         """Send a request whose reply carries no id; replies pair up in order."""
         limit = self.options.request_timeout if timeout is None else timeout
         deadline = time.monotonic() + limit
-        if not self._connected.wait(limit):
+        if not self.wait_connected(limit):
             raise ConnectorError(f"{command.NAME}: not connected to {self.host}:{self.port}")
         if extension is not None and extension not in self._extensions:
             raise ConnectorError(
@@ -384,6 +383,7 @@ class Connector(ConnectorEngine):
                 raise ConnectorError(f"{command.NAME}: connection lost")
             waiters.append(future)
             self._out.put_control(self._framer.command(command))
+        self._dispatcher.yield_io()  # from a callback: the other worker reads the reply
         try:
             return future.result(max(0.0, deadline - time.monotonic()))
         except FutureTimeoutError:
@@ -442,8 +442,11 @@ class Connector(ConnectorEngine):
     def call(self, service: str, request: object, timeout: float | None = None) -> Any:
         """Call a ROS service and wait for the response (raises ServiceError)."""
         limit = self.options.service_timeout if timeout is None else timeout
+        future = self.call_service(service, request, limit)
+        if not future.done():
+            self._dispatcher.yield_io()  # from a callback: the other worker reads the answer
         try:
-            return self.call_service(service, request, limit).result(limit + 5.0)
+            return future.result(limit + 5.0)
         except FutureTimeoutError:
             raise ServiceError(f"{service} did not answer within {limit} s") from None
 
@@ -454,7 +457,8 @@ class Connector(ConnectorEngine):
     def implement_service(
         self, service: str, srv_type: str, handler: ServiceHandler, raw: bool = False
     ) -> None:
-        """Serve `service` to ROS: `handler(request) -> response` runs on the dispatch thread.
+        """Serve `service` to ROS: `handler(request) -> response` runs on a connector worker
+        (one callback or handler at a time).
 
         With `raw=True` the handler gets the request bytes; it may return bytes or a message.
         """

@@ -1,75 +1,259 @@
-"""The dispatch thread: runs user callbacks and service handlers off the socket reader.
+"""Two worker threads that take turns reading the socket and running callbacks.
 
-A slow callback therefore delays only later callbacks, never keepalives or service
-responses; exceptions in callbacks are logged and counted, not fatal.
+Handing every received batch from a reader thread to a dispatch thread costs a thread
+wake-up and a GIL hand-off (~35 us on a loaded machine): the largest part of the
+connector's share of a round trip. Here the thread that read the data runs the callbacks
+itself (leader/follower). The worker holding the I/O role runs bounded I/O steps
+(connect, one read, a slice of back-off) and, when a step queued work and no callback
+is running, runs it at once, waking nothing. The other worker follows:
+
+- when the reader's callbacks have run for `STALL_S`, it takes the I/O role over, so a
+  slow or blocked callback never stalls reading, service responses, call timeouts or
+  reconnection for longer than that;
+- a callback that calls a blocking connector method (`Connector.call`, `topic_list`,
+  `close`) hands it the I/O role at once (`yield_io`): the reply needs a reader;
+- it runs work queued from other threads while no callback is running.
+
+One callback runs at a time, in queue order, whichever thread runs it; exceptions in
+callbacks are logged and counted, not fatal.
 """
 
 from __future__ import annotations
 
 import logging
 import threading
+import time
+from collections.abc import Callable, Sequence
 
+from simbridge.connector.fifo import Signal
 from simbridge.connector.inbox import Inbox, Receiver, Task
 from simbridge.connector.stats import StatsCounters
 
-__all__ = ["Dispatcher", "Receiver", "Task"]
+__all__ = ["STALL_S", "Dispatcher", "IoStep", "Receiver", "Task"]
 
 _log = logging.getLogger("simbridge.connector")
 
 _BATCH = 256
+STALL_S = 0.01
+"""How long the reader may run callbacks before the other worker takes reading over."""
+_IDLE_POLLS = 50
+"""Polls (of `STALL_S`) without a callback run on the reader after which the follower
+sleeps until woken (an idle connector costs no wake-ups); the next run then wakes it."""
+
+_LEAD, _RUN, _WAIT = "lead", "run", "wait"
+"""What a worker does next: I/O steps, queued work, or wait."""
+
+IoStep = Callable[[], bool]
+"""One bounded piece of I/O work; False once there is none left for good (closed)."""
 
 
 class Dispatcher:
-    """Runs queued work in order on one thread: payloads for receivers (bounded per
-    receiver, oldest dropped) and plain tasks."""
+    """Runs queued work in order, one item at a time, on whichever of two worker threads
+    is free: payloads for receivers (bounded per receiver, oldest dropped) and tasks;
+    and, with an `io_step`, passes the I/O role between the two (see the module doc)."""
 
-    def __init__(self, counters: StatsCounters) -> None:
+    def __init__(self, counters: StatsCounters, io_step: IoStep | None = None) -> None:
         self.inbox = Inbox()
         self._counters = counters
+        self._io_step = io_step
+        self._lock = threading.Lock()
+        self._signals = (Signal(), Signal())
+        """One per worker (each clears only its own, so no wake-up is lost), both set
+        after any change a waiting worker may have to act on."""
+        self._io: int | None = None
+        """Ident of the worker holding the I/O role."""
+        self._io_done = threading.Event()
+        if io_step is None:
+            self._io_done.set()
+        self._runner: int | None = None
+        """Ident of the worker running callbacks."""
+        self._since = 0.0
+        """When the I/O holder began its current run of callbacks."""
+        self._runs = 0
+        """Runs of callbacks by the I/O holder so far (the follower's sign of activity)."""
+        self._asleep = False
+        """The follower waits without polling; the next run on the I/O holder wakes it."""
+        self._external = False
+        """Work was queued from outside the I/O role: a free worker must run it (what the
+        I/O holder queues, it runs itself after its step)."""
         self._stop = False
-        self._thread = threading.Thread(
-            target=self._run, name="simbridge-connector-dispatch", daemon=True
-        )
+        self.takeovers = 0
+        """Times the follower took reading over from a worker stuck in callbacks."""
+        self._threads = [
+            threading.Thread(
+                target=self._work, args=(signal,), name=f"simbridge-connector-{i}", daemon=True
+            )
+            for i, signal in enumerate(self._signals, 1)
+        ]
 
     def start(self) -> None:
-        """Start the thread."""
-        self._thread.start()
+        """Start the workers."""
+        for thread in self._threads:
+            thread.start()
 
     def stop(self) -> None:
-        """End the thread once its current task returns (queued tasks are dropped)."""
+        """End the workers once their current task returns (queued tasks are dropped)."""
         self._stop = True
-        self.inbox.ready.set()
-        if self._thread.is_alive() and threading.current_thread() is not self._thread:
-            self._thread.join(timeout=5.0)
+        self._wake()
+        me = threading.current_thread()
+        for thread in self._threads:
+            if thread.is_alive() and thread is not me:
+                thread.join(timeout=5.0)
+
+    def wait_io_done(self, timeout: float) -> bool:
+        """Wait until the I/O steps ended for good (the connector closed)."""
+        return self._io_done.wait(timeout)
+
+    @property
+    def holds_io(self) -> bool:
+        """True when called from the worker holding the I/O role."""
+        return self._io == threading.get_ident()
 
     @property
     def on_thread(self) -> bool:
-        """True when called from the dispatch thread itself."""
-        return threading.current_thread() is self._thread
+        """True when called from a callback (a worker running queued work)."""
+        return self._runner == threading.get_ident()
 
     def submit(self, task: Task) -> None:
         """Run `task` after everything queued before it."""
         self.inbox.put_task(task)
+        self._queued()
 
-    def _run(self) -> None:
+    def put_messages(self, entries: Sequence[tuple[Receiver, bytes]]) -> list[Receiver]:
+        """Queue payloads for their receivers (`Inbox.put_messages`); returns one receiver
+        per payload dropped to keep it within its `queue_size`."""
+        dropped = self.inbox.put_messages(entries)
+        self._queued()
+        return dropped
+
+    def _queued(self) -> None:
+        """Work was queued: the I/O holder runs it after its step; from any other thread,
+        wake a worker when none is running callbacks."""
+        if self._io == threading.get_ident():
+            return
+        with self._lock:
+            self._external = True
+            wake = self._runner is None
+        if wake:
+            self._wake()
+
+    def yield_io(self) -> None:
+        """About to block in a callback: hand the I/O role to the other worker if this
+        thread holds it, so what the caller waits for can be read."""
+        me = threading.get_ident()
+        if self._io != me:
+            return
+        with self._lock:
+            if self._io == me and self._runner == me:
+                self._io = None
+                self._asleep = False
+                self._wake()
+
+    def _wake(self) -> None:
+        for signal in self._signals:
+            signal.set()
+
+    def _work(self, signal: Signal) -> None:
+        me = threading.get_ident()
+        seen_runs = -1
+        idle_polls = 0
+        while True:
+            signal.clear()
+            role = _WAIT
+            timeout: float | None = STALL_S
+            with self._lock:
+                if self._stop:
+                    return
+                if self._io is None and not self._io_done.is_set():
+                    self._io = me
+                    role = _LEAD
+                elif (
+                    self._runner is None
+                    and len(self.inbox)
+                    and (self._external or self._io is None)
+                ):
+                    self._runner = me
+                    self._external = False
+                    role = _RUN
+                elif self._io is not None and self._runner == self._io:
+                    waited = time.monotonic() - self._since
+                    if waited >= STALL_S:
+                        self._io = me  # the reader is stuck in callbacks: take over
+                        self.takeovers += 1
+                        role = _LEAD
+                    else:
+                        timeout = STALL_S - waited
+                    idle_polls = 0
+                elif self._runs != seen_runs:
+                    seen_runs = self._runs
+                    idle_polls = 0
+                else:
+                    idle_polls += 1
+                    if idle_polls >= _IDLE_POLLS or self._io_done.is_set():
+                        self._asleep = True
+                        timeout = None
+            if role is _LEAD:
+                self._lead(me)
+            elif role is _RUN:
+                self._run_callbacks()
+            else:
+                signal.wait(timeout)
+                if timeout is None:
+                    idle_polls = 0
+
+    def _lead(self, me: int) -> None:
+        """Run I/O steps while this thread holds the role; run the work they queue."""
+        step = self._io_step
+        assert step is not None
         inbox = self.inbox
         while not self._stop:
-            inbox.ready.wait()
-            inbox.ready.clear()
-            while not self._stop:
-                # Anything queued after clear() sets `ready` again, so a short batch
-                # needs no second take() to find the queue empty.
-                batch = inbox.take(_BATCH)
-                for receiver, item in batch:
-                    if self._stop:
+            try:
+                alive = step()
+            except Exception:
+                _log.exception("connector I/O failed; it stops")
+                alive = False
+            if not alive:
+                with self._lock:
+                    self._io = None
+                    self._io_done.set()
+                    self._wake()
+                return
+            if not len(inbox):
+                continue
+            with self._lock:  # (a runner finishing decides under the lock, so ask there)
+                if self._runner is not None or not len(inbox):
+                    continue
+                self._runner = me
+                self._external = False
+                self._since = time.monotonic()
+                self._runs += 1
+                if self._asleep:
+                    self._asleep = False
+                    self._wake()
+            self._run_callbacks()
+            if self._io != me:
+                return  # taken over or handed on while the callbacks ran
+
+    def _run_callbacks(self) -> None:
+        """Run queued work in order until the queue is empty (this thread is the runner)."""
+        inbox = self.inbox
+        counters = self._counters
+        while not self._stop:
+            batch = inbox.take(_BATCH)
+            for receiver, item in batch:
+                if self._stop:
+                    return
+                try:
+                    if receiver is not None:
+                        receiver.deliver(item)  # type: ignore[arg-type]
+                    else:
+                        item()  # type: ignore[operator]
+                except Exception:
+                    counters.callback_failed()
+                    _log.exception("callback raised; the connector keeps running")
+            if len(batch) < _BATCH:
+                with self._lock:
+                    if not len(inbox):
+                        self._runner = None
+                        self._external = False
                         return
-                    try:
-                        if receiver is not None:
-                            receiver.deliver(item)  # type: ignore[arg-type]
-                        else:
-                            item()  # type: ignore[operator]
-                    except Exception:
-                        self._counters.callback_failed()
-                        _log.exception("callback raised; the connector keeps running")
-                if len(batch) < _BATCH:
-                    break

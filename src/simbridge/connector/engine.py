@@ -1,8 +1,10 @@
 """The connector's machinery: shared state and the I/O threads' work.
 
-A manager thread connects, reads and parses (and reconnects with back-off); a writer
-thread batches queued frames into the socket and sends keepalives; a dispatch thread
-runs user callbacks and service handlers. Every registration is kept here and replayed
+Two dispatcher workers take turns connecting, reading and parsing (and reconnecting
+with back-off) and running user callbacks and service handlers: the one that read the
+data runs its callbacks, and the other takes reading over while they run long
+(`dispatcher.py`); a writer thread batches queued frames into the socket and sends
+keepalives. Every registration is kept here and replayed
 on each new connection, so a restarted endpoint needs no help. `Connector` adds the
 public API on top.
 """
@@ -72,6 +74,22 @@ _RECV_TIMEOUT = struct.pack("@ll", 0, int(_POLL_S * 1e6))
 """`_POLL_S` as the `struct timeval` of SO_RCVTIMEO."""
 
 
+class _Reading:
+    """The I/O role's state for one connection, kept between steps (either worker may
+    run the next one)."""
+
+    __slots__ = ("handshake_deadline", "last_check", "last_rx", "link", "reader")
+
+    def __init__(
+        self, link: Link, reader: FrameReader, now: float, handshake_deadline: float
+    ) -> None:
+        self.link = link
+        self.reader = reader
+        self.last_rx = now
+        self.last_check = now
+        self.handshake_deadline = handshake_deadline
+
+
 class ConnectorEngine:
     """State shared by the public API and the I/O threads, and what those threads do."""
 
@@ -94,7 +112,7 @@ class ConnectorEngine:
         self._out: BoundedFifo[OutTopic, bytes] = BoundedFifo()
         self._writer = FrameWriter(self._out, self._counters, self.options.keepalive_interval)
         self._batch = PublishBatch(self._writer, self._counters)
-        self._dispatcher = Dispatcher(self._counters)
+        self._dispatcher = Dispatcher(self._counters, self._io_step)
         self._lock = threading.RLock()
         self._publishers: dict[str, Publisher] = {}
         self._subscriptions: dict[str, tuple[Subscription, ...]] = {}
@@ -117,7 +135,14 @@ class ConnectorEngine:
         self._connected = threading.Event()
         self._closing = threading.Event()
         self._close_deadline = 0.0
-        self._manager: threading.Thread | None = None
+        self._started = False
+        self._conn: _Reading | None = None
+        """The connection being read; None while connecting or backing off."""
+        self._retry_at = 0.0
+        """When the next connection attempt may start."""
+        self._delay = self.options.reconnect_initial
+        """Back-off before the attempt after the next failure or loss."""
+        self._failures = 0
         self._peer_keepalive: float | None = None
         self._extensions: frozenset[str] = frozenset()
         """simbridge protocol extensions the current endpoint announced."""
@@ -172,55 +197,59 @@ class ConnectorEngine:
         self._calls[call.srv_id] = call
         self._out.put_control(self._framer.service_request(call.srv_id, call.service, call.payload))
 
-    def _run(self) -> None:
-        delay = self.options.reconnect_initial
-        failures = 0
-        while not self._closing.is_set():
+    def _io_step(self) -> bool:
+        """One bounded piece of the connection's life: a connection attempt, one read, or
+        a slice of the back-off before the next attempt (run by whichever dispatcher
+        worker holds the I/O role). False once the connector closed."""
+        conn = self._conn
+        if conn is not None:
             try:
-                link = open_link(self.host, self.port, self.options.connect_timeout)
-            except OSError as exc:
-                failures += 1
-                self._unreachable = str(exc) or type(exc).__name__
-                _log.log(
-                    logging.WARNING if failures == 1 else logging.DEBUG,
-                    "cannot reach the endpoint at %s:%d (%s); retrying in %.1f s",
-                    self.host,
-                    self.port,
-                    exc,
-                    delay,
-                )
-                self._idle(delay)
-                delay = min(delay * 2, self.options.reconnect_max)
-                continue
-            delay = self.options.reconnect_initial
-            failures = 0
-            self._unreachable = None
-            with self._lock:
-                self._peer_keepalive = None
-                self._extensions = frozenset()
-                self._handshaken = False
-            try:
-                self._read(link)
+                if self._read_once(conn):
+                    return True
             except OSError as exc:
                 if not self._closing.is_set():
                     _log.warning("connection to %s:%d lost: %s", self.host, self.port, exc)
             except Exception:
                 _log.exception("connector failure; dropping the connection and reconnecting")
-            finally:
-                self._teardown(link)
-            if not self._closing.is_set():
-                _log.info("reconnecting to %s:%d in %.1f s", self.host, self.port, delay)
-                self._idle(delay)
-
-    def _idle(self, seconds: float) -> None:
-        """Sleep while disconnected, still timing out service calls."""
-        end = time.monotonic() + seconds
-        while not self._closing.is_set():
-            now = time.monotonic()
-            self._expire(now)
-            if now >= end:
-                return
-            self._closing.wait(min(_POLL_S, end - now))
+            self._conn = None
+            self._teardown(conn.link)
+            if self._closing.is_set():
+                return False
+            _log.info("reconnecting to %s:%d in %.1f s", self.host, self.port, self._delay)
+            self._retry_at = time.monotonic() + self._delay
+            return True
+        if self._closing.is_set():
+            return False
+        now = time.monotonic()
+        self._expire(now)
+        if now < self._retry_at:
+            self._closing.wait(min(_POLL_S, self._retry_at - now))
+            return True
+        try:
+            link = open_link(self.host, self.port, self.options.connect_timeout)
+        except OSError as exc:
+            self._failures += 1
+            self._unreachable = str(exc) or type(exc).__name__
+            _log.log(
+                logging.WARNING if self._failures == 1 else logging.DEBUG,
+                "cannot reach the endpoint at %s:%d (%s); retrying in %.1f s",
+                self.host,
+                self.port,
+                exc,
+                self._delay,
+            )
+            self._retry_at = time.monotonic() + self._delay
+            self._delay = min(self._delay * 2, self.options.reconnect_max)
+            return True
+        self._delay = self.options.reconnect_initial
+        self._failures = 0
+        self._unreachable = None
+        with self._lock:
+            self._peer_keepalive = None
+            self._extensions = frozenset()
+            self._handshaken = False
+        self._conn = self._open(link)
+        return True
 
     def _setup(self, link: Link) -> None:
         """Replay every registration ahead of anything queued, then hand the link over.
@@ -320,58 +349,69 @@ class ConnectorEngine:
                 f"the call of {call.service} was never sent"
             )
 
-    def _read(self, link: Link) -> None:
-        """Receive and handle frames until the link breaks, goes silent or the connector closes."""
+    def _open(self, link: Link) -> _Reading:
+        """Reading state for a new connection."""
         max_frame = self.options.max_frame_size
         proto = ProtocolConnection("client", max_payload=max_frame)
-        reader = FrameReader(proto, max_frame, self.options.recv_size)
-        sock = link.sock
+        # A blocking read that gives up after _POLL_S (SO_RCVTIMEO) wakes the reader for
+        # its deadlines as a poll() would, with one system call per read instead of two.
+        link.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVTIMEO, _RECV_TIMEOUT)
+        now = time.monotonic()
+        return _Reading(
+            link,
+            FrameReader(proto, max_frame, self.options.recv_size),
+            now,
+            now + self.options.connect_timeout,
+        )
+
+    def _read_once(self, conn: _Reading) -> bool:
+        """One read: handle what it completed; False when the link broke, went silent or
+        the connector closed (the caller tears it down)."""
+        link = conn.link
+        if link.broken.is_set():
+            return False
+        try:
+            count, items = conn.reader.receive(link.sock)
+            ready = True
+        except (BlockingIOError, TimeoutError):  # SO_RCVTIMEO passed with nothing read
+            ready = False
+        now = time.monotonic()
+        if self._closing.is_set() and (now >= self._close_deadline or self._link is not link):
+            return False
+        if now - conn.last_check >= _POLL_S:
+            conn.last_check = now
+            self._expire(now)
+        if not self._handshaken and now >= conn.handshake_deadline:
+            _log.warning("no handshake from %s:%d; going on without", self.host, self.port)
+            self._handshaken = True
+            self._setup(link)
+        if not ready:
+            keepalive = self._peer_keepalive
+            # an endpoint announcing a slow keepalive gets two of its periods
+            if keepalive is not None and now - conn.last_rx > max(
+                self.options.dead_timeout, 2 * keepalive
+            ):
+                _log.warning(
+                    "endpoint %s:%d silent for %.1f s; dropping the connection",
+                    self.host,
+                    self.port,
+                    now - conn.last_rx,
+                )
+                return False
+            return True
+        if not count:
+            if not self._closing.is_set():
+                _log.warning("endpoint %s:%d closed the connection", self.host, self.port)
+            return False
+        conn.last_rx = now
         counters = self._counters
-        dead = self.options.dead_timeout
-        # A blocking read that gives up after _POLL_S (SO_RCVTIMEO) wakes the loop for its
-        # deadlines as a poll() would, with one system call per read instead of two.
-        sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVTIMEO, _RECV_TIMEOUT)
-        last_rx = last_check = time.monotonic()
-        handshake_deadline = last_rx + self.options.connect_timeout
-        while not link.broken.is_set():
-            try:
-                count, items = reader.receive(sock)
-                ready = True
-            except (BlockingIOError, TimeoutError):  # SO_RCVTIMEO passed with nothing read
-                ready = False
-            now = time.monotonic()
-            if self._closing.is_set() and (now >= self._close_deadline or self._link is not link):
-                return
-            if now - last_check >= _POLL_S:
-                last_check = now
-                self._expire(now)
-            if not self._handshaken and now >= handshake_deadline:
-                _log.warning("no handshake from %s:%d; going on without", self.host, self.port)
-                self._handshaken = True
-                self._setup(link)
-            if not ready:
-                keepalive = self._peer_keepalive
-                # an endpoint announcing a slow keepalive gets two of its periods
-                if keepalive is not None and now - last_rx > max(dead, 2 * keepalive):
-                    _log.warning(
-                        "endpoint %s:%d silent for %.1f s; dropping the connection",
-                        self.host,
-                        self.port,
-                        now - last_rx,
-                    )
-                    return
-                continue
-            if not count:
-                if not self._closing.is_set():
-                    _log.warning("endpoint %s:%d closed the connection", self.host, self.port)
-                return
-            last_rx = now
-            counters.bytes_received += count
-            counters.frames_received += len(items)
-            if not self._deliver(items):
-                return
-            if self._handshaken and self._link is not link:
-                self._setup(link)
+        counters.bytes_received += count
+        counters.frames_received += len(items)
+        if not self._deliver(items):
+            return False
+        if self._handshaken and self._link is not link:
+            self._setup(link)
+        return True
 
     def _deliver(self, items: list[Received]) -> bool:
         """Queue messages for their callbacks and act on events, in arrival order."""
@@ -401,7 +441,7 @@ class ConnectorEngine:
         return True
 
     def _queue_messages(self, batch: list[tuple[Subscription, bytes]]) -> None:
-        for sub in self._dispatcher.inbox.put_messages(batch):
+        for sub in self._dispatcher.put_messages(batch):
             self._counters.subscribe_dropped(sub.topic)
 
     def _handle(self, event: Event) -> bool:
@@ -435,7 +475,7 @@ class ConnectorEngine:
         return True
 
     def _serve(self, impl: ServiceImpl, srv_id: int, payload: bytes, generation: int) -> None:
-        """Run a sim-side service handler and queue its response (dispatch thread).
+        """Run a sim-side service handler and queue its response (run as a callback).
 
         A failing handler is logged; an endpoint offering the `service_error` extension
         is told, so the ROS caller gets the error at once instead of timing out.

@@ -1,7 +1,7 @@
 """Routes the `actions` extension's frames from the endpoint to the goals waiting for them.
 
-The reader thread hands each frame to the dispatch thread, which calls `GoalRouter.handle`
-there, so goal callbacks (feedback) run where every other user callback runs, in order.
+The reader queues each frame as a task for the dispatcher, which calls `GoalRouter.handle`
+as it runs every other user callback: one at a time, in order.
 """
 
 from __future__ import annotations
@@ -76,7 +76,7 @@ class GoalRouter:
         return isinstance(command, ActionStatus | ActionFeedback | ActionResult | ActionServerReply)
 
     def handle(self, command: Command) -> None:
-        """Deliver one frame (on the dispatch thread)."""
+        """Deliver one frame (as a callback, on a connector worker)."""
         if isinstance(command, ActionServerReply):
             with self._lock:
                 waiting = self._queries.get(command.action)

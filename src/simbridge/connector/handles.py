@@ -166,7 +166,7 @@ class Subscription:
         """Cleared on unsubscribe: messages still queued for the callback are skipped."""
 
     def deliver(self, payload: bytes) -> None:
-        """Run the callback on one payload (called on the dispatch thread)."""
+        """Run the callback on one payload (called by the dispatcher, one at a time)."""
         if not self.active:
             return
         if self.raw:

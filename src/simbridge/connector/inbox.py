@@ -1,4 +1,4 @@
-"""The dispatch thread's queue: received payloads for their callbacks, and tasks.
+"""The dispatcher's queue: received payloads for their callbacks, and tasks.
 
 Every received message passes through here, so queuing one allocates nothing beyond
 the `(receiver, payload)` pair the reader makes: the pairs go into one deque as they
@@ -14,8 +14,6 @@ import threading
 from collections import deque
 from collections.abc import Callable, Sequence
 from typing import Protocol
-
-from simbridge.connector.fifo import Signal
 
 __all__ = ["Entry", "Inbox", "Receiver", "Task"]
 
@@ -39,7 +37,8 @@ Entry = tuple[Receiver, bytes] | tuple[None, Task]
 
 class Inbox:
     """FIFO of payloads (at most `queue_size` waiting per receiver, the oldest dropped)
-    and tasks (never dropped), for many producers and one consumer."""
+    and tasks (never dropped), for many producers and one consumer at a time; the
+    `Dispatcher` says who consumes and wakes it."""
 
     def __init__(self) -> None:
         self._lock = threading.Lock()
@@ -49,8 +48,6 @@ class Inbox:
         self._skip: dict[Receiver, int] = {}
         """Dropped payloads per receiver that are still in `_order`."""
         self._count = 0
-        self.ready = Signal()
-        """Set whenever something is queued."""
 
     def __len__(self) -> int:
         return self._count
@@ -72,8 +69,6 @@ class Inbox:
                     self._skip[receiver] = self._skip.get(receiver, 0) + 1
                     dropped.append(receiver)
             self._count += added
-        if entries and not self.ready.is_set():
-            self.ready.set()
         return dropped
 
     def put_task(self, task: Task) -> None:
@@ -81,8 +76,6 @@ class Inbox:
         with self._lock:
             self._order.append((None, task))
             self._count += 1
-        if not self.ready.is_set():
-            self.ready.set()
 
     def take(self, max_items: int) -> list[Entry]:
         """Remove and return up to `max_items` entries in order (dropped ones skipped)."""

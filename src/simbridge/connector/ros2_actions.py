@@ -94,7 +94,7 @@ class Ros2ClientGoal:
         if not self.done:
             self.client._send(ActionCancel(self.id))
 
-    # ---- GoalSink (called on the connector's dispatch thread) ----------------------------
+    # ---- GoalSink (called as the connector's callbacks, one at a time) -------------------
 
     def goal_status(self, status: int) -> None:
         self.ros2_status, self.status = status, ACTIONLIB_STATUS[status]
@@ -190,7 +190,7 @@ class Ros2ActionClient:
         self, goal: Any, on_feedback: Callable[[Any], None] | None = None
     ) -> Ros2ClientGoal:
         """Send `goal` (an `<Action>Goal` message, or its serialized bytes); feedback goes
-        to `on_feedback` on the connector's dispatch thread."""
+        to `on_feedback` as the connector's callbacks (one at a time)."""
         connector = self.connector
         if is_raw(goal):
             payload = bytes(goal)
