@@ -184,13 +184,21 @@ class _Proc:
             text=True,
             start_new_session=True,
         )
+        self.role = args[1] if len(args) > 1 else args[0]
         self.lines: queue.Queue[str] = queue.Queue()
         threading.Thread(target=self._read, daemon=True).start()
 
     def _read(self) -> None:
+        """Queue the node's protocol lines (READY, MATCHED, JSON); anything else, such as a
+        Fast DDS log line (`Failed init_port ...` when another process holds a shared-memory
+        port), goes to stderr instead of being taken for an answer."""
         assert self.proc.stdout is not None
         for line in self.proc.stdout:
-            self.lines.put(line.strip())
+            text = line.strip()
+            if text in ("READY", "MATCHED") or text.startswith("{"):
+                self.lines.put(text)
+            elif text:
+                print(f"[bench node {self.role}] {text}", file=sys.stderr, flush=True)
 
     def line(self, timeout: float = 60.0) -> str:
         try:
