@@ -7,7 +7,7 @@ from __future__ import annotations
 import asyncio
 import socket
 
-from simbridge.endpoint.pushback import ReadPushback
+from simbridge.endpoint.pushback import PUSHBACK_LIMIT, ReadPushback, pushback_limit
 
 LIMIT = 0.2
 
@@ -72,3 +72,11 @@ def test_an_episode_longer_than_the_limit_reads_again() -> None:
         return seen
 
     assert asyncio.run(scenario()) == [False, True, False]
+
+
+def test_the_limit_stays_below_the_client_timeouts() -> None:
+    """A client held unread must not be closed as idle or as a slow sender meanwhile."""
+    assert pushback_limit(10.0, 10.0) == PUSHBACK_LIMIT
+    assert pushback_limit(1.0, 10.0) == 0.5
+    assert pushback_limit(0.0, 3.0) == 1.5
+    assert pushback_limit(0.0, 0.0) == PUSHBACK_LIMIT  # both off

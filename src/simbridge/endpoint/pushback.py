@@ -14,11 +14,17 @@ from __future__ import annotations
 
 import asyncio
 
-__all__ = ["PUSHBACK_LIMIT", "ReadPushback"]
+__all__ = ["PUSHBACK_LIMIT", "ReadPushback", "pushback_limit"]
 
 PUSHBACK_LIMIT = 2.0
-"""Seconds one episode may keep a client's socket unread (well below the idle timeout
-and the slow-sender limit, which would otherwise close it)."""
+"""Seconds one episode may keep a client's socket unread at most."""
+
+
+def pushback_limit(*timeouts: float) -> float:
+    """The episode limit for an endpoint with these client timeouts (idle, slow frame; 0
+    is off): PUSHBACK_LIMIT, or half the shortest, so a client held unread is never
+    closed as idle or as a slow sender for it."""
+    return min([PUSHBACK_LIMIT, *(t / 2 for t in timeouts if t > 0)])
 
 
 class ReadPushback:

@@ -19,7 +19,7 @@ from simbridge.endpoint.backends.base import (
     BackendSubscription,
 )
 from simbridge.endpoint.deferred import deferred_writes
-from simbridge.endpoint.pushback import ReadPushback
+from simbridge.endpoint.pushback import ReadPushback, pushback_limit
 from simbridge.endpoint.session_actions import SessionActions
 from simbridge.endpoint.stats import SessionStats
 from simbridge.endpoint.writev import WRITE_ALONE, write_chunks
@@ -138,7 +138,10 @@ class ClientSession(asyncio.BufferedProtocol):
         """Writes leave at the end of the read that caused them (or of the loop iteration)."""
         self._paused = False
         self._paused_at = 0.0
-        self._pushback = ReadPushback(server.loop)
+        opts = server.options
+        self._pushback = ReadPushback(
+            server.loop, pushback_limit(opts.idle_timeout, opts.frame_timeout)
+        )
         """Stops reading this client while ROS is behind on a topic it publishes that may
         not drop (queue_size 0)."""
         self._control: deque[bytes] = deque()
