@@ -197,3 +197,28 @@ def test_close_from_a_callback(endpoint: FakeEndpoint, make_connector) -> None:
     assert closed.wait(5)
     assert not conn.connected
     # the autouse fixture checks that both workers and the writer ended
+
+
+def test_close_from_the_reader_still_tears_the_connection_down(
+    endpoint: FakeEndpoint, make_connector
+) -> None:
+    conn = make_connector(endpoint.port).connect()
+    conn.register_ros_service("/never", "std_srvs/Trigger")
+    endpoint.answer = False
+    pending = conn.call_service("/never", b"", timeout=30.0)
+    closed = threading.Event()
+
+    def tap(topic: str, _type: str, _payload: bytes, outgoing: bool) -> None:
+        if not outgoing and not closed.is_set():
+            closed.set()
+            conn.close()  # on the worker holding the I/O role, in the middle of a read
+
+    conn.add_tap(tap)
+    conn.subscribe("/in", "std_msgs/String", lambda _p: None, raw=True)
+    assert _subscribed(endpoint)
+    endpoint.send_all(ProtocolConnection.message("/in", b"x"))
+    assert closed.wait(5)
+    exc = pending.exception(5)  # the teardown failed the call still in flight
+    assert exc is not None
+    assert "closed" in str(exc)
+    assert endpoint.wait_for(lambda: not endpoint.live_conns())

@@ -202,11 +202,12 @@ class Dispatcher:
                     idle_polls = 0
 
     def _lead(self, me: int) -> None:
-        """Run I/O steps while this thread holds the role; run the work they queue."""
+        """Run I/O steps while this thread holds the role, until they end (`stop` does not
+        cut them short: the connection is torn down once closing); run what they queue."""
         step = self._io_step
         assert step is not None
         inbox = self.inbox
-        while not self._stop:
+        while True:
             try:
                 alive = step()
             except Exception:
