@@ -79,24 +79,26 @@ def test_connector_client_against_simple_action_server(tmp_path: Path) -> None:
             stderr=subprocess.PIPE, text=True, start_new_session=True,
         )  # fmt: skip
         connector = Connector("127.0.0.1", port, ConnectorOptions()).connect(wait=10)
-        watcher = Connector("127.0.0.1", port, ConnectorOptions()).connect(wait=10)
         try:
             assert server.stdout is not None
             assert server.stdout.readline().strip() == "ready"
+            # wait_for_server returns once the status came and rospy's goal and cancel
+            # subscribers connected to the endpoint's publishers, as actionlib's does: a
+            # goal sent at once is never lost (ROS 1 keeps none for late subscribers)
+            for _ in range(3):  # a fresh client and connection each time
+                fresh = Connector("127.0.0.1", port, ConnectorOptions()).connect(wait=10)
+                try:
+                    first = ActionClient(fresh, "/gripper/gripper_cmd", ACTION)
+                    assert first.wait_for_server(30)
+                    sent = first.send_goal(_goal(0.02, 0.1))
+                    assert sent.wait(20)
+                    assert sent.status == SUCCEEDED
+                    first.close()
+                finally:
+                    fresh.close()
+
             client = ActionClient(connector, "/gripper/gripper_cmd", ACTION)
             assert client.wait_for_server(30)
-            # the status came; rospy's goal subscriber connects to the endpoint's publisher
-            # on its own time, and a goal sent before that is lost (ROS 1 keeps none): a
-            # second client publishing the goal and cancel topics is told when the server
-            # subscribed (it stays registered to the end: the topics' publishers are shared)
-            watched = [
-                watcher.register_publisher(topic, msg_type, report_subscribers=True)
-                for topic, msg_type in (
-                    ("/gripper/gripper_cmd/goal", f"{ACTION}ActionGoal"),
-                    ("/gripper/gripper_cmd/cancel", "actionlib_msgs/GoalID"),
-                )
-            ]
-            assert wait_for(lambda: all((p.subscriber_count or 0) >= 1 for p in watched), 30)
 
             feedback: list[Any] = []
             done = client.send_goal(_goal(0.04, 0.5), on_feedback=feedback.append)
@@ -123,7 +125,6 @@ def test_connector_client_against_simple_action_server(tmp_path: Path) -> None:
             assert newer.status == SUCCEEDED
             client.close()
         finally:
-            watcher.close()
             connector.close()
             terminate(server)
             endpoint.stop()

@@ -8,6 +8,7 @@ from collections.abc import Callable
 from typing import Any
 
 from simbridge.connector.connector import Connector
+from simbridge.connector.handles import Publisher
 from simbridge.messages import MessageRegistry
 from simbridge.messages.actionlib import (
     ActionClientCore,
@@ -20,10 +21,16 @@ __all__ = ["ActionClient", "ActionServer", "ClientGoal", "ConnectorTransport", "
 
 
 class ConnectorTransport:
-    """Publishes and subscribes through a connector; `close` withdraws what it registered."""
+    """Publishes and subscribes through a connector; `close` withdraws what it registered.
 
-    def __init__(self, connector: Connector) -> None:
+    With `report_subscribers`, its publishers ask the endpoint for their subscriber counts
+    (`Publisher.subscriber_count`, kept in `publishers` by topic).
+    """
+
+    def __init__(self, connector: Connector, *, report_subscribers: bool = False) -> None:
         self.connector = connector
+        self.report_subscribers = report_subscribers
+        self.publishers: dict[str, Publisher] = {}
         self._topics: list[tuple[str, bool]] = []
 
     @property
@@ -33,7 +40,14 @@ class ConnectorTransport:
 
     def advertise(self, topic: str, msg_type: str, latch: bool = False) -> Callable[[Any], None]:
         """Register a publisher on `topic`."""
-        pub = self.connector.register_publisher(topic, msg_type, queue_size=50, latch=latch)
+        pub = self.connector.register_publisher(
+            topic,
+            msg_type,
+            queue_size=50,
+            latch=latch,
+            report_subscribers=self.report_subscribers,
+        )
+        self.publishers[topic] = pub
         self._topics.append((topic, True))
         return pub.publish
 
@@ -50,6 +64,7 @@ class ConnectorTransport:
             else:
                 self.connector.unsubscribe(topic)
         self._topics.clear()
+        self.publishers.clear()
 
 
 class ActionServer(ActionServerCore):
@@ -95,8 +110,37 @@ class ActionClient(ActionClientCore):
         clock: Callable[[], float] = time.time,
         client_name: str = "simbridge",
     ) -> None:
-        self.transport = ConnectorTransport(connector)
+        self.transport = ConnectorTransport(connector, report_subscribers=True)
         super().__init__(self.transport, name, action_type, clock=clock, client_name=client_name)
+
+    def wait_for_server(self, timeout: float | None = None) -> bool:
+        """True once the server's status was heard from and its goal and cancel
+        subscribers are connected, as actionlib's SimpleActionClient decides: a goal sent
+        before the server's subscriber connected would be lost (ROS 1 keeps none).
+
+        The subscribers are known from an endpoint with the simbridge `subscribers`
+        extension; with an endpoint without it (Unity's), or a graph that cannot tell,
+        the status alone decides. False when `timeout` seconds pass first.
+        """
+        deadline = None if timeout is None else time.monotonic() + timeout
+        if not super().wait_for_server(timeout):
+            return False
+        pubs = [self.transport.publishers.get(f"{self.name}/{t}") for t in ("goal", "cancel")]
+        while not all(self._subscribed(pub) for pub in pubs):
+            left = 0.01 if deadline is None else min(0.01, deadline - time.monotonic())
+            if left <= 0:
+                return False
+            time.sleep(left)
+        return True
+
+    def _subscribed(self, pub: Publisher | None) -> bool:
+        """Whether `pub` may be published on without its message being lost."""
+        if pub is None or pub.closed:
+            return False
+        count = pub.subscriber_count
+        if count is None:  # not told yet, or never will be: the endpoint lacks the extension
+            return "subscribers" not in self.transport.connector.extensions
+        return count != 0  # -1: the endpoint's graph cannot tell
 
     def close(self) -> None:
         """Unregister the action's topics."""
