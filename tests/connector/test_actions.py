@@ -27,6 +27,7 @@ from simbridge.messages.actionlib import (
     RECALLED,
     REJECTED,
     SUCCEEDED,
+    ActionClientCore,
     ServerGoal,
 )
 from tests.waiting import wait_for
@@ -169,3 +170,36 @@ def test_server_goal_rejects_illegal_transitions(bus: tuple[Connector, Node]) ->
             goal.abort()
     finally:
         server.close()
+
+
+def test_wait_for_server_waits_for_goal_and_cancel_subscribers(
+    bus: tuple[Connector, Node],
+) -> None:
+    """As actionlib's SimpleActionClient: the status alone is not enough, a goal sent
+    before the server subscribed to the goal topic would be lost."""
+    connector, node = bus
+    client = ActionClient(connector, "/half/gripper_cmd", ACTION)
+    status = node.advertise("/half/gripper_cmd/status", "actionlib_msgs/GoalStatusArray")
+    stop = threading.Event()
+
+    def beat() -> None:
+        while not stop.wait(0.05):
+            status.publish(REG.new("actionlib_msgs/GoalStatusArray"))
+
+    beating = threading.Thread(target=beat, daemon=True)
+    beating.start()
+    try:
+        assert connector.flush(5)
+        assert ActionClientCore.wait_for_server(client, 5)  # the status was heard
+        assert not client.wait_for_server(0.5)  # nobody subscribes the goal or cancel yet
+        goals: list[Any] = []
+        node.subscribe("/half/gripper_cmd/goal", f"{ACTION}ActionGoal", goals.append)
+        assert not client.wait_for_server(0.5)  # still no cancel subscriber
+        node.subscribe("/half/gripper_cmd/cancel", "actionlib_msgs/GoalID", lambda _m: None)
+        assert client.wait_for_server(5)
+        client.send_goal(_goal(0.01))
+        assert wait_for(lambda: len(goals) == 1)
+    finally:
+        stop.set()
+        beating.join(5)
+        client.close()
