@@ -7,7 +7,14 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-from simbridge.protocol import Event, ProtocolConnection
+from simbridge.protocol import (
+    CommandReceived,
+    Event,
+    ProtocolConnection,
+    StatsReply,
+    StatsRequest,
+    SubscriberCount,
+)
 
 
 class RawClient:
@@ -43,6 +50,29 @@ class RawClient:
                 got = [repr(e)[:80] for e in self.events[:10]]
                 raise AssertionError(f"no matching event within {timeout} s; got {got}")
             self.poll()
+
+    def stats(self, timeout: float = 5.0) -> dict[str, Any]:
+        """The endpoint's `__stats` reply; also a barrier: every earlier frame was handled."""
+        self.send(StatsRequest().encode())
+        reply = self.expect(
+            lambda e: isinstance(e, CommandReceived) and isinstance(e.command, StatsReply), timeout
+        )
+        stats: dict[str, Any] = reply.command.stats
+        return stats
+
+    def wait_subscribers(self, at_least: int = 1, timeout: float = 20.0) -> int:
+        """Wait for a `__subscribers` report (asked with report_subscribers=True) of at least
+        `at_least` subscribers; returns that count."""
+        event = self.expect(
+            lambda e: (
+                isinstance(e, CommandReceived)
+                and isinstance(e.command, SubscriberCount)
+                and e.command.count >= at_least
+            ),
+            timeout,
+        )
+        count: int = event.command.count
+        return count
 
     def closed_by_peer(self, timeout: float = 5.0) -> bool:
         deadline = time.monotonic() + timeout

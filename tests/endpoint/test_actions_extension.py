@@ -16,8 +16,6 @@ from simbridge.protocol import (
     CommandReceived,
     ErrorMessage,
     Handshake,
-    StatsReply,
-    StatsRequest,
     WarnMessage,
 )
 from tests.endpoint.rawclient import RawClient
@@ -46,8 +44,7 @@ def test_local_backend_refuses_goals_clearly() -> None:
             raw.send(ActionCancel(9).encode())
             warn = raw.expect(_is(WarnMessage)).command
             assert "goal 9 is not in flight" in warn.text
-            raw.send(StatsRequest().encode())
-            stats = raw.expect(_is(StatsReply)).command.stats["session"]
+            stats = raw.stats()["session"]
             assert (stats["goals_sent"], stats["goals_refused"]) == (1, 1)
         finally:
             raw.close()

@@ -24,8 +24,6 @@ from simbridge.protocol import (
     ErrorMessage,
     Handshake,
     Publish,
-    StatsReply,
-    StatsRequest,
     TopicListReply,
     TopicListRequest,
     WarnMessage,
@@ -112,8 +110,7 @@ def test_unregistered_topic_errors_are_rate_limited_per_client() -> None:
         client = RawClient(ep.port)
         client.send(b"".join(encode_frame(f"/junk{i}", b"x") for i in range(10_000)))
         sync(client)
-        client.send(StatsRequest().encode())
-        stats = client.expect(is_cmd(StatsReply)).command.stats
+        stats = client.stats()
         assert stats["session"]["errors_sent"] == 10
         errors = [e for e in client.events if is_cmd(ErrorMessage)(e)]
         assert len(errors) == 10

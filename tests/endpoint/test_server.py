@@ -284,10 +284,9 @@ def test_slow_client_drops_oldest_and_is_told(endpoint: EndpointThread) -> None:
 
 
 def test_stats_command(client: RawClient) -> None:
-    client.send(StatsRequest().encode())
-    reply = client.expect(is_cmd(StatsReply)).command
-    assert reply.stats["server"]["clients"] >= 1
-    assert "dropped" in reply.stats["session"]
+    stats = client.stats()
+    assert stats["server"]["clients"] >= 1
+    assert "dropped" in stats["session"]
 
 
 def test_twenty_concurrent_clients(endpoint: EndpointThread) -> None:

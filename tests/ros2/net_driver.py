@@ -17,12 +17,10 @@ import time
 from pathlib import Path
 
 from simbridge.protocol import (
-    CommandReceived,
     MessageReceived,
     ProtocolConnection,
     Publish,
     Subscribe,
-    SubscriberCount,
 )
 from tests.endpoint.rawclient import RawClient
 from tests.ros2support import Ros2Process, child_env, start_endpoint
@@ -64,14 +62,7 @@ def run_endpoint() -> dict[str, object]:
             publish = Publish("/net_out", "geometry_msgs/Twist", report_subscribers=True)
             client.send(publish.encode())
             client.send(Subscribe("/net_in", "std_msgs/String").encode())
-            client.expect(
-                lambda e: (
-                    isinstance(e, CommandReceived)
-                    and isinstance(e.command, SubscriberCount)
-                    and e.command.count >= 1
-                ),
-                timeout=30,
-            )
+            client.wait_subscribers(timeout=30)
             for _ in range(5):
                 client.send(ProtocolConnection.message("/net_out", twist))
             for _ in range(5):

@@ -35,8 +35,6 @@ from simbridge.protocol import (
     CommandReceived,
     ErrorMessage,
     Handshake,
-    StatsReply,
-    StatsRequest,
 )
 from tests.endpoint.rawclient import RawClient
 from tests.ros2support import Ros2Process, require_ros2, start_endpoint
@@ -225,8 +223,7 @@ def test_goals_in_flight_are_bounded(endpoint: tuple[Ros2Process, int]) -> None:
                 raw.send(ActionGoal(goal_id, action, FIB, goal_cdr(100)).encode())
             error = raw.expect(lambda e: command(e, ErrorMessage, 200), timeout=60)
             assert "limit 100" in error.command.text
-            raw.send(StatsRequest().encode())
-            stats = raw.expect(lambda e: command(e, StatsReply), timeout=20).command.stats
+            stats = raw.stats(timeout=20)
             assert stats["session"]["goals_sent"] == 101
             assert stats["session"]["goals_refused"] == 1
         finally:

@@ -313,11 +313,7 @@ def test_unknown_type_gets_an_error(client: RawClient) -> None:
 
 
 def test_stats_include_backend_counters(client: RawClient) -> None:
-    from simbridge.protocol import StatsReply, StatsRequest
-
-    client.send(StatsRequest().encode())
-    reply = client.expect(lambda e: command(e, StatsReply)).command
-    counters = reply.stats["server"]["backend_counters"]
+    counters = client.stats()["server"]["backend_counters"]
     assert counters["publish_errors"] == 0
 
 

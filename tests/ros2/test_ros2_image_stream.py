@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from rosbags.typesys import Stores, get_typestore
 
-from simbridge.protocol import CommandReceived, ProtocolConnection, Publish, SubscriberCount
+from simbridge.protocol import ProtocolConnection, Publish
 from tests.endpoint.rawclient import RawClient
 from tests.ros2support import Ros2Process, require_ros2, start_endpoint
 
@@ -49,14 +49,7 @@ def test_back_to_back_images_arrive_intact() -> None:
             echo.expect_json("ready")
             advertise = Publish("/sb_stream", "sensor_msgs/Image", report_subscribers=True)
             client.send(advertise.encode())
-            client.expect(
-                lambda e: (
-                    isinstance(e, CommandReceived)
-                    and isinstance(e.command, SubscriberCount)
-                    and e.command.count >= 1
-                ),
-                timeout=20,
-            )
+            client.wait_subscribers(timeout=20)
             client.send(
                 b"".join(ProtocolConnection.message("/sb_stream", cdr) for cdr, _ in images)
             )

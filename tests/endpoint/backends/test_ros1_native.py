@@ -26,8 +26,6 @@ from simbridge.protocol import (
     CommandReceived,
     MessageReceived,
     Publish,
-    StatsReply,
-    StatsRequest,
     TopicListReply,
     TopicListRequest,
     encode_frame,
@@ -219,16 +217,13 @@ def test_large_messages_reach_a_lagging_subscriber_whole_and_in_order(master: Ro
             data = late.recv(1 << 20)
             assert data, "the endpoint closed the late connection"
             latched += late_decoder.feed(data)
-        client.send(StatsRequest().encode())
-        stats = client.expect(
-            lambda e: isinstance(e, CommandReceived) and isinstance(e.command, StatsReply)
-        ).command
+        stats = client.stats()
         for each in (sock, late):
             each.close()
         client.close()
     assert got == messages
     assert latched == messages[-1:]
-    assert stats.stats["server"]["backend_counters"]["ros1_dropped_to_ros"] == 0
+    assert stats["server"]["backend_counters"]["ros1_dropped_to_ros"] == 0
 
 
 def test_a_stalled_subscriber_pushes_back_on_the_client_then_lets_go(master: RosMaster) -> None:
@@ -273,15 +268,12 @@ def test_a_stalled_subscriber_pushes_back_on_the_client_then_lets_go(master: Ros
             assert data, "the endpoint closed the connection"
             got += decoder.feed(data)
         sender.join(10)
-        client.send(StatsRequest().encode())
-        stats = client.expect(
-            lambda e: isinstance(e, CommandReceived) and isinstance(e.command, StatsReply)
-        ).command
+        stats = client.stats()
         sock.close()
         client.close()
     assert held_for >= PUSHBACK_LIMIT * 0.9  # not read meanwhile: the subscriber took nothing
     assert got == messages
-    counters = stats.stats["server"]["backend_counters"]
+    counters = stats["server"]["backend_counters"]
     assert counters["ros1_pushbacks"] >= 1
     assert counters["ros1_dropped_to_ros"] == 0
 
@@ -382,14 +374,11 @@ def test_slow_client_is_pushed_back_on_rather_than_dropped(master: RosMaster) ->
                     got.append(int(event.payload[4:12]))
             client.events = [e for e in client.events if not isinstance(e, MessageReceived)]
         thread.join(10)
-        client.send(StatsRequest().encode())
-        stats = client.expect(
-            lambda e: isinstance(e, CommandReceived) and isinstance(e.command, StatsReply)
-        ).command
+        stats = client.stats()
         publisher.unregister()
         client.close()
     assert got == list(range(count))
-    assert stats.stats["session"]["dropped_total"] == 0
+    assert stats["session"]["dropped_total"] == 0
 
 
 def test_rospy_transport_is_still_selectable(master: RosMaster) -> None:
