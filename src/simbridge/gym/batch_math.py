@@ -153,14 +153,11 @@ class BatchedDampedLeastSquares:
         products = np.take(augmented, _LEFT, 1) * np.take(augmented, _RIGHT, 1)
         entries = mju_dot(products)  # g00, g10, g20, g11, g21, g22
         if count <= SCALAR_WORLDS:  # Python floats: the same IEEE operations, cheaper here
-            systems, errors = zip(*entries.tolist(), strict=True), zip(*error.tolist(), strict=True)
-            solutions = [
-                _cholesky_solve(g, e, math.sqrt) for g, e in zip(systems, errors, strict=True)
-            ]
-            x0, x1, x2 = np.array(solutions).T
+            pairs = zip(entries.T.tolist(), error.T.tolist(), strict=True)  # world by world
+            solution = np.array([_cholesky_solve(g, e, math.sqrt) for g, e in pairs]).T
         else:
-            x0, x1, x2 = _cholesky_solve(entries, error, np.sqrt)
-        # mju_mulMatTVec over the J part
-        rows = augmented[:cols]
-        step: FloatArray = ((0.0 + rows[:, 0] * x0) + rows[:, 1] * x1) + rows[:, 2] * x2
+            solution = np.array(_cholesky_solve(entries, error, np.sqrt))
+        # mju_mulMatTVec over the J part: the three products of each row in one multiplication
+        terms = augmented[:cols] * solution  # (cols, 3, worlds)
+        step: FloatArray = ((0.0 + terms[:, 0]) + terms[:, 1]) + terms[:, 2]
         return step

@@ -235,7 +235,8 @@ class SceneVectorEnv(VectorEnv[Observation, NDArray[np.float32], NDArray[Any]]):
             )
         if not math.isfinite(float(array.sum())):
             raise GymError(f"actions must be finite, got {actions!r}")
-        return np.minimum(np.maximum(array, self._action_low), self._action_high)
+        clipped = np.maximum(array, self._action_low)  # a new array: the caller's is kept
+        return np.minimum(clipped, self._action_high, out=clipped)
 
     def _info(self, success: NDArray[np.bool_]) -> dict[str, Any]:
         """Gymnasium's vector info layout (key -> array, "_key" -> mask): every world
