@@ -46,6 +46,7 @@ from simbridge.endpoint.backends.base import (
     TopicInfo,
 )
 from simbridge.endpoint.backends.gc_tuning import freeze_startup_objects
+from simbridge.endpoint.backends.loop_calls import call_soon_from_thread
 from simbridge.endpoint.backends.malloc_tuning import keep_large_buffers
 from simbridge.endpoint.backends.ros2_actions import Ros2Actions
 from simbridge.endpoint.backends.ros2_env import apply_ros2_env
@@ -359,7 +360,7 @@ class Ros2Backend(Backend):
             else:
                 answer.set_result(done.result())
 
-        pending.add_done_callback(lambda done: _call_soon(loop, settle, done))
+        pending.add_done_callback(lambda done: call_soon_from_thread(loop, settle, done))
         try:
             response = await asyncio.wait_for(answer, timeout)
         except TimeoutError as exc:
@@ -430,13 +431,6 @@ class Ros2Backend(Backend):
 
 class _SimServiceFailedError(Exception):
     """A sim-implemented service failed; ROS 2 has no error reply, so the caller gets none."""
-
-
-def _call_soon(loop: asyncio.AbstractEventLoop, fn: Callable[..., None], *args: Any) -> None:
-    try:
-        loop.call_soon_threadsafe(fn, *args)
-    except RuntimeError:  # the loop is closed: the endpoint is going away
-        return
 
 
 class _Entity:

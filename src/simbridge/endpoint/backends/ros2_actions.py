@@ -21,6 +21,7 @@ from rclpy.action.client import ClientGoalHandle
 from rclpy.serialization import deserialize_message, serialize_message
 
 from simbridge.endpoint.backends.base import BackendActionGoal, MessageCallback
+from simbridge.endpoint.backends.loop_calls import call_soon_from_thread
 from simbridge.errors import EndpointError
 from simbridge.protocol import (
     STATUS_ABORTED,
@@ -54,13 +55,6 @@ _SERVER_CHECK = 1.0
 """How often a goal waiting for its result checks that its server is still there (s)."""
 _EARLY_FEEDBACK = 100
 """Feedback messages kept while a goal's acceptance is on its way (the oldest dropped)."""
-
-
-def _call_soon(loop: asyncio.AbstractEventLoop, fn: Callable[..., None], *args: Any) -> None:
-    try:
-        loop.call_soon_threadsafe(fn, *args)
-    except RuntimeError:  # the loop is closed: the endpoint is going away
-        return
 
 
 class _StatusActionClient(ActionClient):  # type: ignore[misc]  # rclpy has no type hints
@@ -108,9 +102,9 @@ class Ros2Actions:
             try:
                 value = fn()
             except Exception as exc:
-                _call_soon(loop, settle, None, exc)
+                call_soon_from_thread(loop, settle, None, exc)
             else:
-                _call_soon(loop, settle, value, None)
+                call_soon_from_thread(loop, settle, value, None)
 
         self._backend._executor.create_task(run)
         return future
@@ -171,7 +165,9 @@ class Ros2Actions:
         def probe() -> None:  # rclpy thread
             accepted = cls.Impl.SendGoalService.Response(accepted=True)
             unknown = ClientGoalHandle(client, client._generate_random_uuid(), accepted)
-            unknown.get_result_async().add_done_callback(lambda _f: _call_soon(loop, answer))
+            unknown.get_result_async().add_done_callback(
+                lambda _f: call_soon_from_thread(loop, answer)
+            )
 
         start, probes = time.monotonic(), 0
         while True:
@@ -401,7 +397,7 @@ class _Ros2Goal(BackendActionGoal):
     # ---- rclpy thread -----------------------------------------------------------------
 
     def _post(self, fn: Callable[..., None], *args: Any) -> None:
-        _call_soon(self._loop, fn, *args)
+        call_soon_from_thread(self._loop, fn, *args)
 
     def _r_send(self, goal: Any) -> None:
         future = self._client.send_goal_async(goal, feedback_callback=self._r_feedback)

@@ -30,6 +30,7 @@ from rclpy.exceptions import InvalidHandle
 from rclpy.guard_condition import GuardCondition
 from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 
+from simbridge.endpoint.backends.loop_calls import call_soon_from_thread
 from simbridge.endpoint.deferred import deferred_writes
 
 __all__ = ["LoopTakes", "Takeable"]
@@ -106,9 +107,7 @@ class LoopTakes:
                 continue
             if ready and not self._stopped:
                 self._taken.clear()
-                try:
-                    self._loop.call_soon_threadsafe(self._take, ready)
-                except RuntimeError:  # the loop is closed: the endpoint is going away
+                if not call_soon_from_thread(self._loop, self._take, ready):
                     return
                 self._taken.wait()
 
