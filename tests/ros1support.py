@@ -148,25 +148,26 @@ def shared_master() -> RosMaster:
     return _shared
 
 
-_LISTENING = re.compile(r"listening on \S+:\d+")
+_LISTENING = re.compile(r"listening on \S+:(\d+)")
 
 
 class EndpointProcess:
     """`simbridge endpoint --backend ros1` on `master`'s graph, in its own session.
 
-    The constructor returns once the endpoint listens (on `port`, a free one by
-    default); an endpoint that exits or says nothing of the kind within `timeout`
-    seconds is stopped and fails the test with its output. Its output lines are
-    collected in `lines` by a reader thread, so the pipe never fills.
+    The constructor returns once the endpoint listens (on `port`; by default on one the
+    OS picks when it binds, read back from its "listening on" line, so no other process
+    can take it between choosing and binding); an endpoint that exits or says nothing of
+    the kind within `timeout` seconds is stopped and fails the test with its output. Its
+    output lines are collected in `lines` by a reader thread, so the pipe never fills.
     """
 
     def __init__(
         self, master: RosMaster, node_name: str, *extra: str, port: int = 0, timeout: float = 60
     ) -> None:
-        self.port = port or free_port()
+        self.port = port
         self.node_name = node_name
         command = [sys.executable, "-m", "simbridge.cli", "endpoint", "--backend", "ros1"]
-        options = ["--port", str(self.port), "--idle-timeout", "0", "--node-name", node_name]
+        options = ["--port", str(port), "--idle-timeout", "0", "--node-name", node_name]
         self.process = subprocess.Popen(
             [*command, *options, *extra],
             env=master.env,
@@ -190,7 +191,9 @@ class EndpointProcess:
         assert self.process.stdout is not None
         for line in self.process.stdout:
             self.lines.append(line)
-            if not self._listening and _LISTENING.search(line):
+            match = None if self._listening else _LISTENING.search(line)
+            if match:
+                self.port = int(match[1])
                 self._listening = True
                 self._started.set()
         self._started.set()

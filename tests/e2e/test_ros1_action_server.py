@@ -14,7 +14,6 @@ from tests.ros1support import (
     SYSTEM_PYTHON,
     EndpointProcess,
     RosMaster,
-    free_port,
     require_ros,
     terminate,
 )
@@ -68,12 +67,12 @@ def test_connector_client_against_simple_action_server(tmp_path: Path) -> None:
             pytest.fail("python3-actionlib is not installed (make sysdeps)")
         pytest.skip("python3-actionlib is not installed (make sysdeps)")
     extra = generate_python_messages(REG, [], tmp_path / "ws", [f"{ACTION}Action"])
-    port = free_port()
     with RosMaster() as master:
         env = dict(master.env)
         for key, value in extra.items():
             env[key] = os.pathsep.join(v for v in (value, env.get(key, "")) if v)
-        endpoint = EndpointProcess(master, "/jtc_endpoint", port=port)
+        endpoint = EndpointProcess(master, "/jtc_endpoint")
+        port = endpoint.port
         server = subprocess.Popen(
             [SYSTEM_PYTHON, "-c", SERVER_NODE], env=env, stdout=subprocess.PIPE,
             stderr=subprocess.PIPE, text=True, start_new_session=True,

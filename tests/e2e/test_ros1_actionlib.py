@@ -17,7 +17,6 @@ from tests.ros1support import (
     SYSTEM_PYTHON,
     EndpointProcess,
     RosMaster,
-    free_port,
     require_ros,
     terminate,
 )
@@ -135,12 +134,12 @@ def test_simple_action_client_drives_the_namespaced_controllers(tmp_path: Path) 
     extra = generate_python_messages(
         default_registry(), [], tmp_path / "ws", ["control_msgs/FollowJointTrajectoryAction"]
     )
-    port = free_port()
     with RosMaster() as master:
         env = dict(master.env)
         for key, value in extra.items():
             env[key] = os.pathsep.join(v for v in (value, env.get(key, "")) if v)
-        endpoint = EndpointProcess(master, "/jtc_endpoint", port=port)
+        endpoint = EndpointProcess(master, "/jtc_endpoint")
+        port = endpoint.port
         sim_command = [sys.executable, "-m", "simbridge.cli", "sim", str(scene)]
         sim_command += ["--endpoint", f"127.0.0.1:{port}", "--duration", "120"]
         client = subprocess.Popen(

@@ -163,8 +163,9 @@ def test_latched_topic_reaches_late_subscriber(master: RosMaster, connector: Con
 def test_restarted_endpoint_gets_data_flowing_again(master: RosMaster) -> None:
     # Its own node name: a second node with the module endpoint's name would make the
     # master shut that one down (ROS replaces a node by a newcomer with the same name).
-    port, name = free_port(), "/simbridge_restarted"
-    first = EndpointProcess(master, name, port=port)
+    name = "/simbridge_restarted"
+    first = EndpointProcess(master, name)
+    port = first.port
     conn = Connector("127.0.0.1", port, FAST).connect(wait=10)
     second: EndpointProcess | None = None
     try:

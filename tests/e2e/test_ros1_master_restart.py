@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import dataclasses
+import re
 import sys
 import time
 
@@ -11,7 +12,6 @@ import pytest
 from tests.ros1support import FAST as E2E_FAST
 from tests.ros1support import (
     RosMaster,
-    free_port,
     require_ros,
     ros_string,
     terminate,
@@ -32,6 +32,7 @@ pytestmark = [pytest.mark.ros1, pytest.mark.timeout(240)]
 FAST = dataclasses.replace(E2E_FAST, dead_timeout=2.0)
 REREGISTERED_WITHIN_S = 5.0
 """From the new master answering to every registration being back."""
+LISTENING = re.compile(r"listening on \S+:(\d+)")
 
 
 def registered(master: RosMaster, entry: str) -> bool:
@@ -54,14 +55,16 @@ def planner_answers(master: RosMaster, node: str) -> bool:
 
 def test_kill_9_master_restart_registers_everything_again() -> None:
     require_ros()
-    port = free_port()
-    master = RosMaster(port).start()
+    master = RosMaster().start()
     command = [sys.executable, "-m", "simbridge.cli"]
-    endpoint_port = free_port()
-    options = ["--port", str(endpoint_port), "--idle-timeout", "0"]
+    options = ["--port", "0", "--idle-timeout", "0"]  # the OS picks it as the endpoint binds
     endpoint = master.spawn(
         [*command, "endpoint", "--backend", "ros1", "--node-name", "/restart_endpoint", *options]
     )
+    wait_until(lambda: LISTENING.search(endpoint.output()[0]) is not None, 60, "the endpoint")
+    match = LISTENING.search(endpoint.output()[0])
+    assert match is not None
+    endpoint_port = int(match[1])
     planner = master.spawn([*command, "planner", "--node-name", "restart_planner"])
     sim = Connector("127.0.0.1", endpoint_port, FAST)
     tool = Connector("127.0.0.1", endpoint_port, FAST)

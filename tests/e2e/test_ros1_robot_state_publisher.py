@@ -24,7 +24,6 @@ from tests.ros1support import (
     SYSTEM_PYTHON,
     EndpointProcess,
     RosMaster,
-    free_port,
     require_ros,
 )
 from tests.sim.urdf_samples import GRAVITY_ARM
@@ -115,10 +114,10 @@ def test_sim_tf_matches_robot_state_publisher(tmp_path: Path) -> None:
         "ros": {"joint_states_rate": 50, "tf_rate": 50},
     }  # fmt: skip
     (tmp_path / "scene.yaml").write_text(yaml.safe_dump(scene))
-    port = free_port()
     with RosMaster() as master:
         xmlrpc.client.ServerProxy(master.uri).setParam("/test", "/robot_description", GRAVITY_ARM)
-        endpoint = EndpointProcess(master, "/rsp_test_endpoint", port=port)
+        endpoint = EndpointProcess(master, "/rsp_test_endpoint")
+        port = endpoint.port
         rsp_command = [rosrun, "robot_state_publisher", "robot_state_publisher"]
         rsp_command += ["tf:=/rsp/tf", "tf_static:=/rsp/tf_static", "_publish_frequency:=1000"]
         compare_command = [SYSTEM_PYTHON, "-c", COMPARE_NODE, "100"]

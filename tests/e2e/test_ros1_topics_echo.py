@@ -19,7 +19,7 @@ from typing import Any
 
 import pytest
 import yaml
-from tests.ros1support import EndpointProcess, RosMaster, free_port, require_ros, terminate
+from tests.ros1support import EndpointProcess, RosMaster, require_ros, terminate
 
 from simbridge.apps.mobile_robot import SCENE_PATH
 
@@ -54,9 +54,9 @@ def graph(tmp_path_factory: pytest.TempPathFactory) -> Iterator[RosMaster]:
     """roscore, the ros1 endpoint and `simbridge sim` on the demo scene, paced at real time."""
     require_ros()
     scene = _scene(tmp_path_factory.mktemp("scene"))
-    port = free_port()
     with RosMaster() as master:
-        endpoint = EndpointProcess(master, NODE, port=port)
+        endpoint = EndpointProcess(master, NODE)
+        port = endpoint.port
         sim_command = [sys.executable, "-m", "simbridge.cli", "sim", str(scene)]
         sim_command += ["--endpoint", f"127.0.0.1:{port}", "--duration", "600", "--realtime", "1"]
         try:

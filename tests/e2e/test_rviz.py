@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 import pytest
 from PIL import Image
-from tests.ros1support import EndpointProcess, RosMaster, free_port, require_ros, terminate
+from tests.ros1support import EndpointProcess, RosMaster, require_ros, terminate
 
 from simbridge.apps.rviz import DEMOS, demo_config_path
 
@@ -116,11 +116,11 @@ def _wait_param(master: RosMaster, name: str, timeout: float) -> str:
 def test_rviz_draws_the_mobile_robot(tmp_path: Path) -> None:
     _require_rviz()
     config = demo_config_path("mobile-robot")
-    port = free_port()
     (tmp_path / "rosconsole.config").write_text(ROSCONSOLE)
     rviz_log = tmp_path / "rviz.log"
     with RosMaster() as master:
-        endpoint = EndpointProcess(master, "/rviz_test_endpoint", port=port)
+        endpoint = EndpointProcess(master, "/rviz_test_endpoint")
+        port = endpoint.port
         sim_command = [sys.executable, "-m", "simbridge.cli", "sim", str(DEMOS["mobile-robot"])]
         sim_command += ["--endpoint", f"127.0.0.1:{port}", "--duration", "300"]
         xvfb: subprocess.Popen[bytes] | None = None

@@ -37,6 +37,17 @@ def free_port() -> int:
         return port
 
 
+def _port_taken(port: int) -> bool:
+    """True when something holds `port` on 127.0.0.1 (it cannot be bound now)."""
+    with socket.socket() as sock:
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        try:
+            sock.bind(("127.0.0.1", port))
+        except OSError:
+            return True
+        return False
+
+
 def unique_node_name(base: str) -> str:
     """`base` made unique the way rospy's anonymous names are (`base_<pid>_<ms>`), so a demo
     never shuts down a running node of the same name (the master keeps the newest)."""
@@ -106,6 +117,9 @@ class RosCore:
 
     def __init__(self, port: int | None = None) -> None:
         self.port = port or free_port()
+        self._port_chosen = not port
+        """The port came from `free_port`: if another process takes it before roscore
+        binds it, `start` may choose another."""
         self.uri = f"http://127.0.0.1:{self.port}/"
         self.home = Path(tempfile.mkdtemp(prefix="simbridge-roshome-"))
         self._process: subprocess.Popen[bytes] | None = None
@@ -125,11 +139,34 @@ class RosCore:
         return env
 
     def start(self, timeout: float = 30) -> RosCore:
-        """Start roscore and wait until the master and /rosout answer."""
+        """Start roscore and wait until its own master and /rosout answer.
+
+        `free_port` only says a port was free a moment ago: another process may bind it
+        before roscore does (then roscore exits, or, when that process is a master,
+        another test's master answers on the URI). A port taken that way is replaced by
+        a new free one, at most three times, unless the port was asked for.
+        """
         if shutil.which("roscore") is None:
             raise EndpointError("roscore is not installed; install ros-core (make sysdeps)")
+        deadline = time.monotonic() + timeout
+        for _ in range(3):
+            if self._launch(deadline):
+                self._port_chosen = False  # a restart (after `kill`) keeps this URI
+                return self
+            if not (self._port_chosen and _port_taken(self.port)):
+                break
+            self.stop_process()
+            self.port = free_port()
+            self.uri = f"http://127.0.0.1:{self.port}/"
+        output = (self.home / "roscore.out").read_text(errors="replace")
+        self.stop()
+        raise EndpointError(f"roscore on port {self.port} did not come up:\n{output[-2000:]}")
+
+    def _launch(self, deadline: float) -> bool:
+        """Run roscore; True once its own master (a process of its tree) and /rosout answer,
+        False when it exits or `deadline` passes first."""
         with (self.home / "roscore.out").open("wb") as log:
-            self._process = subprocess.Popen(
+            process = self._process = subprocess.Popen(
                 ["roscore", "-p", str(self.port)],
                 env=self.env,
                 stdout=log,
@@ -137,25 +174,33 @@ class RosCore:
                 stdin=subprocess.DEVNULL,
                 start_new_session=True,
             )
-        deadline = time.monotonic() + timeout
         master = xmlrpc.client.ServerProxy(self.uri)
-        while time.monotonic() < deadline and self._process.poll() is None:
-            with contextlib.suppress(OSError):
-                reply: Any = master.getSystemState(_CALLER)
-                code, _, state = reply
-                publishers = state[0] if code == 1 else []
-                if any(topic == "/rosout_agg" for topic, _ in publishers):
-                    return self
+        ours = False
+        while time.monotonic() < deadline and process.poll() is None:
+            with contextlib.suppress(OSError, xmlrpc.client.Error):
+                if not ours:
+                    reply: Any = master.getPid(_CALLER)
+                    ours = reply[0] == 1 and reply[2] in {
+                        pid for pid, _ in _descendants(process.pid)
+                    }
+                if ours:
+                    reply = master.getSystemState(_CALLER)
+                    code, _, state = reply
+                    publishers = state[0] if code == 1 else []
+                    if any(topic == "/rosout_agg" for topic, _ in publishers):
+                        return True
             time.sleep(0.1)
-        output = (self.home / "roscore.out").read_text(errors="replace")
-        self.stop()
-        raise EndpointError(f"roscore on port {self.port} did not come up:\n{output[-2000:]}")
+        return False
 
-    def stop(self) -> None:
-        """Kill roscore's whole process tree and remove ROS_HOME."""
+    def stop_process(self) -> None:
+        """Kill roscore's process tree (ROS_HOME stays)."""
         if self._process is not None:
             terminate(self._process)
             self._process = None
+
+    def stop(self) -> None:
+        """Kill roscore's whole process tree and remove ROS_HOME."""
+        self.stop_process()
         shutil.rmtree(self.home, ignore_errors=True)
 
     def kill(self) -> None:
