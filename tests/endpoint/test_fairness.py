@@ -5,7 +5,6 @@ connectors keeps exchanging messages with no loss while all of it happens."""
 from __future__ import annotations
 
 import contextlib
-import itertools
 import json
 import re
 import socket
@@ -181,39 +180,42 @@ def _attacks(port: int, stop: threading.Event) -> None:
 
 
 def test_canary_pair_loses_nothing_while_attacked(canary_endpoint: EndpointThread) -> None:
+    """Every canary message arrives, in order, while every attack runs; none waits long
+    behind the attacks. Waiting is measured per message from its publish to its arrival,
+    so a publishing thread the machine was slow to wake (the gaps between publishes)
+    does not count against the endpoint."""
     reg = default_registry()
     port = canary_endpoint.port
-    arrivals: list[float] = []
+    sent_at: list[float] = []
+    arrivals: list[tuple[int, float]] = []
     with (
         Connector("127.0.0.1", port).connect() as sub,
         Connector("127.0.0.1", port).connect() as pub,
     ):
         sub.subscribe(
-            "/canary", "std_msgs/UInt32", lambda _: arrivals.append(time.monotonic()), raw=True
+            "/canary",
+            "std_msgs/UInt32",
+            lambda payload: arrivals.append((struct.unpack("<I", payload)[0], time.monotonic())),
+            raw=True,
         )
         publisher = pub.register_publisher("/canary", "std_msgs/UInt32")
-        deadline = time.monotonic() + 5
-        while "/canary" not in sub.topic_list() and time.monotonic() < deadline:
-            time.sleep(0.02)
-        time.sleep(0.2)
+        assert sub.flush(5)
+        sub.endpoint_stats()  # a barrier: the endpoint holds the subscription
         stop = threading.Event()
         attacker = threading.Thread(target=_attacks, args=(port, stop), daemon=True)
         attacker.start()
-        sent = 0
         try:
             t_end = time.monotonic() + 4.0
             while time.monotonic() < t_end:  # 100 Hz
-                publisher.publish(reg.encode(reg.new("std_msgs/UInt32", data=sent)))
-                sent += 1
+                sent_at.append(time.monotonic())
+                publisher.publish(reg.encode(reg.new("std_msgs/UInt32", data=len(sent_at) - 1)))
                 time.sleep(0.01)
         finally:
             stop.set()
             attacker.join(10)
-        deadline = time.monotonic() + 5
-        while len(arrivals) < sent and time.monotonic() < deadline:
-            time.sleep(0.02)
+        assert wait_for(lambda: len(arrivals) >= len(sent_at), timeout=10)
         assert sub.connected
         assert pub.connected
-    assert len(arrivals) == sent
-    gaps = [b - a for a, b in itertools.pairwise(arrivals)]
-    assert max(gaps) < 1.0, f"worst gap {max(gaps):.3f} s"
+    assert [seq for seq, _ in arrivals] == list(range(len(sent_at)))
+    waits = [at - sent_at[seq] for seq, at in arrivals]
+    assert max(waits) < 2.0, f"a canary message waited {max(waits):.3f} s behind the attacks"

@@ -13,6 +13,8 @@ import pytest
 import trimesh
 import yaml
 
+import simbridge.sim.world.pacer as pacer_module
+import simbridge.sim.world.world as world_module
 from simbridge.assets import robot_urdf
 from simbridge.errors import SimError
 from simbridge.sim.scene import build_scene, load_scene, parse_scene
@@ -227,15 +229,45 @@ def test_step_callbacks_run_at_their_period(tmp_path: Path) -> None:
         world.add_step_callback(lambda w: None, period=0)
 
 
-def test_run_paces_to_real_time_and_runs_fast_unpaced(tmp_path: Path) -> None:
+class _Clock:
+    """A wall clock that only a sleep moves (steps take no time on it): pacing measured
+    as sim time against wall time without the machine's speed in it."""
+
+    def __init__(self) -> None:
+        self.now = 0.0
+        self.sleeps = 0
+
+    def perf_counter(self) -> float:
+        return self.now
+
+    def sleep(self, seconds: float) -> None:
+        self.sleeps += 1
+        self.now += seconds
+
+
+def test_run_paces_to_real_time_and_runs_fast_unpaced(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     world = arm_world(tmp_path)
-    paced = world.run(duration=0.3, realtime_factor=1.0)
+    paced = world.run(duration=0.3, realtime_factor=1.0)  # the real clock: never ahead of it
     assert paced.steps == 150
-    assert 0.28 <= paced.wall_time < 0.6
+    assert paced.wall_time >= 0.28
     double = world.run(duration=0.3, realtime_factor=2.0)
-    assert 0.14 <= double.wall_time < 0.4
+    assert double.wall_time >= 0.14
+
+    for factor, wall in ((1.0, 0.3), (2.0, 0.15), (0.5, 0.6)):
+        clock = _Clock()
+        monkeypatch.setattr(pacer_module, "time", clock)
+        monkeypatch.setattr(world_module, "time", clock)
+        stats = world.run(duration=0.3, realtime_factor=factor)
+        assert stats.steps == 150
+        assert wall - 0.002 <= stats.wall_time <= wall + 1e-9, factor  # no oversleeping
+    clock = _Clock()
+    monkeypatch.setattr(pacer_module, "time", clock)
+    monkeypatch.setattr(world_module, "time", clock)
     fast = world.run(duration=1.0, realtime_factor=0)
-    assert fast.realtime_factor > 5
+    assert fast.steps == 500
+    assert clock.sleeps == 0  # unpaced: it never waits
 
 
 def test_pause_step_and_reset_from_another_thread(tmp_path: Path) -> None:

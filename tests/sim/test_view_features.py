@@ -121,7 +121,7 @@ def test_demo_buttons_run_what_the_app_registered(running: tuple[World, LiveView
         assert pressed.wait(10)
 
 
-def test_several_browsers_and_one_going_away_leave_the_physics_at_pace(
+def test_several_browsers_and_one_going_away_never_hold_the_physics(
     running: tuple[World, LiveView],
 ) -> None:
     world, view = running
@@ -131,17 +131,27 @@ def test_several_browsers_and_one_going_away_leave_the_physics_at_pace(
         assert wait_for(lambda: all(b.received > 20 for b in browsers), timeout=10), (
             "each gets the scene"
         )
-        sim0, wall0, frames0 = world.time, time.perf_counter(), view.frames_sent
-        time.sleep(2.0)
-        factor = (world.time - sim0) / (time.perf_counter() - wall0)
-        assert factor > 0.9, f"three browsers slowed the physics to x{factor:.2f}"
+        frames0 = view.frames_sent
+        # The physics never waits on the view: with the streaming thread held inside a
+        # push (its lock taken, as a push stuck on the browsers would hold it), sim time
+        # goes on. Progress, not pace: a busy machine only makes it take longer.
+        with view._lock:
+            sim0 = world.time
+            assert wait_for(lambda: world.time > sim0 + 0.3, timeout=10), "physics waited"
         browsers[0].socket.close_socket()  # gone without a goodbye, like a closed laptop
         assert wait_for(lambda: len(view.server.get_clients()) == 2, timeout=10)
-        seen = browsers[1].received
+        seen, sim1 = browsers[1].received, world.time
         assert wait_for(lambda: browsers[1].received > seen + 10, timeout=10), (
             "the others keep streaming"
         )
-        assert view.frames_sent > frames0 + 30
+        assert wait_for(lambda: world.time > sim1 + 0.3, timeout=10), "the physics goes on"
+        assert wait_for(lambda: view.frames_sent > frames0 + 30, timeout=10)
+        # and it stays within its rate (30 Hz): a view looping flat out would starve the
+        # physics of the interpreter lock. A slow machine only sends fewer.
+        frames1, wall1 = view.frames_sent, time.perf_counter()
+        time.sleep(1.0)
+        sent, wall = view.frames_sent - frames1, time.perf_counter() - wall1
+        assert sent <= 30 * wall + 2, f"{sent} frames in {wall:.2f} s at 30 Hz"
         assert view._thread.is_alive()
     finally:
         for browser in browsers:

@@ -214,7 +214,7 @@ def test_missing_master_fails_fast(master: RosMaster) -> None:
     start = time.monotonic()
     with pytest.raises(EndpointError, match="no ROS master"):
         _wait_for_master("http://127.0.0.1:1/", 2.0)
-    assert time.monotonic() - start < 3
+    assert time.monotonic() - start < 2.0 + 2.0  # its 2 s, and slack for a busy box
 
 
 def test_rosservice_call_reaches_sim_service(master: RosMaster) -> None:
