@@ -140,14 +140,22 @@ def test_image_reaches_a_ros2_subscriber(client: RawClient) -> None:
 
 
 def test_latched_topic_reaches_a_late_subscriber(client: RawClient) -> None:
-    client.send(Publish("/sb_latched", "std_msgs/String", latch=True).encode())
+    """Published before any subscriber exists (the stats reply is a barrier: the endpoint
+    handed the message to rcl), kept by the transient-local publisher, and delivered to a
+    subscriber that starts afterwards. Its start, its discovery of the publisher (reported
+    by `__subscribers`) and the delivery are awaited one after the other, each with the
+    deadline the other tests here give it."""
+    client.send(
+        Publish("/sb_latched", "std_msgs/String", latch=True, report_subscribers=True).encode()
+    )
     string = TS.types["std_msgs/msg/String"]
-    time.sleep(0.5)
     client.send(
         ProtocolConnection.message("/sb_latched", cdr(string(data="kept"), "std_msgs/msg/String"))
     )
-    time.sleep(0.5)
+    assert client.stats()["server"]["backend_counters"].get("publish_errors", 0) == 0
     with Ros2Process.node("echo", "/sb_latched", "std_msgs/msg/String", "1", "--latched") as echo:
+        echo.expect_json("ready")
+        client.wait_subscribers(1)
         assert echo.expect_json("msg") == {"data": "kept"}
 
 
