@@ -134,6 +134,34 @@ def test_zero_copy_path_with_large_and_small_frames(chunk: int, lend: bool) -> N
     assert type(out[0].payload) is (bytearray if lend else bytes)
 
 
+def test_after_a_large_frame_the_next_read_stops_at_its_header() -> None:
+    """After an image, the next read is offered just its header's length, so the next
+    image goes straight into a buffer of its own (none of it is copied over from the
+    scratch buffer); a small frame there costs one short read, then reads are whole."""
+    image = bytes(range(256)) * 3600  # 921,600 bytes
+    frame = encode_frame("/camera/image_raw", image)
+    header = len(frame) - len(image)
+    decoder = FrameDecoder(lend_large=True)
+    assert len(decoder.get_buffer()) == FrameDecoder.SCRATCH
+    assert [f.payload for f in _receive_into(decoder, frame, 1 << 20)] == [image]
+    for _ in range(2):
+        target = decoder.get_buffer()
+        assert len(target) == header
+        target[:] = frame[:header]
+        assert decoder.buffer_updated(header) == []
+        body = decoder.get_buffer()
+        assert len(body) == len(image)  # the whole payload, into its own buffer
+        body[:] = image
+        (got,) = decoder.buffer_updated(len(image))
+        assert got == Frame("/camera/image_raw", image)
+    smalls = [("/twist", b"x" * 48), ("/joint_states", b"y" * 100)]
+    data = b"".join(encode_frame(d, p) for d, p in smalls)
+    assert len(decoder.get_buffer()) == header
+    out = _receive_into(decoder, data, 1 << 20)
+    assert [(f.destination, f.payload) for f in out] == smalls
+    assert len(decoder.get_buffer()) == FrameDecoder.SCRATCH
+
+
 def test_frames_before_a_bad_prefix_are_still_delivered() -> None:
     decoder = FrameDecoder(max_payload=100)
     data = encode_frame("/ok", b"1") + b"\x01\x00\x00\x00t" + struct.pack("<I", 1000)

@@ -96,6 +96,11 @@ class FrameDecoder:
     new one is allocated for the next large frame, unless the receiver gives it back with
     `recycle`); else the payload is copied to bytes and the buffer reused.
 
+    After a large frame, `get_buffer` offers only that frame's header length (an image
+    stream's next frame has the same header), so the next image's bytes go straight into
+    its own buffer instead of filling the scratch buffer to be copied over (up to 256 KiB
+    of every image before); a small frame there costs one more, short, read.
+
     A length prefix over the bound (FrameTooLargeError, raised before the body is
     buffered) or a destination that is not UTF-8 (ProtocolError) breaks the stream:
     `error` is set, frames completed before it are still returned, and every later call
@@ -111,6 +116,7 @@ class FrameDecoder:
         "_buf",
         "_dests",
         "_end",
+        "_header_hint",
         "_lend",
         "_max_command",
         "_max_dest",
@@ -146,6 +152,8 @@ class FrameDecoder:
         self._big_filled = 0
         self._big_size = 0
         self._spare: bytearray | None = None
+        self._header_hint = 0
+        """Header length of the last large frame while no small frame has followed it."""
         self._lend = lend_large
         self._max_payload = max_payload
         self._max_command = max_payload if max_command is None else max_command
@@ -185,6 +193,8 @@ class FrameDecoder:
                 self._buf.extend(bytes(len(self._buf)))
             self._buf[:pending] = self._buf[self._start : self._end]
             self._start, self._end = 0, pending
+        if self._header_hint and self._end == self._start:
+            return memoryview(self._buf)[self._end : self._end + self._header_hint]
         return memoryview(self._buf)[self._end :]
 
     def buffer_updated(self, nbytes: int) -> list[Frame]:
@@ -324,9 +334,11 @@ class FrameDecoder:
                             f"{plen:,}-byte frame for {dest[:80]!r}"
                         )
                         break
-                    big[: end - body] = view[body:end]
+                    with memoryview(big) as target:  # a bytearray slice would copy twice
+                        target[: end - body] = view[body:end]
                     self._big, self._big_dest, self._big_filled = big, dest, end - body
                     self._big_size = plen
+                    self._header_hint = body - pos
                     pos = end
                     break
                 frames.append(Frame(dest, bytes(view[body:stop])))
@@ -335,6 +347,8 @@ class FrameDecoder:
             self._start = self._end = 0
         else:
             self._start = pos
+        if frames and self._big is None:
+            self._header_hint = 0
         return frames
 
 
