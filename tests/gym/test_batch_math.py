@@ -15,7 +15,8 @@ from simbridge.errors import GymError
 from simbridge.gym import SceneEnv
 from simbridge.gym.actions import DampedLeastSquares
 from simbridge.gym.batch_math import (
-    SCALAR_WORLDS,
+    BLOCK_WORLDS,
+    BLOCKED_UP_TO,
     BatchedDampedLeastSquares,
     BodyJacobians,
     mju_dot,
@@ -40,8 +41,11 @@ def test_mju_dot_adds_in_mujocos_order(vectors: np.ndarray) -> None:
 
 @settings(max_examples=80, deadline=None)
 @given(
-    # few worlds solve on Python floats, many on NumPy arrays
-    st.tuples(st.integers(1, 8), st.sampled_from([1, 5, SCALAR_WORLDS + 3])).flatmap(
+    # few worlds solve on MuJoCo's routines, in one block or several, many on NumPy arrays
+    st.tuples(
+        st.integers(1, 8),
+        st.sampled_from([1, 5, BLOCK_WORLDS, BLOCK_WORLDS + 3, BLOCKED_UP_TO + 3]),
+    ).flatmap(
         lambda size: st.tuples(
             arrays(np.float64, (size[1], 3, size[0]), elements=_ENTRIES),
             arrays(np.float64, (size[1], 3), elements=st.sampled_from([0.0, -0.0, 0.02, -0.013])),

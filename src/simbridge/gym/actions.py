@@ -145,16 +145,18 @@ class DampedLeastSquares:
         self.system = np.zeros((rows, rows))
         self.solution = np.zeros(rows)
         self.step = np.zeros(cols + rows)
+        self.error = np.zeros(rows)
         self.cols = cols
 
     def solve(self, jacobian: FloatArray, error: FloatArray) -> FloatArray:
-        """dq for `jacobian` (any layout) and `error`: a view of a work array, valid until
-        the next call."""
+        """dq for `jacobian` (any layout) and `error` (a -0.0 entry counts as +0.0, as in
+        `BatchedDampedLeastSquares`): a view of a work array, valid until the next call."""
         augmented, system, solution = self.augmented, self.system, self.solution
         augmented[:, : self.cols] = jacobian
         mujoco.mju_mulMatMatT(system, augmented, augmented)
         mujoco.mju_cholFactor(system, 0.0)
-        mujoco.mju_cholSolve(solution, system, np.ascontiguousarray(error, np.float64))
+        np.add(error, 0.0, out=self.error)
+        mujoco.mju_cholSolve(solution, system, self.error)
         mujoco.mju_mulMatTVec(self.step, augmented, solution)  # J^T y, then damping y
         return self.step[: self.cols]
 
@@ -259,7 +261,7 @@ class EndEffectorDelta(ActionAdapter):
         assert self._jacobians is not None, "bind() first"
         assert self._solvers is not None, "batched only with damping"
         jacobian = self._jacobians(batch["xpos"], batch["cdof"], batch["subtree_com"])
-        step = self._solvers.solve(jacobian, np.ascontiguousarray(actions.T, np.float64))
+        step = self._solvers.solve(jacobian, actions.T)
         batch.set_positions(self._actuators, batch.qpos[:, self._qpos] + step.T)
 
     def solve(self, world: World, position: FloatArray, iterations: int = 200) -> bool:

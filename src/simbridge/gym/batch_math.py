@@ -1,23 +1,24 @@
-"""MuJoCo's small routines over many worlds at once, in NumPy, with MuJoCo's bits.
+"""MuJoCo's small routines over many worlds at once, with MuJoCo's bits for each world.
 
 The end-effector action of a single env calls `mj_jacBody` and the `mju_*` products and
 Cholesky solve of `DampedLeastSquares` once per step. A vector env does the same for
-all its worlds with one NumPy operation per arithmetic step over every world. Each
-element goes through the same IEEE operations in the same order as MuJoCo's C code
-(`mj_jac`, `mju_dot`, `mju_mulMatMatT`, `mju_cholFactor`, `mju_cholSolve`,
-`mju_mulMatTVec`), and every operation is a separate NumPy ufunc (no BLAS, no fused
-multiply-add), so each world gets the bits its single env gets;
-`tests/gym/test_batch_math.py` checks that against MuJoCo.
+all its worlds at once. Each element goes through the same IEEE operations in the same
+order as MuJoCo's C code (`mj_jac`, `mju_dot`, `mju_mulMatMatT`, `mju_cholFactor`,
+`mju_cholSolve`, `mju_mulMatTVec`), so each world gets the bits its single env gets;
+`tests/gym/test_batch_math.py` checks that against MuJoCo. Two ways:
 
-The arrays here put the worlds on the last axis ((3, cols, worlds) for Jacobians), so
-that every operation runs on contiguous rows: NumPy's cost for arrays this small is the
-call, and strided ones cost several times a contiguous one.
+- NumPy, one operation per arithmetic step over every world (no BLAS, no fused
+  multiply-add). The arrays put the worlds on the last axis ((3, cols, worlds) for
+  Jacobians), so that every operation runs on contiguous rows: NumPy's cost for arrays
+  this small is the call, and strided ones cost several times a contiguous one.
+- MuJoCo's own routines on the worlds' systems side by side in one block-diagonal
+  system (the least squares of a few worlds: a few C calls instead of dozens of NumPy
+  ones).
 """
 
 from __future__ import annotations
 
-import math
-from collections.abc import Callable, Iterable
+from collections.abc import Iterable
 from typing import Any
 
 import mujoco
@@ -26,7 +27,13 @@ from numpy.typing import NDArray
 
 from simbridge.errors import GymError
 
-__all__ = ["SCALAR_WORLDS", "BatchedDampedLeastSquares", "BodyJacobians", "mju_dot"]
+__all__ = [
+    "BLOCKED_UP_TO",
+    "BLOCK_WORLDS",
+    "BatchedDampedLeastSquares",
+    "BodyJacobians",
+    "mju_dot",
+]
 
 FloatArray = NDArray[np.float64]
 
@@ -95,53 +102,109 @@ class BodyJacobians:
         return jacobian
 
 
-SCALAR_WORLDS = 16
-"""Up to this many worlds, the Cholesky solve runs on Python floats world by world: a
-few dozen float operations per world cost less than as many NumPy calls."""
+BLOCK_WORLDS = 8
+"""The worlds one block-diagonal system holds (`BatchedDampedLeastSquares`)."""
+BLOCKED_UP_TO = 16
+"""Up to this many worlds, the damped least squares runs on MuJoCo's routines over
+block-diagonal systems of at most `BLOCK_WORLDS` worlds: a few C calls, where NumPy
+needs dozens of calls over every world (it takes over beyond, where C's work on the
+blocks' zeros outgrows NumPy's cost per call)."""
 
 
-def _cholesky_solve(
-    system: Iterable[Any], error: Iterable[Any], sqrt: Callable[[Any], Any]
-) -> tuple[Any, Any, Any]:
-    """x with (L L^T) x = error, L the Cholesky factor of the symmetric 3x3 `system` (its
-    lower triangle: 00, 10, 20, 11, 21, 22), as `mju_cholFactor` (mindiag 0) and
-    `mju_cholSolve` compute it: for floats (with `math.sqrt`) or for arrays of many
-    worlds (with `np.sqrt`) alike."""
+def _cholesky_solve(system: Iterable[FloatArray], error: Iterable[FloatArray]) -> list[FloatArray]:
+    """x with (L L^T) x = error for many worlds, L the Cholesky factor of the symmetric 3x3
+    `system` (its lower triangle: 00, 10, 20, 11, 21, 22), as `mju_cholFactor` (mindiag 0)
+    and `mju_cholSolve` compute it."""
     g00, g10, g20, g11, g21, g22 = system
     e0, e1, e2 = error
-    l00 = sqrt(g00)
+    l00 = np.sqrt(g00)
     inverse = 1.0 / l00
     l10, l20 = g10 * inverse, g20 * inverse
-    l11 = sqrt(g11 - (0.0 + l10 * l10))
+    l11 = np.sqrt(g11 - (0.0 + l10 * l10))
     l21 = (g21 - (0.0 + l20 * l10)) * (1.0 / l11)
-    l22 = sqrt(g22 - (0.0 + (l20 * l20 + l21 * l21)))
+    l22 = np.sqrt(g22 - (0.0 + (l20 * l20 + l21 * l21)))
     y0 = e0 / l00
     y1 = (e1 - (0.0 + l10 * y0)) / l11
     y2 = (e2 - (0.0 + (l20 * y0 + l21 * y1))) / l22
     x2 = y2 / l22
     x1 = (y1 - l21 * x2) / l11
     x0 = ((y0 - l20 * x2) - l10 * x1) / l00
-    return x0, x1, x2
+    return [x0, x1, x2]
+
+
+class _Block:
+    """`DampedLeastSquares.solve` of `count` worlds as one system: world b's rows of
+    [J | damping I] are rows 3b..3b+2 of one matrix, so that MuJoCo's own routines give
+    each world its bits. `mju_mulMatMatT` on those rows computes every pair of rows, each
+    entry the dot of two rows as in one world's product; the pairs across worlds are then
+    zeroed, which leaves the system block-diagonal: `mju_cholFactor` and `mju_cholSolve`
+    then do each block's operations in its order, plus terms that are exact zeros (a
+    block's dots have at most two other terms). `mju_mulMatTVec` over the block-diagonal
+    [J | damping I] of every world adds, for each column, the zeros of the other worlds'
+    rows and then its world's three terms in order."""
+
+    def __init__(self, cols: int, damping: float, count: int) -> None:
+        width, rows = cols + 3, 3 * count
+        self.cols, self.count = cols, count
+        self.augmented = np.zeros((count, 3, width))  # world b's [J | damping I]
+        for i in range(3):
+            self.augmented[:, i, cols + i] = damping
+        self._rows = self.augmented.reshape(rows, width)
+        self.system = np.zeros((rows, rows))
+        world = np.arange(rows) // 3
+        # the lower triangle across worlds (all that the factorisation and solve read)
+        self._across = np.flatnonzero(world[:, None] > world[None, :])
+        self.error = np.zeros(rows)
+        self.solution = np.zeros(rows)
+        self.diagonal = np.zeros((rows, count * width))  # the block-diagonal [J | damping I]
+        columns = np.arange(count)[:, None, None] * width + np.arange(width)
+        self._blocks = np.ravel_multi_index(
+            (np.repeat(np.arange(rows), width), np.repeat(columns, 3, axis=1).ravel()),
+            self.diagonal.shape,
+        )
+        self.step = np.zeros(count * width)
+        self._result = self.step.reshape(count, width)[:, :cols].T  # (cols, count), a view
+
+    def solve(self, jacobian: FloatArray, error: NDArray[Any]) -> FloatArray:
+        """(cols, count) joint steps for (3, cols, count) `jacobian` and (3, count) `error`
+        (a view of a work array, valid until the next call)."""
+        self.augmented[:, :, : self.cols] = jacobian.transpose(2, 0, 1)
+        mujoco.mju_mulMatMatT(self.system, self._rows, self._rows)
+        self.system.ravel()[self._across] = 0.0
+        mujoco.mju_cholFactor(self.system, 0.0)
+        np.add(error.T, 0.0, out=self.error.reshape(self.count, 3))  # -0.0 as +0.0
+        mujoco.mju_cholSolve(self.solution, self.system, self.error)
+        self.diagonal.ravel()[self._blocks] = self._rows.ravel()
+        mujoco.mju_mulMatTVec(self.step, self.diagonal, self.solution)
+        return self._result
 
 
 class BatchedDampedLeastSquares:
     """`DampedLeastSquares` (dq = J^T (J J^T + damping^2 I)^-1 error) of many (3 x cols)
-    Jacobians at once (a body's position task), in `DampedLeastSquares.solve`'s order of
-    operations: `mju_mulMatMatT` on [J | damping I], `mju_cholFactor` (lower factor L,
-    each column scaled by the reciprocal of its diagonal), `mju_cholSolve` (forward, then
-    backward substitution, later rows first; the dots of fewer than four terms added onto
-    0), `mju_mulMatTVec` (0 plus each row times its solution entry)."""
+    Jacobians at once (a body's position task), with its bits for each world. Up to
+    `BLOCKED_UP_TO` worlds it runs MuJoCo's routines on block-diagonal systems (`_Block`);
+    beyond, NumPy over all worlds in `DampedLeastSquares.solve`'s order of operations:
+    `mju_mulMatMatT` on [J | damping I], `mju_cholFactor` (lower factor L, each column
+    scaled by the reciprocal of its diagonal), `mju_cholSolve` (forward, then backward
+    substitution, later rows first; the dots of fewer than four terms added onto 0),
+    `mju_mulMatTVec` (0 plus each row times its solution entry). A -0.0 error counts as
+    +0.0, as in `DampedLeastSquares`."""
 
     def __init__(self, cols: int, damping: float) -> None:
         if damping <= 0:
             raise GymError(f"damping must be > 0 (the system is then definite), got {damping}")
         self.cols, self.damping = cols, damping
         self._augmented: dict[int, FloatArray] = {}
+        self._blocks: dict[int, list[_Block]] = {}
+        self._steps: dict[int, FloatArray] = {}
 
-    def solve(self, jacobian: FloatArray, error: FloatArray) -> FloatArray:
+    def solve(self, jacobian: FloatArray, error: NDArray[Any]) -> FloatArray:
         """(cols, worlds) joint steps for (3, cols, worlds) `jacobian` and (3, worlds)
-        `error` (rows contiguous)."""
-        cols, count = self.cols, jacobian.shape[-1]
+        `error` (any float type; possibly a view of a work array, valid until the next call)."""
+        count = jacobian.shape[-1]
+        if count <= BLOCKED_UP_TO:
+            return self._solve_blocks(jacobian, error, count)
+        cols = self.cols
         augmented = self._augmented.get(count)
         if augmented is None:  # [J | damping I] term by term, the damping part written once
             augmented = np.zeros((cols + 3, 3, count))
@@ -152,12 +215,24 @@ class BatchedDampedLeastSquares:
         # mju_mulMatMatT: the lower triangle's dots (00, 10, 20, 11, 21, 22), term by term
         products = np.take(augmented, _LEFT, 1) * np.take(augmented, _RIGHT, 1)
         entries = mju_dot(products)  # g00, g10, g20, g11, g21, g22
-        if count <= SCALAR_WORLDS:  # Python floats: the same IEEE operations, cheaper here
-            pairs = zip(entries.T.tolist(), error.T.tolist(), strict=True)  # world by world
-            solution = np.array([_cholesky_solve(g, e, math.sqrt) for g, e in pairs]).T
-        else:
-            solution = np.array(_cholesky_solve(entries, error, np.sqrt))
+        solution = np.array(_cholesky_solve(entries, error + 0.0))  # -0.0 as +0.0
         # mju_mulMatTVec over the J part: the three products of each row in one multiplication
         terms = augmented[:cols] * solution  # (cols, 3, worlds)
         step: FloatArray = ((0.0 + terms[:, 0]) + terms[:, 1]) + terms[:, 2]
+        return step
+
+    def _solve_blocks(self, jacobian: FloatArray, error: NDArray[Any], count: int) -> FloatArray:
+        """`solve` on blocks of at most `BLOCK_WORLDS` worlds."""
+        blocks = self._blocks.get(count)
+        if blocks is None:
+            sizes = [len(part) for part in np.array_split(range(count), -(-count // BLOCK_WORLDS))]
+            blocks = self._blocks[count] = [_Block(self.cols, self.damping, n) for n in sizes]
+            self._steps[count] = np.zeros((self.cols, count))
+        if len(blocks) == 1:
+            return blocks[0].solve(jacobian, error)
+        step, start = self._steps[count], 0
+        for block in blocks:
+            end = start + block.count
+            step[:, start:end] = block.solve(jacobian[..., start:end], error[:, start:end])
+            start = end
         return step
