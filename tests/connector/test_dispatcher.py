@@ -22,7 +22,8 @@ class Sink:
 
 
 def test_every_hand_off_is_run_in_order() -> None:
-    dispatcher = Dispatcher(StatsCounters())
+    counters = StatsCounters()
+    dispatcher = Dispatcher(counters)
     dispatcher.start()
     total = 20_000
     sink = Sink("/t", total)
@@ -38,7 +39,7 @@ def test_every_hand_off_is_run_in_order() -> None:
         while sent < total:
             size = min(rng.choice([1, 1, 2, 5, 300]), total - sent)
             batch = [(sink, str(sent + i).encode()) for i in range(size)]
-            assert dispatcher.put_messages(batch) == []
+            dispatcher.put_messages(batch)
             sent += size
             if rng.random() < 0.05:
                 task_after(sent)
@@ -50,3 +51,61 @@ def test_every_hand_off_is_run_in_order() -> None:
     assert sink.got == [str(i).encode() for i in range(total)]
     assert tasks
     assert all(mark == delivered for mark, delivered in tasks)  # ran in queue order
+    assert counters.snapshot().subscribe_drops == {}
+
+
+def test_what_a_read_brings_runs_on_the_reader_in_order_with_its_tasks() -> None:
+    """Messages queued by the I/O step are run by that worker once the step returns
+    (without the inbox while nothing else is queued), in order with the tasks the step
+    and other threads submit; a read holding more than a receiver's queue_size still
+    drops its oldest, counted."""
+    counters = StatsCounters()
+    sink = Sink("/t", 1000)
+    small = Sink("/small", 2)
+    log: list[str] = []
+    on_reader: list[bool] = []
+    rng = random.Random(11)
+    done = threading.Event()
+    total = 3000
+    sent = 0
+    dispatcher: Dispatcher
+
+    def deliver(payload: bytes, target: Sink = sink) -> None:
+        Sink.deliver(target, payload)
+        on_reader.append(dispatcher.holds_io)
+
+    sink.deliver = deliver  # type: ignore[method-assign]
+
+    def step() -> bool:
+        nonlocal sent
+        if sent >= total:
+            return not done.wait(0.001)
+        size = min(rng.choice([1, 1, 3, 40]), total - sent)
+        dispatcher.put_messages([(sink, str(sent + i).encode()) for i in range(size)])
+        sent += size
+        if rng.random() < 0.1:
+            mark = sent
+            dispatcher.submit(lambda: log.append(f"step {mark} {len(sink.got)}"))
+        if sent == total:
+            dispatcher.put_messages([(small, bytes([i])) for i in range(5)])
+        return True
+
+    dispatcher = Dispatcher(counters, step)
+    dispatcher.start()
+    try:
+        for _ in range(20):
+            dispatcher.submit(lambda: log.append("outside"))
+            threading.Event().wait(0.002)
+        assert wait_for(lambda: len(sink.got) == total and len(small.got) == 2, timeout=30)
+    finally:
+        done.set()
+        assert dispatcher.wait_io_done(5)
+        dispatcher.stop()
+    assert sink.got == [str(i).encode() for i in range(total)]
+    marks = [entry.split() for entry in log if entry.startswith("step")]
+    assert marks
+    assert all(mark == delivered for _, mark, delivered in marks)
+    assert log.count("outside") == 20
+    assert small.got == [b"\x03", b"\x04"]  # the newest two of one read of five
+    assert counters.snapshot().subscribe_drops == {"/small": 3}
+    assert all(on_reader) or dispatcher.takeovers > 0

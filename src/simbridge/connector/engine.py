@@ -432,17 +432,13 @@ class ConnectorEngine:
                     batch.extend((sub, payload) for sub in subs)
                 continue
             if batch:
-                self._queue_messages(batch)
+                self._dispatcher.put_messages(batch)
                 batch = []
             if not self._handle(item):
                 return False
         if batch:
-            self._queue_messages(batch)
+            self._dispatcher.put_messages(batch)
         return True
-
-    def _queue_messages(self, batch: list[tuple[Subscription, bytes]]) -> None:
-        for sub in self._dispatcher.put_messages(batch):
-            self._counters.subscribe_dropped(sub.topic)
 
     def _handle(self, event: Event) -> bool:
         """Act on one event; False when the connection must be dropped."""
