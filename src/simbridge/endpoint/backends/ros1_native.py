@@ -48,6 +48,7 @@ class NativeData:
         self._subscribed: dict[str, SubscribedTopic] = {}
         self._failed_before = 0
         self._reconnects_before = 0
+        self._coalesced_before = 0
         """Counts of the topics no longer subscribed."""
 
     async def start(self) -> None:
@@ -89,7 +90,8 @@ class NativeData:
     def stats(self) -> dict[str, int]:
         """Counters for `__stats`: drops towards slow ROS subscribers, times a subscriber
         fell behind on a topic that may not drop (its publishers' clients pushed back on),
-        refused and failed connections, and dropped connections to publishers made again."""
+        refused and failed connections, dropped connections to publishers made again, and
+        pauses of streaming publisher connections (coalesced reads)."""
         server = self._server
         topics = list(self._subscribed.values())
         return {
@@ -98,6 +100,7 @@ class NativeData:
             "ros1_refused_connections": server.refused if server else 0,
             "ros1_failed_connections": self._failed_before + sum(t.errors for t in topics),
             "ros1_reconnects": self._reconnects_before + sum(t.reconnects for t in topics),
+            "ros1_coalesced_reads": self._coalesced_before + sum(t.coalesced for t in topics),
         }
 
     def _started(self) -> tuple[TopicServer, asyncio.AbstractEventLoop]:
@@ -163,6 +166,7 @@ class NativeData:
             topic.close()
             self._failed_before += topic.errors
             self._reconnects_before += topic.reconnects
+            self._coalesced_before += topic.coalesced
 
 
 def _info(cls: type[RawMessage]) -> RawMessageType:

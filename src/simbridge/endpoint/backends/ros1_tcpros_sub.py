@@ -7,6 +7,17 @@ When a consumer says it is blocked (its client stopped reading), the topic stops
 reading from its publishers, so TCP pushes back on them instead of messages being
 dropped here; reading resumes when the consumer catches up.
 
+A publisher streaming small messages faster than the loop handles them would cost one
+wake-up, one read and one write to each client per message or two. A connection whose
+reads (each completing messages) keep coming less than `STREAM_GAP` after the previous
+one was handled, or bring more than one message, `STREAM_READS` times in a row, is taken
+as a stream: after each read it stops reading for `COALESCE` (about 1 ms with asyncio's
+timers), so the next read takes what arrived meanwhile (the kernel holds it; TCP pushes
+back if it must) and its messages leave to the clients in one write. It stays a stream
+while those reads bring more than one message. A message at a time, a request and its
+reply, or a large message arriving in chunks never looks like a stream, so latency is
+unchanged there; a stream's messages wait at most that pause.
+
 A connection that drops (or cannot be made) while the master still lists its
 publisher is retried with bounded exponential backoff, as rospy's subscriber does;
 retrying stops when the master's publisher list no longer names it or the topic is
@@ -19,6 +30,7 @@ from __future__ import annotations
 import asyncio
 import logging
 import socket
+import time
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -44,6 +56,16 @@ RETRY_FIRST = 0.25
 
 RETRY_MAX = 8.0
 """The longest wait between two reconnection attempts (the wait doubles after each)."""
+
+STREAM_GAP = 100e-6
+"""A read completing messages this soon after the previous one was handled counts towards
+a stream (a reply to anything the endpoint sent takes longer to come back), as does one
+completing more than one message."""
+STREAM_READS = 3
+"""Consecutive such reads after which a connection is taken as a stream and coalesced."""
+COALESCE = 0.0005
+"""While a connection streams, reading pauses this long after each read (asyncio's timers
+make it about 1 ms), so one read takes many messages instead of one wake-up each."""
 
 
 @dataclass(eq=False, slots=True)
@@ -79,6 +101,8 @@ class SubscribedTopic:
         """Publisher connections that failed (refused, wrong md5sum, unreachable)."""
         self.reconnects = 0
         """Dropped publisher connections that were made again."""
+        self.coalesced = 0
+        """Pauses of a streaming connection's reading (see the module doc)."""
         self.publishers: frozenset[str] = frozenset()
         """The publishers' XML-RPC URIs, as the master last listed them."""
         self._retries: dict[str, _Retry] = {}
@@ -280,6 +304,13 @@ class _PublisherConnection(asyncio.Protocol):
         self._stash: deque[bytes] = deque()
         """Messages received but not yet delivered (at most one read's worth)."""
         self._writes: DeferredWrites | None = None
+        self._handled = 0.0
+        """When the last read was handled (time.monotonic())."""
+        self._short = 0
+        """Consecutive reads that looked like a stream's (see STREAM_GAP)."""
+        self._coalescing: asyncio.TimerHandle | None = None
+        """The end of the current pause of a streaming connection."""
+        self._streaming = False
 
     async def open(self) -> None:
         loop = asyncio.get_running_loop()
@@ -306,35 +337,71 @@ class _PublisherConnection(asyncio.Protocol):
         writes = self._writes
         if writes is None:
             return
+        start = time.monotonic()
         writes.hold()
         try:
-            self._received(data)
+            count = self._received(data)
         finally:
             writes.release()
+        if count:
+            self._pace(count, start)
 
-    def _received(self, data: bytes) -> None:
+    def _pace(self, count: int, start: float) -> None:
+        """Take a read that completed `count` messages (begun at `start`) into account:
+        pause reading after it while the connection streams (see the module doc)."""
+        if self._streaming:
+            if count > 1:
+                self._coalesce()
+            else:
+                self._streaming = False
+                self._short = 0
+        elif count > 1 or start - self._handled < STREAM_GAP:
+            self._short += 1
+            if self._short >= STREAM_READS:
+                self._streaming = True
+                self._coalesce()
+        else:
+            self._short = 0
+        self._handled = time.monotonic()
+
+    def _coalesce(self) -> None:
+        transport = self._transport
+        if transport is None or self._reading_paused or self._coalescing is not None:
+            return
+        transport.pause_reading()
+        self.topic.coalesced += 1
+        self._coalescing = asyncio.get_running_loop().call_later(COALESCE, self._coalesced)
+
+    def _coalesced(self) -> None:
+        self._coalescing = None
+        transport = self._transport
+        if transport is not None and not self._reading_paused:
+            transport.resume_reading()
+
+    def _received(self, data: bytes) -> int:
         """Hand what `data` completes to the consumers (what they write leaves when the
-        caller releases the writes)."""
+        caller releases the writes); returns how many messages it completed."""
         transport = self._transport
         if transport is None or transport.is_closing():
-            return
+            return 0
         try:
             messages = self._decoder.feed(data)
         except TcprosError as exc:
             self._fail(str(exc))
-            return
+            return 0
         if not self.ready:
             header = self._decoder.header
             if header is None:
-                return
+                return 0
             if not self._check(header):
-                return
+                return 0
             self.ready = True
             self.topic.connected(self)
         if messages:
             self._stash.extend(messages)
             if not self._reading_paused:
                 self._pump()
+        return len(messages)
 
     def _pump(self) -> None:
         """Deliver what was received; stop reading while a consumer is blocked."""
@@ -383,4 +450,7 @@ class _PublisherConnection(asyncio.Protocol):
 
     def connection_lost(self, exc: Exception | None) -> None:
         self._transport = None
+        if self._coalescing is not None:
+            self._coalescing.cancel()
+            self._coalescing = None
         self.topic.lost(self, str(exc) if exc is not None else "the publisher closed it")
