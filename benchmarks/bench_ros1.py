@@ -18,8 +18,10 @@ rospy p50 and 100% to its p99).
 
 Every figure is taken `REPEATS` (>= 3) times in interleaved rounds; rows give the best
 and the median round and the 1-minute load average when the row's first round started.
-`python -m benchmarks.bench_ros1 --round-trip` runs the round trips alone
-(`SIMBRIDGE_BENCH_SCALE` and `SIMBRIDGE_BENCH_REPEATS` make it shorter).
+`python -m benchmarks.bench_ros1 --round-trip` runs the round trips alone, and
+`--only NAME` (a MEASURES name such as full_ros_to_sim) one throughput row beside the
+ceiling, without the round trips (`SIMBRIDGE_BENCH_SCALE` and `SIMBRIDGE_BENCH_REPEATS`
+make it shorter).
 """
 
 from __future__ import annotations
@@ -549,10 +551,18 @@ ROUND_TRIP_TITLE = (
 )
 
 
-def run(repeats: int = REPEATS, round_trip_only: bool = False) -> dict[str, list[dict[str, Any]]]:
+def run(
+    repeats: int = REPEATS, round_trip_only: bool = False, only: str | None = None
+) -> dict[str, list[dict[str, Any]]]:
     """Every direction and payload, then the round trips, in `repeats` interleaved rounds
     (the machine may be shared); rows give the best and the median round. With
-    `round_trip_only` just the round trips (`--round-trip` on the command line)."""
+    `round_trip_only` just the round trips (`--round-trip` on the command line); with
+    `only` (a MEASURES name) that throughput row beside the ceiling (`--only NAME`)."""
+    measures = MEASURES
+    if only is not None:
+        measures = [m for m in MEASURES if m[0] in ("ceiling", only)]
+        if len(measures) < 2:
+            raise ValueError(f"--only {only!r}: not one of {', '.join(n for n, _ in MEASURES)}")
     with _roscore() as env, tempfile.TemporaryDirectory() as tmp:
         os.environ.update({k: v for k, v in env.items() if k.startswith("ROS_")})
         script = Path(tmp, "bench_node.py")
@@ -561,26 +571,29 @@ def run(repeats: int = REPEATS, round_trip_only: bool = False) -> dict[str, list
         rt_script.write_text(_RT_SCRIPT)
         tables: dict[str, list[dict[str, Any]]] = {}
         if not round_trip_only:
-            tables[THROUGHPUT_TITLE] = _throughput(env, script, repeats)
-        tables[ROUND_TRIP_TITLE] = _round_trips(env, rt_script, repeats)
+            tables[THROUGHPUT_TITLE] = _throughput(env, script, repeats, measures)
+        if only is None:
+            tables[ROUND_TRIP_TITLE] = _round_trips(env, rt_script, repeats)
     return tables
 
 
-def _throughput(env: dict[str, str], script: Path, repeats: int) -> list[dict[str, Any]]:
-    """Every MEASURES row for every payload, in `repeats` rounds."""
+def _throughput(
+    env: dict[str, str], script: Path, repeats: int, measures: list[tuple[str, Measure]]
+) -> list[dict[str, Any]]:
+    """Every row of `measures` (the ceiling first) for every payload, in `repeats` rounds."""
     throughput: list[dict[str, Any]] = []
     for i, p in enumerate(PAYLOADS):
         loads: list[float] = []
         rounds: list[list[dict[str, Any]]] = []
         for r in range(repeats):
             results = []
-            for name, measure in MEASURES:
+            for name, measure in measures:
                 if r == 0:
                     loads.append(load_average())
                 results.append(measure(env, script, p, f"/bench/p{i}r{r}/{name}"))
             rounds.append(results)
         size = len(p.data)
-        throughput.extend(ceiling_summary(rounds, k, loads[k], size) for k in range(len(MEASURES)))
+        throughput.extend(ceiling_summary(rounds, k, loads[k], size) for k in range(len(measures)))
     return throughput
 
 
@@ -616,7 +629,12 @@ if __name__ == "__main__":
     from benchmarks.table import format_table
     from benchmarks.usage import exit_on_help
 
-    exit_on_help(__doc__, "  --round-trip  the round trips alone\n  --markdown    Markdown tables")
-
-    for title, table in run(round_trip_only="--round-trip" in sys.argv).items():
+    exit_on_help(
+        __doc__,
+        "  --round-trip  the round trips alone\n"
+        "  --only NAME   one throughput row (a MEASURES name) beside the ceiling\n"
+        "  --markdown    Markdown tables",
+    )
+    only = sys.argv[sys.argv.index("--only") + 1] if "--only" in sys.argv[:-1] else None
+    for title, table in run(round_trip_only="--round-trip" in sys.argv, only=only).items():
         print(f"### {title}\n\n{format_table(table, markdown='--markdown' in sys.argv)}\n")
