@@ -561,11 +561,12 @@ class _Ros2Subscription(_Entity, BackendSubscription):
         super().__init__(backend)
         takes.add(self)
 
-    def take_round(self) -> None:
+    def take_round(self) -> bool:
         """On the loop: take what is waiting, up to _TAKE_ROUND messages or
-        _TAKE_ROUND_BYTES, handing each to the callback as it comes."""
+        _TAKE_ROUND_BYTES, handing each to the callback as it comes; True when a bound
+        ended the round (more may be waiting), False when it found none left."""
         if self.closed:
-            return
+            return False
         handle, cls, callback = self.handle, self._cls, self._callback
         size = 0
         try:
@@ -574,15 +575,19 @@ class _Ros2Subscription(_Entity, BackendSubscription):
                 for _ in range(_TAKE_ROUND):
                     taken = take(cls, True)
                     if taken is None:
-                        return
+                        return False
                     payload = taken[0]
                     callback(payload)
                     size += len(payload)
-                    if size >= _TAKE_ROUND_BYTES or self.closed:
-                        return
+                    if size >= _TAKE_ROUND_BYTES:
+                        break
+                    if self.closed:
+                        return False
         except Exception as exc:  # destroyed meanwhile, or the callback failed
             if not self.closed:
                 _log.error("taking from %s failed", self.topic, exc_info=exc)
+            return False
+        return True
 
     def _destroy(self) -> None:
         self._takes.remove(self)

@@ -12,7 +12,12 @@ Here a thread of its own only waits (an rcl wait set on the subscriptions and a 
 condition, the GIL released) and tells the loop which subscriptions have messages;
 the loop takes them (a bounded round each) and hands each message to its callback at
 once, so nothing queues between threads and the DDS history stays short. The thread
-waits again once the loop has taken its round; what is left wakes it at once.
+waits again once the loop has taken its round. A round that a bound ended (a burst)
+goes on in the loop's next iteration, after whatever else is ready there, for up to
+_CONTINUED_ROUNDS rounds before the thread waits again: a burst of Twists went through
+the thread every 256 messages, and each trip (building a wait set, waking the loop
+from another thread, the two threads taking turns at the GIL) left the samples waiting
+in the DDS history meanwhile, which makes every new one cost the DDS thread more.
 Subscriptions join a callback group the executor never runs, so the executor leaves
 them alone.
 """
@@ -37,6 +42,11 @@ __all__ = ["LoopTakes", "Takeable"]
 
 _log = logging.getLogger(__name__)
 
+_CONTINUED_ROUNDS = 8
+"""Rounds taken one after another on the loop (a call_soon each, so the loop serves its
+other callbacks and I/O between them) before waiting on the thread again, which also
+notices subscriptions that were not ready before."""
+
 
 class Takeable(Protocol):
     """A subscription whose messages the loop takes."""
@@ -45,8 +55,9 @@ class Takeable(Protocol):
     def handle(self) -> Any:
         """The rclpy subscription's handle (for the wait set)."""
 
-    def take_round(self) -> None:
-        """On the loop: take and deliver a bounded round of messages."""
+    def take_round(self) -> bool:
+        """On the loop: take and deliver a bounded round of messages; True when the
+        bound ended it (more may be waiting)."""
 
 
 class _NeverExecuted(CallbackGroup):  # type: ignore[misc]  # rclpy has no stubs here
@@ -74,6 +85,8 @@ class LoopTakes:
         self._watched: set[Takeable] = set()
         self._taken = threading.Event()
         self._stopped = False
+        self._continued = 0
+        """Rounds taken on the loop since the thread last waited."""
         self._thread = threading.Thread(target=self._run, name="simbridge-rclpy-wait", daemon=True)
         self._thread.start()
 
@@ -135,13 +148,20 @@ class LoopTakes:
 
     def _take(self, ready: list[Takeable]) -> None:
         """On the loop: a round from each ready subscription still watched; what they write
-        leaves at the end, then the thread waits again."""
+        leaves at the end. Subscriptions with more waiting get another round in the loop's
+        next iteration, up to _CONTINUED_ROUNDS; otherwise the thread waits again."""
         writes = self._writes
         writes.hold()
+        busy: list[Takeable] = []
         try:
             for takeable in ready:
-                if takeable in self._watched:
-                    takeable.take_round()
+                if takeable in self._watched and takeable.take_round():
+                    busy.append(takeable)
         finally:
-            self._taken.set()
             writes.release()
+            if busy and self._continued < _CONTINUED_ROUNDS and not self._stopped:
+                self._continued += 1
+                self._loop.call_soon(self._take, busy)
+            else:
+                self._continued = 0
+                self._taken.set()
