@@ -98,3 +98,30 @@ def test_targets_are_clamped_to_limits_and_undriven_joints_rejected(tmp_path: Pa
         world.drives.set_position("grip_b", 0.0)
     with pytest.raises(SimError, match="stiffness must be finite"):
         DriveSpec(stiffness=math.inf)
+
+
+def test_position_controls_of_many_worlds_into_given_arrays(tmp_path: Path) -> None:
+    world = arm_world(
+        tmp_path,
+        robot={"drives": {"joints": {"wrist": {"mode": "effort"}}}},
+    )
+    drives = world.drives
+    drives.set_effort("wrist", 0.25)
+    actuators = drives.actuators(["shoulder", "elbow", "wrist"])
+    positions = np.array([[0.5, 10.0, 1.0], [-9.0, 0.1, -1.0]])  # two worlds, out of limits too
+    clamped, ctrl = drives.position_controls(actuators, positions)
+    assert clamped[0, 1] == 3.0  # elbow's upper limit
+    assert (ctrl[:, 2] == 0.25).all()  # the effort drive keeps its effort
+    # the same bits written into views of the caller's arrays, the input untouched
+    before = positions.copy()
+    targets, controls = np.full((2, 5), np.nan), np.full((2, 5), np.nan)
+    got = drives.position_controls(
+        actuators, positions, clamped=targets[:, 1:4], ctrl=controls[:, 1:4]
+    )
+    assert got[0].base is targets
+    assert got[1].base is controls
+    np.testing.assert_array_equal(targets[:, 1:4], clamped)
+    np.testing.assert_array_equal(controls[:, 1:4], ctrl)
+    assert np.isnan(targets[:, [0, 4]]).all()
+    assert np.isnan(controls[:, [0, 4]]).all()
+    np.testing.assert_array_equal(positions, before)

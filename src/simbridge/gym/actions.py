@@ -260,8 +260,10 @@ class EndEffectorDelta(ActionAdapter):
         least-squares solve over all rows."""
         assert self._jacobians is not None, "bind() first"
         assert self._solvers is not None, "batched only with damping"
-        jacobian = self._jacobians(batch["xpos"], batch["cdof"], batch["subtree_com"])
-        step = self._solvers.solve(jacobian, actions.T)
+        solvers = self._solvers
+        out = solvers.jacobian_buffer(batch.size)
+        jacobian = self._jacobians(batch["xpos"], batch["cdof"], batch["subtree_com"], out)
+        step = solvers.solve(jacobian, actions.T)
         batch.set_positions(self._actuators, batch.qpos[:, self._qpos] + step.T)
 
     def solve(self, world: World, position: FloatArray, iterations: int = 200) -> bool:

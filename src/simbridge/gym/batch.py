@@ -80,9 +80,17 @@ class WorldBatch:
     def set_positions(self, actuators: Actuators, positions: FloatArray) -> None:
         """`DriveBank.set_positions` of every world at once: `positions` is (size, k) for
         the k `actuators`; the rows' `ctrl` gets the same bits the drives would write."""
-        clamped, ctrl = self._drives.position_controls(actuators, positions)
-        self.positions[:, actuators] = clamped
-        self.ctrl[:, actuators] = ctrl
+        if isinstance(actuators, slice):  # columns of views: written in place
+            self._drives.position_controls(
+                actuators,
+                positions,
+                clamped=self.positions[:, actuators],
+                ctrl=self.ctrl[:, actuators],
+            )
+        else:
+            clamped, ctrl = self._drives.position_controls(actuators, positions)
+            self.positions[:, actuators] = clamped
+            self.ctrl[:, actuators] = ctrl
         self._aimed[actuators] = True
 
     def load(self, row: int) -> None:

@@ -91,12 +91,19 @@ class BodyJacobians:
         columns = range(model.nv)[dofs] if isinstance(dofs, slice) else dofs
         self._outside = [i for i, dof in enumerate(columns) if dof not in chain] or None
 
-    def __call__(self, xpos: FloatArray, cdof: FloatArray, subtree_com: FloatArray) -> FloatArray:
-        """(3, len(dofs), worlds) Jacobians from the (worlds, ...) fields."""
-        offset = np.take((xpos[:, self.body] - subtree_com[:, self.root]).T, _OFFSET_ORDER, 0)
-        factors = np.take(cdof[:, self.dofs].transpose(2, 1, 0), _CDOF_ORDER, 0)  # (9, dofs, n)
+    def __call__(
+        self,
+        xpos: FloatArray,
+        cdof: FloatArray,
+        subtree_com: FloatArray,
+        out: FloatArray | None = None,
+    ) -> FloatArray:
+        """(3, len(dofs), worlds) Jacobians from the (worlds, ...) fields, written into
+        `out` when given (any strides: a solver's own work array)."""
+        offset = (xpos[:, self.body] - subtree_com[:, self.root]).T.take(_OFFSET_ORDER, 0)
+        factors = cdof[:, self.dofs].transpose(2, 1, 0).take(_CDOF_ORDER, 0)  # (9, dofs, n)
         products = factors[:6] * offset[:, None, :]
-        jacobian: FloatArray = factors[6:] + (products[:3] - products[3:])
+        jacobian: FloatArray = np.add(factors[6:], products[:3] - products[3:], out=out)
         if self._outside is not None:
             jacobian[:, self._outside] = 0.0
         return jacobian
@@ -164,11 +171,14 @@ class _Block:
         )
         self.step = np.zeros(count * width)
         self._result = self.step.reshape(count, width)[:, :cols].T  # (cols, count), a view
+        self.jacobian = self.augmented[:, :, :cols].transpose(1, 2, 0)
+        """Where the Jacobians go, (3, cols, count): `solve` reads them there, no copy."""
 
     def solve(self, jacobian: FloatArray, error: NDArray[Any]) -> FloatArray:
         """(cols, count) joint steps for (3, cols, count) `jacobian` and (3, count) `error`
         (a view of a work array, valid until the next call)."""
-        self.augmented[:, :, : self.cols] = jacobian.transpose(2, 0, 1)
+        if jacobian is not self.jacobian:
+            self.jacobian[...] = jacobian
         mujoco.mju_mulMatMatT(self.system, self._rows, self._rows)
         self.system.ravel()[self._across] = 0.0
         mujoco.mju_cholFactor(self.system, 0.0)
@@ -213,7 +223,7 @@ class BatchedDampedLeastSquares:
             self._augmented[count] = augmented
         augmented[:cols] = jacobian.transpose(1, 0, 2)
         # mju_mulMatMatT: the lower triangle's dots (00, 10, 20, 11, 21, 22), term by term
-        products = np.take(augmented, _LEFT, 1) * np.take(augmented, _RIGHT, 1)
+        products = augmented.take(_LEFT, 1) * augmented.take(_RIGHT, 1)
         entries = mju_dot(products)  # g00, g10, g20, g11, g21, g22
         solution = np.array(_cholesky_solve(entries, error + 0.0))  # -0.0 as +0.0
         # mju_mulMatTVec over the J part: the three products of each row in one multiplication
@@ -221,13 +231,24 @@ class BatchedDampedLeastSquares:
         step: FloatArray = ((0.0 + terms[:, 0]) + terms[:, 1]) + terms[:, 2]
         return step
 
-    def _solve_blocks(self, jacobian: FloatArray, error: NDArray[Any], count: int) -> FloatArray:
-        """`solve` on blocks of at most `BLOCK_WORLDS` worlds."""
+    def jacobian_buffer(self, count: int) -> FloatArray | None:
+        """Where `solve` reads the Jacobians of `count` worlds from without copying them,
+        (3, cols, count), when it has one such place (one block), else None."""
+        blocks = self._blocks_for(count) if count <= BLOCKED_UP_TO else []
+        return blocks[0].jacobian if len(blocks) == 1 else None
+
+    def _blocks_for(self, count: int) -> list[_Block]:
+        """The blocks that solve `count` worlds, made on first use."""
         blocks = self._blocks.get(count)
         if blocks is None:
             sizes = [len(part) for part in np.array_split(range(count), -(-count // BLOCK_WORLDS))]
             blocks = self._blocks[count] = [_Block(self.cols, self.damping, n) for n in sizes]
             self._steps[count] = np.zeros((self.cols, count))
+        return blocks
+
+    def _solve_blocks(self, jacobian: FloatArray, error: NDArray[Any], count: int) -> FloatArray:
+        """`solve` on blocks of at most `BLOCK_WORLDS` worlds."""
+        blocks = self._blocks_for(count)
         if len(blocks) == 1:
             return blocks[0].solve(jacobian, error)
         step, start = self._steps[count], 0

@@ -104,6 +104,10 @@ class SceneVectorEnv(VectorEnv[Observation, NDArray[np.float32], NDArray[Any]]):
         self._autoreset = np.zeros(num_envs, np.bool_)
         self._everyone = np.ones(num_envs, np.bool_)
         self._everyone.flags.writeable = False
+        self._layout = [  # of the observation arrays every step returns afresh
+            (key, array.shape, array.dtype)
+            for key, array in first.empty_observations(num_envs).items()
+        ]
 
     @property
     def envs(self) -> list[SceneEnv]:
@@ -141,7 +145,7 @@ class SceneVectorEnv(VectorEnv[Observation, NDArray[np.float32], NDArray[Any]]):
             success[i] = self._begin(i, env_seed)
         self._data.derive(list(range(self.num_envs)))
         self._stale[:] = False
-        observations = self._envs[0].empty_observations(self.num_envs)
+        observations = {key: np.empty(shape, dtype) for key, shape, dtype in self._layout}
         SceneEnv.observe_many(self._envs, self._tasks, self._data, self._goals, observations)
         self._elapsed[:] = 0
         self._autoreset[:] = False
@@ -182,7 +186,7 @@ class SceneVectorEnv(VectorEnv[Observation, NDArray[np.float32], NDArray[Any]]):
         )
         if not math.isfinite(float(reward.sum())):
             raise GymError(f"task {type(self._tasks[0]).__name__} returned rewards {reward}")
-        observations = self._envs[0].empty_observations(self.num_envs)
+        observations = {key: np.empty(shape, dtype) for key, shape, dtype in self._layout}
         SceneEnv.observe_many(self._envs, self._tasks, self._data, self._goals, observations)
         elapsed = self._elapsed
         elapsed += 1
@@ -241,7 +245,7 @@ class SceneVectorEnv(VectorEnv[Observation, NDArray[np.float32], NDArray[Any]]):
     def _info(self, success: NDArray[np.bool_]) -> dict[str, Any]:
         """Gymnasium's vector info layout (key -> array, "_key" -> mask): every world
         reports "is_success" on every step and reset."""
-        return {"is_success": success, "_is_success": np.ones(self.num_envs, np.bool_)}
+        return {"is_success": success, "_is_success": self._everyone.copy()}
 
     def render(self) -> tuple[NDArray[np.uint8], ...] | None:
         """One frame per world when render_mode is "rgb_array"."""

@@ -159,16 +159,23 @@ class DriveBank:
         self._ctrl[actuators] = ctrl
 
     def position_controls(
-        self, actuators: Actuators, positions: NDArray[np.float64]
+        self,
+        actuators: Actuators,
+        positions: NDArray[np.float64],
+        *,
+        clamped: NDArray[np.float64] | None = None,
+        ctrl: NDArray[np.float64] | None = None,
     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """The clamped targets and the `ctrl` that `set_positions(actuators, positions)`
-        writes, changing nothing. `positions` may have leading axes: a learning env's many
-        worlds on this model (same gains and limits; this bank's effort targets) at once."""
-        clamped = np.maximum(positions, self._low[actuators])
+        writes, changing nothing else: in new arrays, or in `clamped` and `ctrl` if given
+        (views of the caller's arrays, of the shape of `positions`). `positions` may have
+        leading axes: a learning env's many worlds on this model (same gains and limits;
+        this bank's effort targets) at once."""
+        clamped = np.maximum(positions, self._low[actuators], out=clamped)
         np.minimum(clamped, self._high[actuators], out=clamped)
-        ctrl = self._kp[actuators] * clamped
+        ctrl = np.multiply(self._kp[actuators], clamped, out=ctrl)
         if self._any_effort:  # EFFORT drives take their effort whatever the position
-            ctrl = np.where(self._is_effort[actuators], self._effort[actuators], ctrl)
+            np.copyto(ctrl, self._effort[actuators], where=self._is_effort[actuators])
         return clamped, ctrl
 
     def set_targets(
