@@ -10,7 +10,7 @@ import socket
 import struct
 import time
 from collections import deque
-from collections.abc import Awaitable, Callable, Coroutine, Mapping
+from collections.abc import Awaitable, Callable, Coroutine, Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 from simbridge.endpoint.backends.base import (
@@ -361,6 +361,32 @@ class ClientSession(asyncio.BufferedProtocol):
         queue.append(payload)
         self._backlogged[outbox.topic] = outbox
 
+    def deliver_many(self, outbox: _Outbox, payloads: Sequence[bytes]) -> int:
+        """Queue subscribed messages that arrived together; returns how many it took. While
+        the client reads, small ones leave as one joined chunk (one frame header built for
+        a run of one size); otherwise each goes through `deliver`, stopping once the topic
+        should push back on its publishers (`_blocked`)."""
+        if not payloads:
+            return 0
+        if not self._paused and not self._closing:
+            sizes = set(map(len, payloads))
+            if max(sizes) < WRITE_ALONE:
+                self.stats.frames_out += len(payloads)
+                prefix = outbox.prefix
+                if len(sizes) == 1:
+                    head = prefix + _pack_u32(sizes.pop())
+                    self._write(head + head.join(payloads))
+                else:
+                    self._write(b"".join([prefix + _pack_u32(len(p)) + p for p in payloads]))
+                return len(payloads)
+        taken = 0
+        for payload in payloads:
+            self.deliver(outbox, payload)
+            taken += 1
+            if self._blocked(outbox):
+                break
+        return taken
+
     def _dropped(self, topic: str) -> None:
         self.stats.dropped[topic] += 1
         if not self._warn_scheduled:
@@ -540,6 +566,7 @@ class ClientSession(asyncio.BufferedProtocol):
                 command.topic, msg_type, functools.partial(self.deliver, outbox)
             )
             subscription.throttle(functools.partial(self._blocked, outbox))
+            subscription.batches(functools.partial(self.deliver_many, outbox))
             self.subscriptions[command.topic] = (subscription, outbox)
         elif isinstance(command, RosService):
             self._check_room(command.topic, self.ros_services)

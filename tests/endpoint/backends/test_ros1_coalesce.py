@@ -9,7 +9,7 @@ import socket
 import struct
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 from simbridge.endpoint.backends.ros1_raw import RawMessageType
 from simbridge.endpoint.backends.ros1_tcpros_sub import COALESCE, Sink, SubscribedTopic
@@ -45,7 +45,9 @@ def _publisher(plan: Plan, delivered: threading.Event) -> tuple[int, threading.T
     return server.getsockname()[1], thread
 
 
-def _receive(plan: Plan, count: int, marks: list[int] | None = None) -> tuple[list[bytes], int]:
+def _receive(
+    plan: Plan, count: int, marks: list[int] | None = None, sink: Sink | None = None
+) -> tuple[list[bytes], int]:
     """Subscribe over one real TCPROS connection to a publisher running `plan`; returns
     the payloads delivered (once `count` arrived) and how often reading paused (and in
     `marks`, how often it had paused when each payload was delivered)."""
@@ -62,12 +64,27 @@ def _receive(plan: Plan, count: int, marks: list[int] | None = None) -> tuple[li
             marks.append(topic.coalesced)
             delivered.set()
 
-        topic.sinks.append(Sink(on_message))
+        if sink is None:
+            topic.sinks.append(Sink(on_message))
+        else:
+            sink.callback = on_message
+            topic.sinks.append(sink)
+            blocked = sink.blocked
+
+            async def unblock() -> None:  # as a session does once its client reads again
+                while topic.sinks:
+                    await asyncio.sleep(0.005)
+                    if blocked is not None and not blocked():
+                        topic.unblocked()
+
+            unblocking = asyncio.ensure_future(unblock())
         topic.connect("http://pub:1/", "127.0.0.1", port)
         deadline = time.monotonic() + 30
         while len(got) < count and time.monotonic() < deadline:
             await asyncio.sleep(0.01)
         topic.close()
+        if sink is not None:
+            await unblocking
         return topic.coalesced
 
     coalesced = asyncio.run(main())
@@ -141,3 +158,34 @@ def test_the_stream_ends_with_the_burst() -> None:
     assert got == messages
     assert marks[2000] > 0  # the burst was coalesced
     assert marks[2000:] == [coalesced] * 5  # and none of the lone messages paused reading
+
+
+def test_a_consumer_of_batches_gets_a_stream_in_batches_and_may_take_part() -> None:
+    """A sole consumer taking batches gets a streaming read's messages in one call; when
+    it takes only the first ones (it became blocked), the rest wait, and nothing is lost
+    or reordered."""
+    messages = _numbered(3000)
+    batches: list[int] = []
+    calls = 0
+    block_until = 0.0
+
+    def take(payloads: Sequence[bytes]) -> int:
+        nonlocal calls, block_until
+        calls += 1
+        batches.append(len(payloads))
+        taken = 1 if calls % 5 == 0 else len(payloads)  # now and then: blocked after one
+        for payload in list(payloads)[:taken]:
+            sink.callback(payload)
+        if taken < len(payloads):
+            block_until = time.monotonic() + 0.002
+        return taken
+
+    sink = Sink(lambda _payload: None, lambda: time.monotonic() < block_until, take)
+
+    def stream(conn: socket.socket, _delivered: threading.Event) -> None:
+        for payload in messages:
+            conn.sendall(frame(payload))
+
+    got, _ = _receive(stream, len(messages), sink=sink)
+    assert got == messages
+    assert max(batches) > 1

@@ -9,7 +9,7 @@ invoke the callbacks they are given on that same thread.
 from __future__ import annotations
 
 import abc
-from collections.abc import Awaitable, Callable
+from collections.abc import Awaitable, Callable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Literal
 
@@ -24,6 +24,7 @@ __all__ = [
     "BackendPublisher",
     "BackendServiceServer",
     "BackendSubscription",
+    "BatchCallback",
     "MessageCallback",
     "ServiceHandler",
     "TopicInfo",
@@ -31,6 +32,10 @@ __all__ = [
 
 MessageCallback = Callable[[bytes], None]
 """Receives one serialized message; called on the event loop thread."""
+
+BatchCallback = Callable[[Sequence[bytes]], int]
+"""Receives serialized messages that arrived together, in order, on the event loop thread;
+returns how many it took from the front (the rest are offered again later)."""
 
 ServiceHandler = Callable[[bytes], Awaitable[bytes]]
 """Turns a serialized request into a serialized response (raise to fail the call)."""
@@ -86,6 +91,12 @@ class BackendSubscription(abc.ABC):
 
     def unblocked(self) -> None:  # noqa: B027 - optional hook
         """The consumer caught up after `blocked()` was true."""
+
+    def batches(self, callback: BatchCallback) -> bool:
+        """Hand messages that arrive together (one read's worth) to `callback` in one call
+        instead of one message callback each, so the consumer handles them at once; returns
+        False when the backend cannot (the default)."""
+        return False
 
 
 class BackendServiceServer(abc.ABC):

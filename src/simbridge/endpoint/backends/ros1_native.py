@@ -17,7 +17,7 @@ from typing import Any
 import rosgraph.network
 import rospy
 
-from simbridge.endpoint.backends.base import BackendSubscription, MessageCallback
+from simbridge.endpoint.backends.base import BackendSubscription, BatchCallback, MessageCallback
 from simbridge.endpoint.backends.ros1_raw import RawMessage, RawMessageType
 from simbridge.endpoint.backends.ros1_registration import Registration, Ros1Publisher
 from simbridge.endpoint.backends.ros1_tcpros_hook import (
@@ -255,6 +255,12 @@ class NativeSubscription(Registration, BackendSubscription):
 
     def unblocked(self) -> None:
         self._subscribed.unblocked()
+
+    def batches(self, callback: BatchCallback) -> bool:
+        """Messages one read completes go to `callback` at once (while this is the topic's
+        only consumer and it is not blocked)."""
+        self._sink.batch = callback
+        return True
 
     def _unregister(self) -> None:
         self._registration.unregister()

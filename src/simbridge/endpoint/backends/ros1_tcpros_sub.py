@@ -35,7 +35,7 @@ from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from simbridge.endpoint.backends.base import MessageCallback
+from simbridge.endpoint.backends.base import BatchCallback, MessageCallback
 from simbridge.endpoint.backends.ros1_raw import RawMessageType
 from simbridge.endpoint.backends.ros1_tcpros_pub import connection_ids
 from simbridge.endpoint.deferred import DeferredWrites, deferred_writes
@@ -70,10 +70,12 @@ make it about 1 ms), so one read takes many messages instead of one wake-up each
 
 @dataclass(eq=False, slots=True)
 class Sink:
-    """One consumer of a topic: its callback and, optionally, whether it is blocked now."""
+    """One consumer of a topic: its callback, optionally one for several messages at once
+    (`batch`) and whether it is blocked now."""
 
     callback: MessageCallback
     blocked: Callable[[], bool] | None = None
+    batch: BatchCallback | None = None
 
 
 @dataclass(eq=False, slots=True)
@@ -228,8 +230,21 @@ class SubscribedTopic:
 
     def deliver(self, queue: deque[bytes]) -> bool:
         """Hand the messages in `queue` to every consumer, in order, until one of them
-        says it is blocked: then return True, leaving the rest in `queue`."""
+        says it is blocked: then return True, leaving the rest in `queue`. A sole consumer
+        that takes batches and is not blocked gets them in one call (it may take only the
+        first ones, when it becomes blocked)."""
         sinks = self.sinks
+        if len(sinks) == 1 and len(queue) > 1:
+            sink = sinks[0]
+            batch, blocked = sink.batch, sink.blocked
+            if batch is not None and (blocked is None or not blocked()):
+                taken = batch(queue)
+                if taken >= len(queue):
+                    queue.clear()
+                    return blocked is not None and blocked()
+                for _ in range(taken):
+                    queue.popleft()
+                return True  # it took only part: blocked
         checks = [sink.blocked for sink in sinks if sink.blocked is not None]
         while queue:
             if not sinks:
