@@ -87,6 +87,30 @@ def test_same_events_as_protocol_connection(parts: list[bytes], cuts: list[int])
     assert read_all(stream, cuts) == expected
 
 
+bursts = st.one_of(
+    st.builds(lambda p: encode_frame("/a", p), st.binary(min_size=8, max_size=8)),
+    st.builds(lambda p: encode_frame("/b", p), st.binary(min_size=8, max_size=9)),
+    # a service frame whose header repeats the burst's (after its __response header)
+    st.builds(
+        lambda payload: ProtocolConnection.service_response(7, "/a", payload),
+        st.binary(min_size=8, max_size=8),
+    ),
+    st.just(KEEPALIVE),
+)
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.lists(bursts, max_size=60), st.lists(st.integers(0, 10_000), max_size=30))
+def test_bursts_of_repeated_headers_give_the_same_events(
+    parts: list[bytes], cuts: list[int]
+) -> None:
+    """Frames repeating the last message's header (read by one comparison) still give
+    ProtocolConnection's events, service frames with that header included."""
+    stream = b"".join(parts)
+    expected = ProtocolConnection("client").receive_data(stream)
+    assert read_all(stream, cuts) == expected
+
+
 def test_large_frame_grows_the_buffer_and_survives() -> None:
     big = bytes(range(256)) * 4000
     stream = encode_frame("/img", big) + encode_frame("/a", b"x") + encode_frame("/img", big)

@@ -417,15 +417,20 @@ class ConnectorEngine:
         """Queue messages for their callbacks and act on events, in arrival order."""
         batch: list[tuple[Subscription, bytes]] = []
         subscriptions = self._subscriptions
+        taps = self._taps
+        last: str | None = None
+        subs: tuple[Subscription, ...] | None = None
         for item in items:
             if isinstance(item, tuple):
                 topic, payload = item
-                subs = subscriptions.get(topic)
+                if topic is not last:  # a burst on one topic shares the reader's str
+                    last, subs = topic, subscriptions.get(topic)
                 if subs is None:
                     _log.debug("message on %r, which is not subscribed; ignored", topic)
                     continue
-                for tap in self._taps:
-                    tap(topic, subs[0].msg_type, payload, False)
+                if taps:
+                    for tap in taps:
+                        tap(topic, subs[0].msg_type, payload, False)
                 if len(subs) == 1:
                     batch.append((subs[0], payload))
                 else:
@@ -434,6 +439,7 @@ class ConnectorEngine:
             if batch:
                 self._dispatcher.put_messages(batch)
                 batch = []
+            last = None  # handling an event may change the subscriptions
             if not self._handle(item):
                 return False
         if batch:

@@ -29,6 +29,7 @@ _SMALL = 4096
 """Payloads below this are read with a `struct` unpacker of their exact size (one bytes
 object made straight from the buffer: ~120 ns for a Twist against ~300 ns for
 `bytes(buf[a:b])`, which copies twice); larger ones are copied out through a memoryview."""
+_EMPTY = struct.Struct("0s")
 _MAX_UNPACKERS = 512
 """Payload sizes whose unpacker is kept (message types of fixed size repeat one size)."""
 
@@ -47,6 +48,10 @@ class FrameReader:
         "_max_payload",
         "_names",
         "_proto",
+        "_run_head",
+        "_run_size",
+        "_run_topic",
+        "_run_unpack",
         "_service_next",
         "_start",
         "_unpackers",
@@ -63,6 +68,14 @@ class FrameReader:
         self._unpackers: dict[int, Callable[[bytearray, int], tuple[bytes]]] = {}
         self._last_name = b"\x00"
         self._last_topic = ""
+        self._run_head = b"\x00"
+        """The whole header (destination and payload length) of the last small topic message:
+        the frames of a burst on one topic and type of one size repeat it, and one
+        comparison then stands for parsing it."""
+        self._run_size = 0
+        """Bytes of such a frame (header and payload); 0 until there is one."""
+        self._run_topic = ""
+        self._run_unpack: Callable[[bytearray, int], tuple[bytes]] = _EMPTY.unpack_from
 
     @property
     def buffered(self) -> int:
@@ -84,8 +97,14 @@ class FrameReader:
         pos, end = self._start, self._end
         need = 8
         unpackers = self._unpackers
+        run_size, run_head = self._run_size, self._run_head
+        run_topic, run_unpack, run_at = self._run_topic, self._run_unpack, len(self._run_head)
         with memoryview(buf) as view:
             while end - pos >= 4:
+                if run_size and end - pos >= run_size and buf.startswith(run_head, pos):
+                    events.append((run_topic, run_unpack(buf, pos + run_at)[0]))
+                    pos += run_size
+                    continue
                 dlen = _unpack_u32(buf, pos)[0]
                 if dlen > MAX_DESTINATION_SIZE:
                     return self._fatal(
@@ -114,6 +133,8 @@ class FrameReader:
                 ):
                     name = bytes(view[pos + 4 : pos + 4 + dlen]).rstrip(b"\x00")
                     self._service_next = name in _SERVICE_HEADERS
+                    if self._service_next:
+                        run_size = 0  # the next frame is a service's, whatever its header
                     events += self._proto.receive_data(bytes(view[pos:stop]))
                     if self._proto.closed:
                         return self._fatal(events, "")
@@ -131,10 +152,14 @@ class FrameReader:
                         if unpack is None:
                             unpack = self._unpacker(plen)
                         payload = unpack(buf, start)[0]
+                        run_head, run_at = bytes(view[pos:start]), start - pos
+                        run_size, run_topic, run_unpack = stop - pos, topic, unpack
                     else:
                         payload = bytes(view[start:stop])
                     events.append((topic, payload))
                 pos = stop
+            self._run_size, self._run_head = run_size, run_head
+            self._run_topic, self._run_unpack = run_topic, run_unpack
             left = end - pos
             if left == 0:
                 pos = end = 0
