@@ -7,6 +7,7 @@ import json
 import os
 import queue
 import signal
+import socket
 import subprocess
 import sys
 import threading
@@ -25,7 +26,7 @@ from simbridge.endpoint.backends.ros1_genpy import generate_python_messages
 from simbridge.endpoint.backends.ros1_master import master_answers
 from simbridge.messages import default_registry
 from simbridge.planning import Pose, top_down_orientation
-from tests.ros1support import RosMaster, free_port, require_ros, shared_master
+from tests.ros1support import RosMaster, require_ros, shared_master
 
 pytestmark = [
     pytest.mark.ros1,
@@ -194,10 +195,15 @@ def test_unreachable_goal_empty_answer_and_error_on_rosout(
     assert planner_node.poll() is None  # still serving
 
 
-def test_ros1_demo_end_to_end_starts_its_own_roscore(tmp_path: Any) -> None:
+def test_ros1_demo_end_to_end_starts_its_own_roscore(
+    tmp_path: Any, request: pytest.FixtureRequest
+) -> None:
     require_ros()
     env = dict(os.environ)
-    env["ROS_MASTER_URI"] = f"http://127.0.0.1:{free_port()}/"  # nothing listens there
+    held = socket.socket()  # bound, never listening, for the whole test: nothing listens
+    held.bind(("127.0.0.1", 0))  # there, and no other master can take the port meanwhile
+    request.addfinalizer(held.close)
+    env["ROS_MASTER_URI"] = f"http://127.0.0.1:{held.getsockname()[1]}/"
     env["ROS_HOME"] = str(tmp_path)
     command = [
         *(sys.executable, "-m", "simbridge.apps.pick_and_place"),

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import signal
+import socket
 import subprocess
 import sys
 import time
@@ -154,13 +155,19 @@ def test_local_planner_answers_simbridge_service_call() -> None:
 
 @pytest.mark.ros1
 def test_demo_waits_for_its_own_planner_not_a_stale_registration(
-    master: RosMaster, monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+    master: RosMaster,
+    monkeypatch: pytest.MonkeyPatch,
+    tmp_path: Path,
+    request: pytest.FixtureRequest,
 ) -> None:
     """A planner that died without unregistering left /niryo_moveit pointing at a closed
     port: the demo's readiness check must not take that for its planner."""
     from simbridge.apps.pick_and_place.ros1_graph import Ros1Graph
 
-    dead = free_port()
+    held = socket.socket()  # bound, never listening: a closed port no one can take meanwhile
+    held.bind(("127.0.0.1", 0))
+    request.addfinalizer(held.close)
+    dead = held.getsockname()[1]
     api = xmlrpc.client.ServerProxy(master.uri)
     reply: Any = api.registerService(
         "/dead_planner", PLANNER_SERVICE, f"rosrpc://127.0.0.1:{dead}", f"http://127.0.0.1:{dead}/"

@@ -492,15 +492,15 @@ def test_topic_list_without_reply_times_out(endpoint: FakeEndpoint, make_connect
 def test_connect_timeout_raises_and_cleans_up():
     import socket
 
-    with socket.socket() as probe:
-        probe.bind(("127.0.0.1", 0))
+    with socket.socket() as probe:  # held bound, never listening: refused, and nobody
+        probe.bind(("127.0.0.1", 0))  # else can take the port while the test runs
         port = probe.getsockname()[1]
-    conn = Connector(port=port, options=FAST)
-    t0 = time.monotonic()
-    with pytest.raises(ConnectorError, match=f"127.0.0.1:{port} within 0.5 s"):
-        conn.connect(wait=0.5)
-    assert time.monotonic() - t0 < 1.5
-    assert not conn.connected
+        conn = Connector(port=port, options=FAST)
+        t0 = time.monotonic()
+        with pytest.raises(ConnectorError, match=f"127.0.0.1:{port} within 0.5 s"):
+            conn.connect(wait=0.5)
+        assert time.monotonic() - t0 < 1.5
+        assert not conn.connected
 
 
 def test_close_fails_unsent_calls_and_refuses_reuse(make_connector):
