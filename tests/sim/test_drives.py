@@ -115,11 +115,7 @@ def test_position_controls_of_many_worlds_into_given_arrays(tmp_path: Path) -> N
     # the same bits written into views of the caller's arrays, the input untouched
     before = positions.copy()
     targets, controls = np.full((2, 5), np.nan), np.full((2, 5), np.nan)
-    got = drives.position_controls(
-        actuators, positions, clamped=targets[:, 1:4], ctrl=controls[:, 1:4]
-    )
-    assert got[0].base is targets
-    assert got[1].base is controls
+    drives.position_controls_into(actuators, positions, targets[:, 1:4], controls[:, 1:4])
     np.testing.assert_array_equal(targets[:, 1:4], clamped)
     np.testing.assert_array_equal(controls[:, 1:4], ctrl)
     assert np.isnan(targets[:, [0, 4]]).all()

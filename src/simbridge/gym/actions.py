@@ -13,7 +13,6 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
-from typing import Any
 
 import mujoco
 import numpy as np
@@ -146,19 +145,16 @@ class DampedLeastSquares:
         self.system = np.zeros((rows, rows))
         self.solution = np.zeros(rows)
         self.step = np.zeros(cols + rows)
-        self.error = np.zeros(rows)
         self.cols = cols
 
-    def solve(self, jacobian: FloatArray, error: NDArray[np.floating[Any]]) -> FloatArray:
-        """dq for `jacobian` (any layout) and `error` (any float type; a -0.0 entry counts
-        as +0.0, as in `BatchedDampedLeastSquares`): a view of a work array, valid until the
-        next call."""
+    def solve(self, jacobian: FloatArray, error: FloatArray) -> FloatArray:
+        """dq for `jacobian` (any layout) and `error`: a view of a work array, valid until
+        the next call."""
         augmented, system, solution = self.augmented, self.system, self.solution
         augmented[:, : self.cols] = jacobian
         mujoco.mju_mulMatMatT(system, augmented, augmented)
         mujoco.mju_cholFactor(system, 0.0)
-        np.add(error, 0.0, out=self.error)
-        mujoco.mju_cholSolve(solution, system, self.error)
+        mujoco.mju_cholSolve(solution, system, np.ascontiguousarray(error, np.float64))
         mujoco.mju_mulMatTVec(self.step, augmented, solution)  # J^T y, then damping y
         return self.step[: self.cols]
 
@@ -231,9 +227,9 @@ class EndEffectorDelta(ActionAdapter):
         self._data, self._qpos_all = world.data, world.data.qpos  # a view, kept
         self._jacobians = BodyJacobians(world.model, self._body_id, self._dofs)
 
-    def joint_step(self, world: World, delta: NDArray[np.floating[Any]]) -> FloatArray:
-        """Joint increments moving the body by `delta` (m, any float type) from the state in
-        `world.data` (possibly a view of a work array, valid until the next call)."""
+    def joint_step(self, world: World, delta: FloatArray) -> FloatArray:
+        """Joint increments moving the body by `delta` (m) from the state in `world.data`
+        (possibly a view of a work array, valid until the next call)."""
         model, data = world.model, world.data
         jacp, jacr = self._jacp, self._jacr
         if self.orientation is None:  # the rotational Jacobian is not needed
@@ -249,7 +245,7 @@ class EndEffectorDelta(ActionAdapter):
         """Aim the joints at measured position + the least-squares step for `action`."""
         data = world.data
         qpos = self._qpos_all if data is self._data else data.qpos
-        targets = qpos[self._qpos] + self.joint_step(world, action)
+        targets = qpos[self._qpos] + self.joint_step(world, action.astype(np.float64))
         world.drives.set_positions(self._actuators, targets)
 
     @property

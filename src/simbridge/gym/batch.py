@@ -81,11 +81,8 @@ class WorldBatch:
         """`DriveBank.set_positions` of every world at once: `positions` is (size, k) for
         the k `actuators`; the rows' `ctrl` gets the same bits the drives would write."""
         if isinstance(actuators, slice):  # columns of views: written in place
-            self._drives.position_controls(
-                actuators,
-                positions,
-                clamped=self.positions[:, actuators],
-                ctrl=self.ctrl[:, actuators],
+            self._drives.position_controls_into(
+                actuators, positions, self.positions[:, actuators], self.ctrl[:, actuators]
             )
         else:
             clamped, ctrl = self._drives.position_controls(actuators, positions)

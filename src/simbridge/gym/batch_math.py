@@ -146,9 +146,11 @@ class _Block:
     entry the dot of two rows as in one world's product; the pairs across worlds are then
     zeroed, which leaves the system block-diagonal: `mju_cholFactor` and `mju_cholSolve`
     then do each block's operations in its order, plus terms that are exact zeros (a
-    block's dots have at most two other terms). `mju_mulMatTVec` over the block-diagonal
-    [J | damping I] of every world adds, for each column, the zeros of the other worlds'
-    rows and then its world's three terms in order."""
+    block's dots have at most two other terms). Those zeros can only turn a zero of the
+    solution into a zero of the other sign, which the last product does not see:
+    `mju_mulMatTVec` over the block-diagonal [J | damping I] of every world starts each
+    column's sum from +0 and adds the zeros of the other worlds' rows and then its world's
+    three terms in order."""
 
     def __init__(self, cols: int, damping: float, count: int) -> None:
         width, rows = cols + 3, 3 * count
@@ -182,7 +184,7 @@ class _Block:
         mujoco.mju_mulMatMatT(self.system, self._rows, self._rows)
         self.system.ravel()[self._across] = 0.0
         mujoco.mju_cholFactor(self.system, 0.0)
-        np.add(error.T, 0.0, out=self.error.reshape(self.count, 3))  # -0.0 as +0.0
+        self.error.reshape(self.count, 3)[...] = error.T
         mujoco.mju_cholSolve(self.solution, self.system, self.error)
         self.diagonal.ravel()[self._blocks] = self._rows.ravel()
         mujoco.mju_mulMatTVec(self.step, self.diagonal, self.solution)
@@ -197,8 +199,7 @@ class BatchedDampedLeastSquares:
     `mju_mulMatMatT` on [J | damping I], `mju_cholFactor` (lower factor L, each column
     scaled by the reciprocal of its diagonal), `mju_cholSolve` (forward, then backward
     substitution, later rows first; the dots of fewer than four terms added onto 0),
-    `mju_mulMatTVec` (0 plus each row times its solution entry). A -0.0 error counts as
-    +0.0, as in `DampedLeastSquares`."""
+    `mju_mulMatTVec` (0 plus each row times its solution entry)."""
 
     def __init__(self, cols: int, damping: float) -> None:
         if damping <= 0:
@@ -225,7 +226,7 @@ class BatchedDampedLeastSquares:
         # mju_mulMatMatT: the lower triangle's dots (00, 10, 20, 11, 21, 22), term by term
         products = augmented.take(_LEFT, 1) * augmented.take(_RIGHT, 1)
         entries = mju_dot(products)  # g00, g10, g20, g11, g21, g22
-        solution = np.array(_cholesky_solve(entries, error + 0.0))  # -0.0 as +0.0
+        solution = np.array(_cholesky_solve(entries, error))
         # mju_mulMatTVec over the J part: the three products of each row in one multiplication
         terms = augmented[:cols] * solution  # (cols, 3, worlds)
         step: FloatArray = ((0.0 + terms[:, 0]) + terms[:, 1]) + terms[:, 2]

@@ -159,24 +159,32 @@ class DriveBank:
         self._ctrl[actuators] = ctrl
 
     def position_controls(
+        self, actuators: Actuators, positions: NDArray[np.float64]
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The clamped targets and the `ctrl` that `set_positions(actuators, positions)`
+        writes, changing nothing. `positions` may have leading axes: a learning env's many
+        worlds on this model (same gains and limits; this bank's effort targets) at once."""
+        clamped = np.maximum(positions, self._low[actuators])
+        np.minimum(clamped, self._high[actuators], out=clamped)
+        ctrl = self._kp[actuators] * clamped
+        if self._any_effort:  # EFFORT drives take their effort whatever the position
+            ctrl = np.where(self._is_effort[actuators], self._effort[actuators], ctrl)
+        return clamped, ctrl
+
+    def position_controls_into(
         self,
         actuators: Actuators,
         positions: NDArray[np.float64],
-        *,
-        clamped: NDArray[np.float64] | None = None,
-        ctrl: NDArray[np.float64] | None = None,
-    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """The clamped targets and the `ctrl` that `set_positions(actuators, positions)`
-        writes, changing nothing else: in new arrays, or in `clamped` and `ctrl` if given
-        (views of the caller's arrays, of the shape of `positions`). `positions` may have
-        leading axes: a learning env's many worlds on this model (same gains and limits;
-        this bank's effort targets) at once."""
-        clamped = np.maximum(positions, self._low[actuators], out=clamped)
+        clamped: NDArray[np.float64],
+        ctrl: NDArray[np.float64],
+    ) -> None:
+        """`position_controls`, its bits written into `clamped` and `ctrl` (views of the
+        caller's arrays, of the shape of `positions`) instead of new arrays."""
+        np.maximum(positions, self._low[actuators], out=clamped)
         np.minimum(clamped, self._high[actuators], out=clamped)
-        ctrl = np.multiply(self._kp[actuators], clamped, out=ctrl)
-        if self._any_effort:  # EFFORT drives take their effort whatever the position
+        np.multiply(self._kp[actuators], clamped, out=ctrl)
+        if self._any_effort:
             np.copyto(ctrl, self._effort[actuators], where=self._is_effort[actuators])
-        return clamped, ctrl
 
     def set_targets(
         self, actuators: Actuators, positions: NDArray[np.float64], velocities: NDArray[np.float64]
