@@ -337,6 +337,43 @@ def test_blocked_consumer_pushes_back_on_a_rospy_publisher_without_loss(
     assert received == list(range(count))
 
 
+def test_replies_from_a_rospy_publisher_are_not_held_by_nagle(master: RosMaster) -> None:
+    """The endpoint subscribes with tcp_nodelay 0 (rospy's default), so rospy's publisher
+    keeps Nagle's algorithm on; a message sent each time the previous one arrived (a
+    request/reply pattern) still goes out at once, as the endpoint acknowledges what it
+    reads (held until a delayed acknowledgement, each would take 40 ms or more)."""
+    count = 50
+    cls = raw_message_class(STRING)
+    arrived = threading.Event()
+
+    async def scenario(backend: Ros1Backend) -> list[float]:
+        subscription = backend.subscribe(
+            "/sb/native/nagle", "std_msgs/String", lambda _p: arrived.set()
+        )
+        publisher = rospy.Publisher("/sb/native/nagle", cls, queue_size=None)
+        await until(lambda: publisher.get_num_connections() == 1, 10, "the connection")
+        waits: list[float] = []
+
+        def ping_pong() -> None:
+            for i in range(count):
+                arrived.clear()
+                start = time.monotonic()
+                publisher.publish(cls(ros_string(f"{i:08d}")))
+                if not arrived.wait(5):
+                    return
+                waits.append(time.monotonic() - start)
+                time.sleep(0.001)
+
+        await asyncio.to_thread(ping_pong)
+        publisher.unregister()
+        subscription.close()
+        return waits
+
+    waits = with_backend(scenario)
+    assert len(waits) == count
+    assert sorted(waits)[count // 2] < 0.02
+
+
 def test_slow_client_is_pushed_back_on_rather_than_dropped(master: RosMaster) -> None:
     """Through the endpoint: a client that stops reading for a moment, with a small
     queue_size, still gets every message of a rospy publisher, and nothing is dropped."""

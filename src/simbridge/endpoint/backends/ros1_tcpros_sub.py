@@ -117,12 +117,17 @@ class SubscribedTopic:
         return self._closed
 
     def header(self) -> bytes:
+        """The subscriber header. It asks for Nagle's algorithm (`tcp_nodelay` 0, rospy's
+        and roscpp's default): the publisher's kernel then joins a stream's small messages
+        while the previous one is not yet acknowledged, instead of sending a segment per
+        message (7-10 us of the publisher's CPU each, on loopback). A lone message or a
+        reply goes out at once: the endpoint acknowledges what it reads as it reads it."""
         return encode_header(
             {
                 "callerid": self.callerid,
                 "md5sum": self.info.md5sum,
                 "message_definition": self.info.definition,
-                "tcp_nodelay": "1",
+                "tcp_nodelay": "0",
                 "topic": self.name,
                 "type": self.info.name,
             }
