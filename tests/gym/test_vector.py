@@ -11,6 +11,7 @@ import pytest
 import simbridge.gym  # registers the ids
 from simbridge.errors import GymError
 from simbridge.gym import SceneEnv, SceneVectorEnv
+from simbridge.gym.batch_math import BLOCK_WORLDS
 
 
 def _actions(space: gym.Space[np.ndarray], steps: int, seed: int) -> list[np.ndarray]:
@@ -107,14 +108,18 @@ def test_gymnasium_sync_and_async_vector_envs(mode: str) -> None:
     vec.close()
 
 
-def test_physics_threads_do_not_change_the_results() -> None:
-    """The batch's thread count only spreads the worlds: 1 and 2 threads, same bits."""
+# one least-squares block of worlds, and two (`batch_math.BLOCK_WORLDS` per block)
+@pytest.mark.parametrize("num_envs", [5, BLOCK_WORLDS + 3])
+def test_physics_threads_do_not_change_the_results(num_envs: int) -> None:
+    """The batch's thread count only spreads the worlds: 1 and 2 threads, same bits, and
+    the last world (in the last block) has its single env's bits."""
     traces = []
     for threads in (1, 2):
-        vec = gym.make_vec("simbridge/Reach-v0", num_envs=5, threads=threads)
+        vec = gym.make_vec("simbridge/Reach-v0", num_envs=num_envs, threads=threads)
+        actions = _actions(vec.action_space, 8, 2)
         obs, _ = vec.reset(seed=4)
         trace = [obs]
-        for action in _actions(vec.action_space, 8, 2):
+        for action in actions:
             obs, *_ = vec.step(action)
             trace.append(obs)
         vec.close()
@@ -122,6 +127,12 @@ def test_physics_threads_do_not_change_the_results() -> None:
     for t, (one, two) in enumerate(zip(*traces, strict=True)):
         for key in one:
             np.testing.assert_array_equal(one[key], two[key], err_msg=f"step {t} {key}")
+    last = num_envs - 1
+    env = gym.make("simbridge/Reach-v0")
+    single = [env.reset(seed=4 + last)[0]] + [env.step(action[last])[0] for action in actions]
+    for t, (batched, alone) in enumerate(zip(traces[0], single, strict=True)):
+        for key in alone:
+            np.testing.assert_array_equal(batched[key][last], alone[key], err_msg=f"{t} {key}")
 
 
 def test_vector_rejects_bad_thread_counts_and_episode_lengths() -> None:
