@@ -290,7 +290,8 @@ class Dispatcher:
         inbox = self.inbox
         counters = self._counters
         while not self._stop:
-            batch = inbox.take(_BATCH)
+            # (nothing queued, as after a read run straight from `_held`: no take)
+            batch = inbox.take(_BATCH) if len(inbox) else []
             for receiver, item in batch:
                 if self._stop:
                     return

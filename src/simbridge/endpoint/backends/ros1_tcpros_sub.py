@@ -250,7 +250,11 @@ class SubscribedTopic:
                 for _ in range(taken):
                     queue.popleft()
                 return True  # it took only part: blocked
-        checks = [sink.blocked for sink in sinks if sink.blocked is not None]
+        if len(sinks) == 1:  # the usual case, without building a list per read
+            blocked = sinks[0].blocked
+            checks: tuple[Callable[[], bool], ...] = () if blocked is None else (blocked,)
+        else:
+            checks = tuple(sink.blocked for sink in sinks if sink.blocked is not None)
         while queue:
             if not sinks:
                 queue.clear()
