@@ -189,3 +189,18 @@ def test_a_consumer_of_batches_gets_a_stream_in_batches_and_may_take_part() -> N
     got, _ = _receive(stream, len(messages), sink=sink)
     assert got == messages
     assert max(batches) > 1
+
+
+def test_a_stream_that_ends_with_the_connection_arrives_whole() -> None:
+    """The publisher closes right after a burst (while reading may be paused): every
+    message still arrives, in order."""
+    messages = _numbered(4000)
+
+    def stream_and_close(conn: socket.socket, _delivered: threading.Event) -> None:
+        for payload in messages:
+            conn.sendall(frame(payload))
+        conn.close()
+
+    got, coalesced = _receive(stream_and_close, len(messages))
+    assert got == messages
+    assert coalesced > 0

@@ -14,7 +14,9 @@ one was handled, or bring more than one message, `STREAM_READS` times in a row, 
 as a stream: after each read it stops reading for `COALESCE` (about 1 ms with asyncio's
 timers), so the next read takes what arrived meanwhile (the kernel holds it; TCP pushes
 back if it must) and its messages leave to the clients in one write. It stays a stream
-while those reads bring more than one message. A message at a time, a request and its
+while those reads bring more than one message; meanwhile they are made straight from the
+socket when a pause ends, the transport staying paused (no reader registered and removed
+again per read). A message at a time, a request and its
 reply, or a large message arriving in chunks never looks like a stream, so latency is
 unchanged there; a stream's messages wait at most that pause.
 
@@ -29,6 +31,7 @@ from __future__ import annotations
 
 import asyncio
 import logging
+import os
 import socket
 import time
 from collections import deque
@@ -63,6 +66,10 @@ a stream (a reply to anything the endpoint sent takes longer to come back), as d
 completing more than one message."""
 STREAM_READS = 3
 """Consecutive such reads after which a connection is taken as a stream and coalesced."""
+_READ_SIZE = 256 * 1024
+"""Bytes asked of the socket per read while a stream's reading is paused (asyncio's own
+read size)."""
+
 COALESCE = 0.0005
 """While a connection streams, reading pauses this long after each read (asyncio's timers
 make it about 1 ms), so one read takes many messages instead of one wake-up each."""
@@ -332,6 +339,9 @@ class _PublisherConnection(asyncio.Protocol):
         """When the last read was handled (time.monotonic())."""
         self._short = 0
         """Consecutive reads that looked like a stream's (see STREAM_GAP)."""
+        self._loop = asyncio.get_running_loop()  # (made on the loop, by SubscribedTopic)
+        self._fd = -1
+        """The socket's descriptor, for a streaming connection's reads while paused."""
         self._coalescing: asyncio.TimerHandle | None = None
         """The end of the current pause of a streaming connection."""
         self._streaming = False
@@ -351,10 +361,11 @@ class _PublisherConnection(asyncio.Protocol):
             transport.close()
             return
         self._transport = transport
-        self._writes = deferred_writes(asyncio.get_running_loop())
+        self._writes = deferred_writes(self._loop)
         sock = transport.get_extra_info("socket")
         if sock is not None:
             sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+            self._fd = sock.fileno()
         transport.write(self.topic.header())
 
     def data_received(self, data: bytes) -> None:
@@ -392,14 +403,29 @@ class _PublisherConnection(asyncio.Protocol):
         transport = self._transport
         if transport is None or self._reading_paused or self._coalescing is not None:
             return
-        transport.pause_reading()
+        transport.pause_reading()  # (no-op while it stays paused from the last pause)
         self.topic.coalesced += 1
-        self._coalescing = asyncio.get_running_loop().call_later(COALESCE, self._coalesced)
+        self._coalescing = self._loop.call_later(COALESCE, self._coalesced)
 
     def _coalesced(self) -> None:
+        """A streaming connection's pause ended: read what arrived straight from the
+        socket (the transport stays paused, so no reader is registered and removed again
+        for each read) and pause again while it streams; else read through the transport
+        again (it also sees the end of the connection or an error itself)."""
         self._coalescing = None
         transport = self._transport
-        if transport is not None and not self._reading_paused:
+        if transport is None or self._reading_paused:
+            return  # gone, or held by a blocked consumer (it resumes reading)
+        if self._streaming and self._fd >= 0:
+            try:
+                data = os.read(self._fd, _READ_SIZE)
+            except OSError:  # nothing yet (EAGAIN), or an error the transport will see
+                data = b""
+            if data:
+                self.data_received(data)
+                if self._coalescing is not None or self._transport is None:
+                    return  # still a stream: paused again (or the connection failed)
+        if not self._reading_paused:
             transport.resume_reading()
 
     def _received(self, data: bytes) -> int:
