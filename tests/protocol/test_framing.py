@@ -169,3 +169,62 @@ def test_frames_before_a_bad_prefix_are_still_delivered() -> None:
     assert isinstance(decoder.error, FrameTooLargeError)
     with pytest.raises(FrameTooLargeError):
         decoder.feed(b"")
+
+
+_repeating = st.lists(
+    st.one_of(
+        # mostly one topic at one size (a burst repeats the whole header), with other
+        # topics, other sizes, commands and keepalives in between
+        st.tuples(st.just("/cmd_vel"), st.binary(min_size=48, max_size=48)),
+        st.tuples(st.just("/cmd_vel"), st.binary(min_size=48, max_size=48)),
+        st.tuples(
+            st.sampled_from(["/cmd_vel", "/other", "__keepalive_like"]), st.binary(max_size=60)
+        ),
+        st.just(("", b"")),
+    ),
+    max_size=40,
+)
+
+
+@given(_repeating, st.lists(st.integers(min_value=1, max_value=200), min_size=1))
+def test_repeated_headers_decode_like_any_other_however_cut(
+    frames: list[tuple[str, bytes]], cuts: list[int]
+) -> None:
+    """Frames repeating the last frame's whole header (read with one comparison) come out
+    as every other frame does, whatever the read boundaries, through both entry points."""
+    data = b"".join(encode_frame(d, p) for d, p in frames)
+    for via_buffer in (False, True):
+        decoder = FrameDecoder()
+        out: list[Frame] = []
+        pos = i = 0
+        while pos < len(data):
+            step = cuts[i % len(cuts)]
+            if via_buffer:
+                target = decoder.get_buffer()
+                n = min(len(target), step, len(data) - pos)
+                target[:n] = data[pos : pos + n]
+                target.release()
+                out += decoder.buffer_updated(n)
+            else:
+                n = step
+                out += decoder.feed(data[pos : pos + n])
+            pos += n
+            i += 1
+        assert [(f.destination, f.payload) for f in out] == frames
+
+
+def test_a_repeated_header_after_a_large_frame_or_a_bad_one_is_still_checked() -> None:
+    """The repeated-header shortcut only stands for small frames that passed every check:
+    a frame whose header repeats an image's is parsed in full, and a stream broken by a
+    bad frame stays broken."""
+    image = bytes(FrameDecoder.LARGE)
+    decoder = FrameDecoder()
+    data = encode_frame("/img", image) * 2 + encode_frame("/a", b"x") * 3
+    out = decoder.feed(data)
+    assert [(f.destination, len(f.payload)) for f in out] == [("/img", len(image))] * 2 + [
+        ("/a", 1)
+    ] * 3
+    small = FrameDecoder(max_payload=10)
+    assert [f.payload for f in small.feed(encode_frame("/a", b"12345") * 2)] == [b"12345"] * 2
+    with pytest.raises(FrameTooLargeError):
+        small.feed(encode_frame("/a", b"x" * 11))
