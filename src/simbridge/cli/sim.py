@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
+import threading
 import warnings
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -38,6 +40,24 @@ def _plain_warnings(show: bool = True) -> Iterator[None]:
         original = warnings.showwarning
         warnings.showwarning = show_warning
         yield
+
+
+@contextmanager
+def _sigterm_interrupts() -> Iterator[None]:
+    """SIGTERM (kill, systemd, a launch file's shutdown) stops the run as Ctrl-C does: the
+    recording is closed, registrations withdrawn and what ran is reported."""
+
+    def interrupt(_sig: int, _frame: object) -> None:
+        raise KeyboardInterrupt
+
+    if threading.current_thread() is not threading.main_thread():  # signals reach only it
+        yield
+        return
+    previous = signal.signal(signal.SIGTERM, interrupt)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 def _xacro_args(args: argparse.Namespace) -> dict[str, str]:
@@ -81,7 +101,7 @@ def run_sim(args: argparse.Namespace) -> int:
 
     scene = with_overrides(load_scene(args.scene), _xacro_args(args), strict=args.strict)
     endpoint = f"{args.endpoint[0]}:{args.endpoint[1]}" if args.endpoint else None
-    with _plain_warnings():
+    with _plain_warnings(), _sigterm_interrupts():
         stats = run_scene(
             scene,
             endpoint=endpoint,

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+import time
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -144,6 +145,15 @@ class SimulationSession:
         """Run the world (see `World.run`) at `realtime_factor`, which defaults to
         `pacing()`."""
         factor = self.pacing() if realtime_factor is None else realtime_factor
+        source = self.scene.source.name if self.scene.source is not None else "scene"
+        _log.info(
+            "simulating %s: %d robot(s), %g ms step, %s, %s",
+            source,
+            len(self.world.robots),
+            self.world.timestep * 1000,
+            f"{factor:g}x real time" if factor > 0 else "as fast as possible",
+            f"for {duration:g} s" if duration is not None else "until Ctrl-C or SIGTERM",
+        )
         return self.world.run(duration, factor, viewer)
 
     def pacing(self) -> float:
@@ -203,10 +213,16 @@ def run_scene(
         live = LiveView(session.world, view) if view is not None else None
         if live is not None and session.sensors is not None:
             session.sensors.add_observer(live.watch_sensors(session.sensors.suite))
+        world = session.world
+        steps, sim_start, wall_start = world.step_count, world.time, time.perf_counter()
         try:
             return session.run(duration, realtime_factor, viewer)
-        except KeyboardInterrupt:
-            return RunStats(0, session.world.time, 0.0)
+        except KeyboardInterrupt:  # what ran until then (a reset service restarts the count)
+            return RunStats(
+                max(0, world.step_count - steps),
+                max(0.0, world.time - sim_start),
+                time.perf_counter() - wall_start,
+            )
         finally:
             if live is not None:
                 live.close()
