@@ -6,7 +6,6 @@ import asyncio
 import functools
 import itertools
 import logging
-import os
 import socket
 import struct
 import time
@@ -238,36 +237,8 @@ class ClientSession(asyncio.BufferedProtocol):
         writes.hold()
         try:
             self._received(nbytes)
-            if self.proto.decoder.receiving_large:
-                self._read_rest_of_large_frame()
         finally:
             writes.release()
-
-    def _read_rest_of_large_frame(self) -> None:
-        """Read the rest of a large frame whose header just arrived now, while the socket
-        has it, rather than one event-loop round later: an image stream's header comes
-        in a read of its own (FrameDecoder) and the image behind it is usually waiting
-        already, so this saves a loop round (an epoll wait and its callbacks) per image.
-        Stops at that frame's end (other clients are not kept waiting for more), when
-        nothing more is there, or when reading is paused; errors and the end of the
-        stream are left to the transport's next read."""
-        decoder = self.proto.decoder
-        transport, fd = self.transport, self._fd
-        while (
-            decoder.receiving_large
-            and fd >= 0
-            and transport is not None
-            and transport.is_reading()
-            and not self._closing
-            and not self.proto.closed
-        ):
-            try:
-                nbytes = os.readv(fd, (self.proto.get_buffer(),))
-            except OSError:  # BlockingIOError (nothing there yet) or an error to report later
-                return
-            if not nbytes:
-                return
-            self._received(nbytes)
 
     def _received(self, nbytes: int) -> None:
         """Handle the frames `nbytes` more bytes complete (what they make the endpoint

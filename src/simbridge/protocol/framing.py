@@ -185,11 +185,6 @@ class FrameDecoder:
         return self._end - self._start + self._big_filled
 
     @property
-    def receiving_large(self) -> bool:
-        """Whether a large payload has begun to arrive (into a buffer of its own)."""
-        return self._big is not None
-
-    @property
     def partial(self) -> bool:
         """Whether part of a frame has arrived and the rest has not."""
         return self._big is not None or self._end > self._start
