@@ -374,47 +374,57 @@ def test_replies_from_a_rospy_publisher_are_not_held_by_nagle(master: RosMaster)
     assert sorted(waits)[count // 2] < 0.02
 
 
-def test_slow_client_is_pushed_back_on_rather_than_dropped(master: RosMaster) -> None:
-    """Through the endpoint: a client that stops reading for a moment, with a small
-    queue_size, still gets every message of a rospy publisher, and nothing is dropped."""
-    count = 120
+def _stream_to_a_stalled_client(
+    topic: str, texts: list[str]
+) -> tuple[list[bytes | bytearray], dict[str, Any]]:
+    """A rospy publisher streams `texts` on `topic` to a client subscribed through the
+    endpoint with queue_size 4 and a small receive buffer, which does not read for the
+    first 0.5 s; the payloads the client got, in order, and its session's stats."""
     cls = raw_message_class(STRING)
     options = EndpointOptions(port=0, write_high_water=64 * 1024, idle_timeout=0)
     with EndpointThread(options, Ros1Backend()) as ep:
         client = RawClient(ep.port)
         client.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 32 * 1024)
-        body = {"topic": "/sb/native/client", "message_name": "std_msgs/String", "queue_size": 4}
+        body = {"topic": topic, "message_name": "std_msgs/String", "queue_size": 4}
         client.send(encode_frame("__subscribe", json.dumps(body).encode()))
         client.send(TopicListRequest().encode())
         client.expect(
             lambda e: isinstance(e, CommandReceived) and isinstance(e.command, TopicListReply)
         )
-        publisher = rospy.Publisher("/sb/native/client", cls, queue_size=None)
+        publisher = rospy.Publisher(topic, cls, queue_size=None)
         deadline = time.monotonic() + 10
         while publisher.get_num_connections() == 0:
             assert time.monotonic() < deadline, "the endpoint never connected"
             time.sleep(0.02)
         thread = threading.Thread(
-            target=lambda: [
-                publisher.publish(cls(ros_string(f"{i:08d}" + "z" * 65536))) for i in range(count)
-            ],
+            target=lambda: [publisher.publish(cls(ros_string(text))) for text in texts],
             daemon=True,
         )
         thread.start()
         time.sleep(0.5)  # not reading: the endpoint's buffers and queue fill up
-        got: list[int] = []
+        got: list[bytes | bytearray] = []
         deadline = time.monotonic() + 60
-        while len(got) < count and time.monotonic() < deadline:
+        while len(got) < len(texts) and time.monotonic() < deadline:
             client.poll(0.1)
-            for event in client.events:
-                if isinstance(event, MessageReceived) and event.topic == "/sb/native/client":
-                    got.append(int(event.payload[4:12]))
+            got += [
+                e.payload
+                for e in client.events
+                if isinstance(e, MessageReceived) and e.topic == topic
+            ]
             client.events = [e for e in client.events if not isinstance(e, MessageReceived)]
         thread.join(10)
         stats = client.stats()
         publisher.unregister()
         client.close()
-    assert got == list(range(count))
+    return got, stats
+
+
+def test_slow_client_is_pushed_back_on_rather_than_dropped(master: RosMaster) -> None:
+    """Through the endpoint: a client that stops reading for a moment, with a small
+    queue_size, still gets every message of a rospy publisher, and nothing is dropped."""
+    texts = [f"{i:08d}" + "z" * 65536 for i in range(120)]
+    got, stats = _stream_to_a_stalled_client("/sb/native/client", texts)
+    assert [bytes(payload[4:]).decode() for payload in got] == texts
     assert stats["session"]["dropped_total"] == 0
 
 
@@ -422,46 +432,9 @@ def test_a_stream_of_small_messages_to_a_slow_client_arrives_whole(master: RosMa
     """Small messages of mixed sizes streamed by rospy reach the client in batches (one
     joined write per read); while the client does not read, the endpoint pushes back on
     the publisher instead of dropping past the small queue_size, and order holds."""
-    count = 6000
-    cls = raw_message_class(STRING)
-    options = EndpointOptions(port=0, write_high_water=64 * 1024, idle_timeout=0)
-    with EndpointThread(options, Ros1Backend()) as ep:
-        client = RawClient(ep.port)
-        client.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 32 * 1024)
-        body = {"topic": "/sb/native/small", "message_name": "std_msgs/String", "queue_size": 4}
-        client.send(encode_frame("__subscribe", json.dumps(body).encode()))
-        client.send(TopicListRequest().encode())
-        client.expect(
-            lambda e: isinstance(e, CommandReceived) and isinstance(e.command, TopicListReply)
-        )
-        publisher = rospy.Publisher("/sb/native/small", cls, queue_size=None)
-        deadline = time.monotonic() + 10
-        while publisher.get_num_connections() == 0:
-            assert time.monotonic() < deadline, "the endpoint never connected"
-            time.sleep(0.02)
-        thread = threading.Thread(
-            target=lambda: [
-                publisher.publish(cls(ros_string(f"{i:08d}" + "s" * (i % 7 * 40))))
-                for i in range(count)
-            ],
-            daemon=True,
-        )
-        thread.start()
-        time.sleep(0.5)  # not reading: the endpoint's buffers and queue fill up
-        got: list[int] = []
-        deadline = time.monotonic() + 60
-        while len(got) < count and time.monotonic() < deadline:
-            client.poll(0.1)
-            for event in client.events:
-                if isinstance(event, MessageReceived) and event.topic == "/sb/native/small":
-                    assert len(event.payload) == 12 + int(event.payload[4:12]) % 7 * 40
-                    got.append(int(event.payload[4:12]))
-            client.events = [e for e in client.events if not isinstance(e, MessageReceived)]
-        thread.join(10)
-        stats = client.stats()
-        publisher.unregister()
-        client.close()
-    assert got == list(range(count))
+    texts = [f"{i:08d}" + "s" * (i % 7 * 40) for i in range(6000)]
+    got, stats = _stream_to_a_stalled_client("/sb/native/small", texts)
+    assert [bytes(payload[4:]).decode() for payload in got] == texts
     assert stats["session"]["dropped_total"] == 0
 
 
