@@ -249,7 +249,7 @@ class Dispatcher:
             if held:
                 self._held = []
                 size = len(held)
-                if size > 1 and [r for r, _ in held if r.queue_size < size]:
+                if size > 1 and any(r.queue_size < size for r, _ in held):
                     self._queue(held)  # more than a receiver may hold: the inbox drops
                     held = []
             elif not len(inbox):
