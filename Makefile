@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 export MUJOCO_GL ?= osmesa
-export PYOPENGL_PLATFORM ?= osmesa
+export PYOPENGL_PLATFORM ?= $(MUJOCO_GL)
 
 .PHONY: all demo test lint typecheck pytest bench sysdeps constraints clean ros2 constraints-ros2
 

@@ -13,6 +13,7 @@ import trimesh
 from PIL import Image
 
 from simbridge.errors import UrdfError
+from simbridge.sim.sensors import configure_gl
 from simbridge.sim.urdf import (
     MeshCache,
     MjcfDocument,
@@ -124,6 +125,7 @@ def test_diffuse_texture_is_drawn(tmp_path: Path) -> None:
     # a camera looking down at the cube sees the texture's green
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
+    configure_gl()  # mujoco.Renderer alone would pick GLFW, which needs a display
     with mujoco.Renderer(model, 32, 32) as renderer:
         camera = mujoco.MjvCamera()
         camera.lookat[:] = (0.5, 0.5, 0.5)

@@ -151,6 +151,9 @@ def test_config_errors_name_the_problem():
 
 def test_gl_backend_honours_mujoco_gl(monkeypatch):
     choose = configure_gl.__wrapped__
+    # the choice is written into os.environ: let monkeypatch restore both variables, so a
+    # GPU machine's later tests are not left with PYOPENGL_PLATFORM=osmesa beside MUJOCO_GL=egl
+    monkeypatch.delenv("PYOPENGL_PLATFORM", raising=False)
     monkeypatch.setenv("MUJOCO_GL", "osmesa")
     assert choose() == "osmesa"
     monkeypatch.setenv("MUJOCO_GL", "wgl")
@@ -159,6 +162,9 @@ def test_gl_backend_honours_mujoco_gl(monkeypatch):
     monkeypatch.delenv("MUJOCO_GL")
     monkeypatch.setenv("PYOPENGL_PLATFORM", "osmesa")
     assert choose() == "osmesa"
+    monkeypatch.setenv("MUJOCO_GL", "egl")  # mujoco.egl would refuse with a garbled message
+    with pytest.raises(SimError, match="MUJOCO_GL='egl' but PYOPENGL_PLATFORM='osmesa'"):
+        choose()
 
 
 def test_gl_backend_probes_egl_and_prefers_it_only_on_a_gpu(monkeypatch):

@@ -86,6 +86,12 @@ def configure_gl() -> str:
             requested = "egl" if gpu else "osmesa"
     if requested not in _BACKENDS:
         raise SimError(f"MUJOCO_GL={requested!r} is not usable headless; choose one of {_BACKENDS}")
+    platform = os.environ.get("PYOPENGL_PLATFORM", "").strip().lower()
+    if requested in ("egl", "osmesa") and platform and platform != requested:
+        raise SimError(
+            f"MUJOCO_GL={requested!r} but PYOPENGL_PLATFORM={platform!r}: they must agree;"
+            f" unset PYOPENGL_PLATFORM or set it to {requested!r}"
+        )
     os.environ["MUJOCO_GL"] = requested
     if requested in ("egl", "osmesa"):
         os.environ.setdefault("PYOPENGL_PLATFORM", requested)
