@@ -13,7 +13,8 @@ import simbridge
 
 SRC = Path(simbridge.__file__).parent
 
-# Each layer may import itself and the layers listed after it (errors and assets anywhere).
+# Each layer may import itself and the layers listed after it (errors, assets and tcp
+# anywhere: tcp is the socket options both the connector and the endpoint set).
 LAYERS = ["cli", "apps", "gym", "planning", "sim", "connector", "endpoint", "protocol", "messages"]
 ALLOWED: dict[str, set[str]] = {
     "cli": set(LAYERS),
@@ -28,7 +29,7 @@ ALLOWED: dict[str, set[str]] = {
     "protocol": {"protocol"},
     "messages": {"messages"},
 }
-ANYWHERE = {"errors", "assets", "__init__"}
+ANYWHERE = {"errors", "assets", "tcp", "__init__"}
 
 PACKAGES = sorted(
     name for _, name, is_pkg in pkgutil.walk_packages([str(SRC)], prefix="simbridge.") if is_pkg

@@ -7,7 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from simbridge.connector.link import LOOPBACK_CONGESTION, open_link
+from simbridge.connector.link import open_link
+from simbridge.tcp import LOOPBACK_CONGESTION
 
 _ALLOWED = Path("/proc/sys/net/ipv4/tcp_allowed_congestion_control")
 

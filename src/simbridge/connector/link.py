@@ -3,21 +3,12 @@
 from __future__ import annotations
 
 import contextlib
-import ipaddress
 import socket
 import threading
 
-__all__ = ["LOOPBACK_CONGESTION", "Link", "open_link"]
+from simbridge.tcp import tune_stream
 
-LOOPBACK_CONGESTION = b"reno"
-"""TCP congestion control for a link to an endpoint on this machine. Loopback loses
-nothing, so congestion control only decides whether sends are paced; BBR (a common
-default) paces them, and on loopback that moves the sender's transmit work into timer and
-small-queue callbacks that largely run on the receiving endpoint's CPU. Measured with
-640x480 images, sim -> ROS 2, this machine's default BBR against reno (10 interleaved
-rounds of 600 images): the endpoint's CPU per image median 717 -> 567 us, the
-Connector's 128 -> 120 us. Reno is built into every Linux kernel and allowed to
-unprivileged sockets by default; where it cannot be set the default stays."""
+__all__ = ["Link", "open_link"]
 
 
 class Link:
@@ -50,28 +41,13 @@ class Link:
 
 
 def open_link(host: str, port: int, timeout: float) -> Link:
-    """Connect with a timeout; the socket is then blocking, with Nagle's delay off (and
-    unpaced congestion control when the endpoint is on this machine)."""
+    """Connect with a timeout; the socket is then blocking, tuned by `simbridge.tcp`
+    (Nagle's delay off, unpaced congestion control when the endpoint is on this machine)."""
     sock = socket.create_connection((host, port), timeout=timeout)
     try:
         sock.settimeout(None)
-        sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-        if _is_loopback(sock):
-            _set_congestion(sock, LOOPBACK_CONGESTION)
+        tune_stream(sock)
     except OSError:
         sock.close()
         raise
     return Link(sock)
-
-
-def _is_loopback(sock: socket.socket) -> bool:
-    peer = sock.getpeername()
-    return isinstance(peer, tuple) and ipaddress.ip_address(peer[0].split("%")[0]).is_loopback
-
-
-def _set_congestion(sock: socket.socket, name: bytes) -> None:
-    """Use congestion control `name` if this system has it and allows it (Linux)."""
-    option = getattr(socket, "TCP_CONGESTION", None)
-    if option is not None:
-        with contextlib.suppress(OSError):
-            sock.setsockopt(socket.IPPROTO_TCP, option, name)

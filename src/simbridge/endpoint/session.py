@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import functools
 import itertools
 import logging
-import socket
 import struct
 import time
 from collections import deque
@@ -59,6 +59,7 @@ from simbridge.protocol import (
 )
 from simbridge.protocol.commands import MAX_COMMAND_SIZE, Command
 from simbridge.protocol.framing import FrameDecoder
+from simbridge.tcp import tune_stream
 
 if TYPE_CHECKING:
     from simbridge.endpoint.server import EndpointServer
@@ -172,7 +173,8 @@ class ClientSession(asyncio.BufferedProtocol):
         self._pushback.transport = transport
         sock = transport.get_extra_info("socket")
         if sock is not None:
-            sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+            with contextlib.suppress(OSError):  # reset already: the first read says so
+                tune_stream(sock)  # Nagle off; on loopback, unpaced sends to the client
             self._fd = sock.fileno()
         peer = transport.get_extra_info("peername")
         self.peer = f"{peer[0]}:{peer[1]}" if isinstance(peer, tuple) else str(peer)
