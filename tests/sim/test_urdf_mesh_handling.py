@@ -13,7 +13,7 @@ import trimesh
 from PIL import Image
 
 from simbridge.errors import UrdfError
-from simbridge.sim.sensors import configure_gl
+from simbridge.sim.sensors import OffscreenRenderer, Pose
 from simbridge.sim.urdf import (
     MeshCache,
     MjcfDocument,
@@ -122,16 +122,17 @@ def test_diffuse_texture_is_drawn(tmp_path: Path) -> None:
     geom = model.geom("base/visual/0")
     assert model.geom_matid[geom.id] == 0
     assert model.mat_texid[0][mujoco.mjtTextureRole.mjTEXROLE_RGB] == 0
-    # a camera looking down at the cube sees the texture's green
+    # a camera looking down at the cube sees the texture's green; OffscreenRenderer picks
+    # the headless GL backend itself (mujoco.Renderer would use GLFW, which needs a display)
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
-    configure_gl()  # mujoco.Renderer alone would pick GLFW, which needs a display
-    with mujoco.Renderer(model, 32, 32) as renderer:
-        camera = mujoco.MjvCamera()
-        camera.lookat[:] = (0.5, 0.5, 0.5)
-        camera.distance, camera.elevation, camera.azimuth = 2.5, -90, 0
-        renderer.update_scene(data, camera)
-        centre = renderer.render()[16, 16].astype(int)
+    down = np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0]])  # x forward = -z
+    renderer = OffscreenRenderer(model, 32, 32)
+    try:
+        image = renderer.render_rgb(data, Pose(np.array([0.5, 0.5, 3.0]), down), 0.5, 0.1, 10.0)
+    finally:
+        renderer.close()
+    centre = image[16, 16].astype(int)
     assert centre[1] > 2 * centre[0], centre
     assert centre[1] > 2 * centre[2], centre
 
