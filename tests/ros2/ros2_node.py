@@ -9,6 +9,10 @@ pytest, which runs beside rospy). One JSON object per line on stdout.
     ros2_node.py burst TOPIC COUNT
         once a subscription matched, publish std_msgs/msg/UInt32 0..COUNT-1 as fast as
         it can (reliable, a history as deep as COUNT); {"sent": n} once all are acknowledged
+    ros2_node.py images TOPIC COUNT WIDTH,WIDTH,...
+        once a subscription matched, publish COUNT sensor_msgs/msg/Image (mono8, one row)
+        as fast as it can (reliable, a history as deep as COUNT): image i has stamp.sec i,
+        the widths in turn and pixels (i + k) % 251; {"sent": n} once all are acknowledged
     ros2_node.py serve SERVICE pkg/srv/Type JSON
         answer every request with JSON; print {"request": {...}} per call
     ros2_node.py call SERVICE pkg/srv/Type JSON TIMEOUT
@@ -121,6 +125,24 @@ def run(node: Any, argv: list[str]) -> None:
         for i in range(count):
             publisher.publish(cls(data=i))
         publisher.wait_for_all_acked(rclpy.duration.Duration(seconds=30))
+        emit({"sent": count})
+    elif mode == "images":
+        topic, count = argv[1], int(argv[2])
+        widths = [int(w) for w in argv[3].split(",")]
+        cls = load("sensor_msgs/msg/Image")
+        qos = QoSProfile(depth=count, reliability=ReliabilityPolicy.RELIABLE)
+        publisher = node.create_publisher(cls, topic, qos)
+        deadline = time.monotonic() + 30
+        while publisher.get_subscription_count() == 0 and time.monotonic() < deadline:
+            rclpy.spin_once(node, timeout_sec=0.05)
+        for i in range(count):
+            width = widths[i % len(widths)]
+            msg = cls(height=1, width=width, encoding="mono8", step=width)
+            msg.header.stamp.sec = i
+            row = bytes((i + k) % 251 for k in range(251))
+            msg.data = row * (width // 251) + row[: width % 251]
+            publisher.publish(msg)
+        publisher.wait_for_all_acked(rclpy.duration.Duration(seconds=60))
         emit({"sent": count})
     elif mode == "serve":
         service, cls, values = argv[1], load(argv[2]), json.loads(argv[3])

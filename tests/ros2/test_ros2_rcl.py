@@ -73,3 +73,59 @@ def test_a_bytearray_published_in_place_arrives_intact() -> None:
     assert result["frame"] == "cam"
     assert result["shape"] == [640, 480, "rgb8"]
     assert result["pixels_equal"]
+
+
+_TAKE_SCRIPT = textwrap.dedent(
+    """
+    import json, time
+    import rclpy
+    from rclpy.qos import QoSProfile, ReliabilityPolicy
+    from rclpy.serialization import deserialize_message
+    from sensor_msgs.msg import Image
+    from simbridge.endpoint.backends.ros2_rcl import direct_take
+
+    rclpy.init()
+    node = rclpy.create_node("sb_rcl_take")
+    qos = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
+    sub = node.create_subscription(Image, "/sb_rcl_take", lambda _m: None, qos, raw=True)
+    pub = node.create_publisher(Image, "/sb_rcl_take", qos)
+    take = direct_take(sub)
+    deadline = time.monotonic() + 20
+    while pub.get_subscription_count() == 0 and time.monotonic() < deadline:
+        time.sleep(0.05)
+    with sub.handle:
+        empty = take.take() is None
+    widths = [10, 921_600, 300_000, 2_000_000]  # the buffer grows, then is reused
+    got = []
+    for seed, width in enumerate(widths):
+        pub.publish(Image(height=1, width=width, encoding="mono8", step=width,
+                          data=bytes((seed + i) % 251 for i in range(251)) * (width // 251)))
+        view = None
+        while view is None and time.monotonic() < deadline:
+            with sub.handle:
+                view = take.take()
+            time.sleep(0.01) if view is None else None
+        msg = deserialize_message(bytes(view), Image) if view is not None else None
+        got.append(None if msg is None else {
+            "width": msg.width,
+            "pixels_equal": bytes(msg.data) == bytes(
+                (seed + i) % 251 for i in range(251)) * (width // 251),
+        })
+    take.close()
+    take.close()  # a second close is harmless
+    print(json.dumps({"result": {"direct": True, "empty": empty, "got": got,
+                                 "widths": widths}}), flush=True)
+    node.destroy_node()
+    rclpy.shutdown()
+    """
+)
+
+
+def test_direct_take_hands_over_each_message_through_its_own_buffer() -> None:
+    """direct_take reaches rcl: None while nothing waits, then each message whole as its
+    buffer grows for a larger one and is reused for a smaller one; close() twice is fine."""
+    with Ros2Process(["-c", _TAKE_SCRIPT]) as proc:
+        result = proc.expect_json("result", timeout=60)
+    assert result["empty"]
+    assert [m and m["width"] for m in result["got"]] == result["widths"]
+    assert all(m["pixels_equal"] for m in result["got"])

@@ -129,7 +129,7 @@ class ClientSession(asyncio.BufferedProtocol):
         self._srv_ids = itertools.count(FIRST_SRV_ID)
         self._tasks: set[asyncio.Task[None]] = set()
         self.actions = SessionActions(self)
-        self._out: list[bytes] = []
+        self._out: list[bytes | memoryview] = []
         self._discard = bytearray(4096)
         self._out_size = 0
         self._fd = -1
@@ -296,7 +296,7 @@ class ClientSession(asyncio.BufferedProtocol):
 
     # ---- output ---------------------------------------------------------------------
 
-    def _write(self, chunk: bytes) -> None:
+    def _write(self, chunk: bytes | memoryview) -> None:
         self._out.append(chunk)
         self._out_size += len(chunk)
         if self._out_size >= self.options.write_high_water:
@@ -362,6 +362,20 @@ class ClientSession(asyncio.BufferedProtocol):
             return
         queue.append(payload)
         self._backlogged[outbox.topic] = outbox
+
+    def deliver_lent(self, outbox: _Outbox, view: memoryview) -> None:
+        """`deliver` for a payload the backend lends for this call only (it reuses the
+        memory afterwards). While the client reads, a large one is written now, straight
+        from the view (what the kernel does not take at once goes to the transport's
+        buffer, copied); anything kept for later is copied first."""
+        size = len(view)
+        if self._paused or self._closing or size < WRITE_ALONE:
+            self.deliver(outbox, bytes(view))
+            return
+        self.stats.frames_out += 1
+        self._write(outbox.prefix + _pack_u32(size))
+        self._write(view)
+        self._flush()
 
     def deliver_many(self, outbox: _Outbox, payloads: Sequence[bytes]) -> int:
         """Queue subscribed messages that arrived together; returns how many it took. While
@@ -569,6 +583,7 @@ class ClientSession(asyncio.BufferedProtocol):
             )
             subscription.throttle(functools.partial(self._blocked, outbox))
             subscription.batches(functools.partial(self.deliver_many, outbox))
+            subscription.lends(functools.partial(self.deliver_lent, outbox))
             self.subscriptions[command.topic] = (subscription, outbox)
         elif isinstance(command, RosService):
             self._check_room(command.topic, self.ros_services)

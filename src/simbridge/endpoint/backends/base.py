@@ -25,6 +25,7 @@ __all__ = [
     "BackendServiceServer",
     "BackendSubscription",
     "BatchCallback",
+    "LentCallback",
     "MessageCallback",
     "ServiceHandler",
     "TopicInfo",
@@ -36,6 +37,11 @@ MessageCallback = Callable[[bytes], None]
 BatchCallback = Callable[[Sequence[bytes]], int]
 """Receives serialized messages that arrived together, in order, on the event loop thread;
 returns how many it took from the front (the rest are offered again later)."""
+
+LentCallback = Callable[[memoryview], None]
+"""Receives one serialized message as a view of the backend's own buffer, lent for the
+call only (the backend reuses the memory afterwards: copy what you keep); on the event
+loop thread."""
 
 ServiceHandler = Callable[[bytes], Awaitable[bytes]]
 """Turns a serialized request into a serialized response (raise to fail the call)."""
@@ -95,6 +101,12 @@ class BackendSubscription(abc.ABC):
     def batches(self, callback: BatchCallback) -> bool:
         """Hand messages that arrive together (one read's worth) to `callback` in one call
         instead of one message callback each, so the consumer handles them at once; returns
+        False when the backend cannot (the default)."""
+        return False
+
+    def lends(self, callback: LentCallback) -> bool:
+        """Hand large messages to `callback` as views lent for the call only instead of
+        `bytes` to the message callback, where that saves the backend a copy; returns
         False when the backend cannot (the default)."""
         return False
 

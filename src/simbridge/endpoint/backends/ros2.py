@@ -41,6 +41,7 @@ from simbridge.endpoint.backends.base import (
     BackendPublisher,
     BackendServiceServer,
     BackendSubscription,
+    LentCallback,
     MessageCallback,
     ServiceHandler,
     TopicInfo,
@@ -50,7 +51,7 @@ from simbridge.endpoint.backends.loop_calls import call_soon_from_thread
 from simbridge.endpoint.backends.malloc_tuning import keep_large_buffers
 from simbridge.endpoint.backends.ros2_actions import Ros2Actions
 from simbridge.endpoint.backends.ros2_env import apply_ros2_env
-from simbridge.endpoint.backends.ros2_rcl import direct_publish
+from simbridge.endpoint.backends.ros2_rcl import DirectTake, direct_publish, direct_take
 from simbridge.endpoint.backends.ros2_takes import LoopTakes
 from simbridge.endpoint.backends.ros2_types import Ros2Types, tcp_type_name
 from simbridge.endpoint.backends.subscriber_watch import SubscriberWatch
@@ -66,6 +67,11 @@ _TAKE_ROUND = 256
 """Most messages the loop takes from one subscription before it serves anything else."""
 _TAKE_ROUND_BYTES = 4 * 1024 * 1024
 """Most bytes it takes from one subscription in a round (a few camera images)."""
+
+_LEND_FROM = 64 * 1024
+"""A subscription lending its messages (`lends`) takes them through rcl into its own
+buffer (ros2_rcl.DirectTake) once one was at least this long, and through rclpy (bytes;
+a ctypes call costs more than the copy of a small message) once one was shorter."""
 
 _ERROR_LOG_INTERVAL = 5.0
 """Shortest time between two log lines about failed publishes."""
@@ -550,6 +556,10 @@ class _Ros2Subscription(_Entity, BackendSubscription):
         self._callback = callback
         self._cls = cls
         self._takes = takes
+        self._lent: LentCallback | None = None
+        self._direct: DirectTake | None = None
+        self._lending = False
+        """Whether the next take goes through `_direct` (the last message was large)."""
         try:
             self._subscription = backend.node.create_subscription(
                 cls, topic, _never_called, qos, callback_group=takes.callback_group, raw=True
@@ -560,6 +570,14 @@ class _Ros2Subscription(_Entity, BackendSubscription):
         self.handle: Any = self._subscription.handle
         super().__init__(backend)
         takes.add(self)
+
+    def lends(self, callback: LentCallback) -> bool:
+        """Large messages go to `callback` as views of this subscription's own take buffer
+        (no bytes object made of them); False when rcl cannot be reached through ctypes."""
+        if self._direct is None:
+            self._direct = direct_take(self._subscription)
+        self._lent = callback if self._direct is not None else None
+        return self._lent is not None
 
     def take_round(self) -> bool:
         """On the loop: take what is waiting, up to _TAKE_ROUND messages or
@@ -573,12 +591,19 @@ class _Ros2Subscription(_Entity, BackendSubscription):
             with handle:
                 take = handle.take_message
                 for _ in range(_TAKE_ROUND):
-                    taken = take(cls, True)
-                    if taken is None:
-                        return False
-                    payload = taken[0]
-                    callback(payload)
-                    size += len(payload)
+                    if self._lending:
+                        length = self._take_lent()
+                        if length < 0:
+                            return False
+                    else:
+                        taken = take(cls, True)
+                        if taken is None:
+                            return False
+                        payload = taken[0]
+                        callback(payload)
+                        length = len(payload)
+                        self._lending = length >= _LEND_FROM and self._lent is not None
+                    size += length
                     if size >= _TAKE_ROUND_BYTES:
                         break
                     if self.closed:
@@ -589,9 +614,31 @@ class _Ros2Subscription(_Entity, BackendSubscription):
             return False
         return True
 
+    def _take_lent(self) -> int:
+        """One message through the take buffer to the lent callback: its length, or -1
+        when none was waiting. The view is released after the call, so one kept by
+        mistake raises instead of showing the next message."""
+        direct, lent = self._direct, self._lent
+        assert direct is not None
+        assert lent is not None
+        view = direct.take()
+        if view is None:
+            return -1
+        length = len(view)
+        try:
+            lent(view)
+        finally:
+            view.release()
+        self._lending = length >= _LEND_FROM
+        return length
+
     def _destroy(self) -> None:
         self._takes.remove(self)
-        self._backend.node.destroy_subscription(self._subscription)
+        try:
+            self._backend.node.destroy_subscription(self._subscription)
+        finally:
+            if self._direct is not None:
+                self._direct.close()
         _log.info("unsubscribed from %s", self.topic)
 
 
