@@ -16,13 +16,22 @@ message over late (a batch arriving at once) does not look faster for it. Payloa
 geometry_msgs/Twist and a 640x480 rgb8 sensor_msgs/Image. Latency: Twists sent by the
 Connector, echoed back by an rclpy node (raw), timed per message at a modest rate:
 sim -> ROS 2 -> sim.
+
+`--cpu` runs only the Image rows, with the CPU each process spends per image (every
+thread's run time from /proc/PID/task/*/schedstat, sampled every 10 ms and interpolated at
+the first send and the last receipt; this process, the Connector, without its sampling
+thread), and the rate those figures allow: processes sharing N cores relay at most
+N / (sum of their CPU per image) images per second.
 """
 
 from __future__ import annotations
 
+import contextlib
+import itertools
 import json
 import os
 import queue
+import statistics
 import struct
 import subprocess
 import sys
@@ -225,6 +234,55 @@ class _Proc:
         holder.stop()
 
 
+class _CpuSampler:
+    """Every thread's CPU time of some processes, sampled every 10 ms on a thread (whose
+    own time is left out) until `span` says how much each spent between two instants."""
+
+    def __init__(self, pids: dict[str, int]) -> None:
+        self.pids = pids
+        self.samples: list[tuple[float, dict[str, int]]] = []
+        self._own = -1
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, daemon=True)
+        self._thread.start()
+        time.sleep(0.05)  # a sample before the round starts
+
+    def _cpu_ns(self, pid: int) -> int:
+        total = 0
+        try:
+            tasks = os.listdir(f"/proc/{pid}/task")
+        except OSError:
+            return 0
+        for task in tasks:
+            if int(task) == self._own:
+                continue
+            with contextlib.suppress(OSError, IndexError, ValueError):  # a thread ended
+                total += int(Path(f"/proc/{pid}/task/{task}/schedstat").read_text().split()[0])
+        return total
+
+    def _run(self) -> None:
+        self._own = threading.get_native_id()
+        while not self._stop.is_set():
+            now = time.perf_counter()
+            self.samples.append((now, {k: self._cpu_ns(p) for k, p in self.pids.items()}))
+            self._stop.wait(0.01)
+
+    def _at(self, t: float) -> dict[str, float]:
+        samples = self.samples
+        for (t0, a), (t1, b) in itertools.pairwise(samples):
+            if t1 >= t:
+                f = min(max((t - t0) / (t1 - t0), 0.0), 1.0) if t1 > t0 else 1.0
+                return {k: a[k] + f * (b[k] - a[k]) for k in a}
+        return {k: float(v) for k, v in samples[-1][1].items()}
+
+    def span(self, start: float, last: float, count: int) -> dict[str, float]:
+        """Stop sampling; microseconds of CPU per message of each process in [start, last]."""
+        self._stop.set()
+        self._thread.join()
+        a, b = self._at(start), self._at(last)
+        return {k: (b[k] - a[k]) / 1e3 / max(count, 1) for k in a}
+
+
 def _row(direction: str, p: Payload, received: int, start: float, last: float) -> dict[str, Any]:
     """Messages per second from the first one sent (`start`) to the last one received
     (`last`): perf_counter is CLOCK_MONOTONIC, the same clock in every process."""
@@ -249,13 +307,17 @@ def _node(env: dict[str, str], script: Path, role: str, topic: str, p: Payload,
     return _Proc(args, env)
 
 
-def _ceiling(env: dict[str, str], script: Path, data: Path, p: Payload, topic: str) -> Any:
+def _ceiling(env: dict[str, str], script: Path, data: Path, p: Payload, topic: str,
+             *, cpu: bool = False) -> Any:  # fmt: skip
     sub = _node(env, script, "sub", topic, p)
     pub = _node(env, script, "pub", topic, p, payload_file=data)
+    sampler = None
     try:
         assert sub.line() == "READY"
         assert pub.line() == "READY"
         assert sub.line() == "MATCHED"
+        if cpu:
+            sampler = _CpuSampler({"publisher": pub.proc.pid, "subscriber": sub.proc.pid})
         pub.tell()
         result = json.loads(sub.line(timeout=120))
         start = json.loads(pub.line())["start"]
@@ -263,7 +325,10 @@ def _ceiling(env: dict[str, str], script: Path, data: Path, p: Payload, topic: s
         pub.stop()
         sub.stop()
     last = result["times"][1] if result["times"] else start
-    return _row("rclpy -> rclpy (ceiling)", p, result["count"], start, last)
+    row = _row("rclpy -> rclpy (ceiling)", p, result["count"], start, last)
+    if sampler is not None:
+        row["cpu_us"] = sampler.span(start, last, result["count"])
+    return row
 
 
 def _connector(port: int, count: int) -> Any:
@@ -273,9 +338,11 @@ def _connector(port: int, count: int) -> Any:
     return Connector("127.0.0.1", port, options).connect(wait=10)
 
 
-def _sim_to_ros(env: dict[str, str], script: Path, port: int, p: Payload, topic: str) -> Any:
+def _sim_to_ros(env: dict[str, str], script: Path, port: int, p: Payload, topic: str,
+                *, endpoint_pid: int | None = None) -> Any:  # fmt: skip
     conn = _connector(port, p.count)
     sub = _node(env, script, "sub", topic, p)
+    sampler = None
     try:
         publisher = conn.register_publisher(
             topic, p.msg_type, queue_size=p.count, report_subscribers=True
@@ -286,6 +353,9 @@ def _sim_to_ros(env: dict[str, str], script: Path, port: int, p: Payload, topic:
         while (publisher.subscriber_count or 0) < 1 and time.monotonic() < deadline:
             time.sleep(0.01)
         time.sleep(0.3)
+        if endpoint_pid is not None:
+            pids = {"connector": os.getpid(), "endpoint": endpoint_pid, "subscriber": sub.proc.pid}
+            sampler = _CpuSampler(pids)
         start = time.perf_counter()
         for _ in range(p.count):
             publisher.publish(p.data)
@@ -294,11 +364,14 @@ def _sim_to_ros(env: dict[str, str], script: Path, port: int, p: Payload, topic:
         sub.stop()
         conn.close()
     last = result["times"][1] if result["times"] else start
-    return _row("sim -> ros2 (connector -> endpoint)", p, result["count"], start, last)
+    row = _row("sim -> ros2 (connector -> endpoint)", p, result["count"], start, last)
+    if sampler is not None:
+        row["cpu_us"] = sampler.span(start, last, result["count"])
+    return row
 
 
 def _ros_to_sim(env: dict[str, str], script: Path, data: Path, port: int, p: Payload,
-                *, topic: str) -> Any:  # fmt: skip
+                *, topic: str, endpoint_pid: int | None = None) -> Any:  # fmt: skip
     conn = _connector(port, p.count)
     times: list[float] = []
     sizes: set[int] = set()
@@ -310,8 +383,12 @@ def _ros_to_sim(env: dict[str, str], script: Path, data: Path, port: int, p: Pay
     conn.subscribe(topic, p.msg_type, got, raw=True, queue_size=p.count + 10)
     time.sleep(0.5)
     pub = _node(env, script, "pub", topic, p, payload_file=data)
+    sampler = None
     try:
         assert pub.line() == "READY"
+        if endpoint_pid is not None:
+            pids = {"publisher": pub.proc.pid, "endpoint": endpoint_pid, "connector": os.getpid()}
+            sampler = _CpuSampler(pids)
         pub.tell()
         deadline = time.monotonic() + 60
         while not times and time.monotonic() < deadline:
@@ -327,8 +404,11 @@ def _ros_to_sim(env: dict[str, str], script: Path, data: Path, port: int, p: Pay
         conn.close()
     if sizes and max(sizes) - min(sizes) > 4:
         raise RuntimeError(f"payload sizes {sizes} differ from the {len(p.data)} sent")
-    return _row("ros2 -> sim (endpoint -> connector)", p, len(times), start,
-                times[-1] if times else start)  # fmt: skip
+    last = times[-1] if times else start
+    row = _row("ros2 -> sim (endpoint -> connector)", p, len(times), start, last)
+    if sampler is not None:
+        row["cpu_us"] = sampler.span(start, last, len(times))
+    return row
 
 
 def _latency(env: dict[str, str], script: Path, port: int, topic: str) -> dict[str, Any]:
@@ -425,10 +505,75 @@ def run(repeats: int = REPEATS) -> dict[str, list[dict[str, Any]]]:
     }
 
 
+def cpu_accounting(rounds: int = 5) -> list[dict[str, Any]]:
+    """The Image rows (ceiling, sim -> ros2, ros2 -> sim) in `rounds` interleaved rounds
+    with each process's CPU per image: per row the medians of the rate and of each
+    process's CPU, their sum, the rate that sum allows on this machine's cores, and the
+    share of the ceiling it allows (the same round's ceiling sum over the row's sum)."""
+    from tests.ros2support import child_env, start_endpoint
+
+    env = child_env()
+    p = PAYLOADS[1]
+    cores = os.cpu_count() or 1
+    load = load_average()
+    runs: list[list[dict[str, Any]]] = []
+    with tempfile.TemporaryDirectory() as tmp:
+        script = Path(tmp, "bench_ros2_node.py")
+        script.write_text(_NODE_SCRIPT % {"idle": IDLE_END})
+        data = Path(tmp, "image.bin")
+        data.write_bytes(p.data)
+        endpoint, port = start_endpoint("--idle-timeout", "0", "--max-memory-mb", _memory_mb())
+        pid = endpoint.proc.pid
+        try:
+            for r in range(rounds):
+                topic = f"/bench/cpu{r}"
+                ceiling = _ceiling(env, script, data, p, topic + "/ceiling", cpu=True)
+                out = _sim_to_ros(env, script, port, p, topic + "/sim_to_ros", endpoint_pid=pid)
+                back = _ros_to_sim(
+                    env, script, data, port, p, topic=topic + "/ros_to_sim", endpoint_pid=pid
+                )
+                runs.append([ceiling, out, back])
+        finally:
+            endpoint.stop()
+    rows = []
+    for k in range(3):
+        series = [run[k] for run in runs]
+        cpu = {
+            name: statistics.median(row["cpu_us"][name] for row in series)
+            for name in series[0]["cpu_us"]
+        }
+        total = statistics.median(sum(row["cpu_us"].values()) for row in series)
+        rows.append(
+            {
+                "direction": series[0]["direction"],
+                "load_1min": load,
+                "msg_per_s_median": statistics.median(row["msg_per_s"] for row in series),
+                "of_ceiling_median": statistics.median(
+                    row["msg_per_s"] / max(run[0]["msg_per_s"], 1e-9)
+                    for row, run in zip(series, runs, strict=True)
+                ),
+                "loss_worst": max(row["loss"] for row in series),
+                "cpu_us_per_image_median": {name: round(v) for name, v in cpu.items()},
+                "cpu_us_sum_median": round(total),
+                f"bound_msg_per_s_{cores}_cores": cores / total * 1e6 if total else 0.0,
+                # the share of the ceiling that CPU alone allows (both at their bound)
+                "bound_of_ceiling_median": statistics.median(
+                    sum(run[0]["cpu_us"].values()) / max(sum(row["cpu_us"].values()), 1e-9)
+                    for row, run in zip(series, runs, strict=True)
+                ),
+            }
+        )
+    return rows
+
+
 if __name__ == "__main__":
     from benchmarks.usage import exit_on_help
 
-    exit_on_help(__doc__)
+    exit_on_help(__doc__, "  --cpu   only the Image rows, with CPU per image per process")
+    if "--cpu" in sys.argv[1:]:
+        for row in cpu_accounting():
+            print(row, flush=True)
+        raise SystemExit(0)
     for title, table in run().items():
         print(title)
         for row in table:
