@@ -213,6 +213,70 @@ def test_repeated_headers_decode_like_any_other_however_cut(
         assert [(f.destination, f.payload) for f in out] == frames
 
 
+@given(_repeating, st.lists(st.integers(min_value=1, max_value=200), min_size=1))
+def test_repeated_message_shortcut_agrees_with_buffer_updated_however_cut(
+    frames: list[tuple[str, bytes]], cuts: list[int]
+) -> None:
+    """`repeated_message(n)` either returns what `buffer_updated(n)` would (one plain
+    topic message) and leaves the decoder in the same state, or consumes nothing."""
+    data = b"".join(encode_frame(d, p) for d, p in frames)
+    fast, plain = FrameDecoder(), FrameDecoder()
+    out: list[Frame] = []
+    pos = i = 0
+    while pos < len(data):
+        chunk = data[pos : pos + cuts[i % len(cuts)]]
+        targets = fast.get_buffer(), plain.get_buffer()
+        assert len(targets[0]) == len(targets[1])
+        n = min(len(targets[0]), len(chunk))
+        for target in targets:
+            target[:n] = chunk[:n]
+            target.release()
+        expected = plain.buffer_updated(n)
+        run = fast.repeated_message(n)
+        if run is None:
+            got = fast.buffer_updated(n)
+        else:
+            got = [Frame(*run)]
+            assert len(expected) == 1
+            assert not expected[0].is_command
+            assert expected[0].destination
+            assert type(run[1]) is bytes
+        assert got == expected
+        assert (fast.buffered, fast.partial) == (plain.buffered, plain.partial)
+        out += got
+        pos += n
+        i += 1
+    assert [(f.destination, f.payload) for f in out] == frames
+
+
+def test_repeated_message_is_refused_for_commands_keepalives_and_partial_reads() -> None:
+    decoder = FrameDecoder()
+    for frame in (encode_frame("__x", b"{}"), KEEPALIVE):
+        assert len(decoder.feed(frame)) == 1
+        target = decoder.get_buffer()
+        target[: len(frame)] = frame
+        target.release()
+        assert decoder.repeated_message(len(frame)) is None  # a command or keepalive
+        assert len(decoder.buffer_updated(len(frame))) == 1
+    ping = encode_frame("/a", b"ping")
+    decoder.feed(ping)
+    for n in (len(ping) - 1, len(ping) + 1):  # not exactly one frame
+        twin = FrameDecoder()
+        twin.feed(ping)
+        target = twin.get_buffer()
+        data = (ping * 2)[:n]
+        target[:n] = data
+        target.release()
+        assert twin.repeated_message(n) is None
+        assert twin.buffered == 0
+    target = decoder.get_buffer()
+    target[: len(ping)] = ping
+    target.release()
+    assert decoder.repeated_message(len(ping)) == ("/a", b"ping")
+    assert decoder.buffered == 0
+    assert not decoder.partial
+
+
 def test_a_repeated_header_after_a_large_frame_or_a_bad_one_is_still_checked() -> None:
     """The repeated-header shortcut only stands for small frames that passed every check:
     a frame whose header repeats an image's is parsed in full, and a stream broken by a

@@ -141,6 +141,20 @@ def test_messages_cut_into_any_chunks(
     assert decoder.pending == 0
 
 
+def test_a_read_of_one_whole_message_and_its_limit() -> None:
+    """A read holding exactly one message (the shortcut) comes out as any other, and its
+    length is held to the same limit."""
+    decoder = TcprosDecoder(max_message=8)
+    assert decoder.feed(encode_header({"a": "1"}) + frame(b"x")) == [b"x"]
+    assert decoder.feed(frame(b"12345678")) == [b"12345678"]
+    assert decoder.feed(bytearray(frame(b""))) == [b""]
+    assert decoder.feed(frame(b"ab") + frame(b"c")) == [b"ab", b"c"]
+    assert decoder.feed(frame(b"abc")[:5]) == []  # a message cut short waits for the rest
+    assert decoder.feed(frame(b"abc")[5:] + frame(b"d")) == [b"abc", b"d"]
+    with pytest.raises(TcprosError, match="9 bytes is over the limit of 8"):
+        decoder.feed(frame(b"123456789"))
+
+
 @settings(max_examples=500)
 @given(st.lists(st.binary(max_size=64), max_size=10))
 def test_fuzz_never_crashes(chunks: list[bytes]) -> None:

@@ -157,6 +157,15 @@ class ProtocolConnection:
             frames = []
         return self._events(frames)
 
+    def message_run(self, nbytes: int) -> tuple[str, bytes] | None:
+        """`buffer_updated(nbytes)` for the commonest read: one plain topic message with
+        the whole header of the frame before it (FrameDecoder.repeated_message). Returns
+        (topic, payload), what the one MessageReceived `buffer_updated` would return
+        holds; None, with nothing consumed, for any other read (call `buffer_updated`)."""
+        if self.closed or self._pending is not None:
+            return None
+        return self._decoder.repeated_message(nbytes)
+
     def _events(self, frames: list[Frame]) -> list[Event]:
         events: list[Event] = []
         append = events.append

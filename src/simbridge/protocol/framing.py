@@ -234,6 +234,30 @@ class FrameDecoder:
             raise self._broken
         return frames
 
+    def repeated_message(self, nbytes: int) -> tuple[str, bytes] | None:
+        """`buffer_updated(nbytes)` for a read that is exactly one small topic message (not
+        a command or keepalive) repeating the whole header of the frame before it (a
+        command each step, each ping of a round trip): its destination and payload, the
+        decoder left as `buffer_updated` leaves it. None for any other read, with nothing
+        consumed or changed: call `buffer_updated(nbytes)` then."""
+        start = self._start
+        size = self._run_size
+        if (
+            not size
+            or self._end + nbytes - start != size
+            or self._big is not None
+            or self._broken is not None
+        ):
+            return None
+        dest = self._run_dest
+        buf = self._buf
+        head = self._run_head
+        if not dest or dest.startswith("__") or not buf.startswith(head, start):
+            return None
+        payload = bytes(buf[start + len(head) : start + size])
+        self._start = self._end = self._header_hint = 0
+        return dest, payload
+
     def feed(self, data: bytes | bytearray | memoryview) -> list[Frame]:
         """Add received bytes; return every frame they complete, in order."""
         if self._broken is not None:

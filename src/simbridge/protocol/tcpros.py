@@ -115,6 +115,13 @@ class TcprosDecoder:
         Raises TcprosError when a length is over its limit or the header is malformed.
         """
         source = data if type(data) is bytes else bytes(data)
+        if not self._head and not self._parts and self.header is not None:
+            # The commonest read: exactly one whole message (a lone one, a reply).
+            available = len(source)
+            if available >= 4 and _U32.unpack_from(source)[0] == available - 4:
+                if available - 4 > self._max_message:
+                    raise self._too_big(available - 4)
+                return [source[4:]]
         messages: list[bytes] = []
         offset = 0
         if self._head:

@@ -1,0 +1,74 @@
+"""`ProtocolConnection.message_run`, the shortcut for a read holding one plain message
+that repeats the last frame's header, yields exactly the events `buffer_updated` would,
+whatever the frames (commands, service headers and their frames, keepalives) and cuts."""
+
+from __future__ import annotations
+
+from hypothesis import given
+from hypothesis import strategies as st
+
+from simbridge.protocol import (
+    KEEPALIVE,
+    Event,
+    MessageReceived,
+    ProtocolConnection,
+    Publish,
+    encode_frame,
+)
+
+FRAMES = st.one_of(
+    st.just(encode_frame("/a", b"ping")),
+    st.just(encode_frame("/a", b"ping")),
+    st.builds(lambda p: encode_frame("/a", p), st.binary(max_size=6)),
+    st.just(encode_frame("/b", b"ping")),
+    st.just(KEEPALIVE),
+    st.just(encode_frame("", b"x")),
+    st.just(Publish("/a", "std_msgs/String").encode()),
+    st.just(encode_frame("__publish", b"{bad")),
+    st.just(ProtocolConnection.service_request(3, "/a", b"ping")),
+    st.just(ProtocolConnection.service_response(4, "/a", b"ping")),
+    st.just(b"\xff\xff\xff\xff"),  # a destination over the limit: fatal
+)
+
+
+@given(
+    st.lists(FRAMES, max_size=30),
+    st.lists(st.integers(min_value=1, max_value=60), min_size=1, max_size=6),
+)
+def test_message_run_gives_the_events_buffer_updated_gives(
+    frames: list[bytes], cuts: list[int]
+) -> None:
+    data = b"".join(frames)
+    fast, plain = ProtocolConnection("endpoint"), ProtocolConnection("endpoint")
+    pos = i = 0
+    while pos < len(data) and not plain.closed:
+        chunk = data[pos : pos + cuts[i % len(cuts)]]
+        targets = fast.get_buffer(), plain.get_buffer()
+        n = min(len(targets[0]), len(targets[1]), len(chunk))
+        for target in targets:
+            target[:n] = chunk[:n]
+            target.release()
+        expected = plain.buffer_updated(n)
+        run = fast.message_run(n)
+        got: list[Event] = [MessageReceived(*run)] if run is not None else fast.buffer_updated(n)
+        assert got == expected
+        assert fast.closed == plain.closed
+        pos += n
+        i += 1
+
+
+def test_a_service_frame_is_never_taken_for_a_message() -> None:
+    """Even when its header repeats a message's, the frame after `__request` is the
+    request's payload (the general path's ServiceRequestReceived)."""
+    conn = ProtocolConnection("endpoint")
+    ping = encode_frame("/a", b"ping")
+    request = ProtocolConnection.service_request(3, "/a", b"ping")
+    events = []
+    for chunk in (ping, request[: len(request) - len(ping)], request[-len(ping) :]):
+        target = conn.get_buffer()
+        target[: len(chunk)] = chunk
+        target.release()
+        run = conn.message_run(len(chunk))
+        assert run is None
+        events += conn.buffer_updated(len(chunk))
+    assert [type(e).__name__ for e in events] == ["MessageReceived", "ServiceRequestReceived"]
