@@ -193,7 +193,7 @@ class Dispatcher:
                     role = _LEAD
                 elif (
                     self._runner is None
-                    and len(self.inbox)
+                    and self.inbox.count
                     and (self._external or self._io is None)
                 ):
                     self._runner = me
@@ -252,13 +252,13 @@ class Dispatcher:
                 if size > 1 and any(r.queue_size < size for r, _ in held):
                     self._queue(held)  # more than a receiver may hold: the inbox drops
                     held = []
-            elif not len(inbox):
+            elif not inbox.count:
                 continue
             with self._lock:  # (a runner finishing decides under the lock, so ask there)
-                if held and (self._runner is not None or len(inbox)):
+                if held and (self._runner is not None or inbox.count):
                     self._queue(held)  # behind what is queued or running
                     held = []
-                if self._runner is not None or not (held or len(inbox)):
+                if self._runner is not None or not (held or inbox.count):
                     continue
                 self._runner = me
                 self._external = False
@@ -291,7 +291,7 @@ class Dispatcher:
         counters = self._counters
         while not self._stop:
             # (nothing queued, as after a read run straight from `_held`: no take)
-            batch = inbox.take(_BATCH) if len(inbox) else []
+            batch = inbox.take(_BATCH) if inbox.count else []
             for receiver, item in batch:
                 if self._stop:
                     return
@@ -305,7 +305,7 @@ class Dispatcher:
                     _log.exception("callback raised; the connector keeps running")
             if len(batch) < _BATCH:
                 with self._lock:
-                    if not len(inbox):
+                    if not inbox.count:
                         self._runner = None
                         self._external = False
                         return

@@ -368,7 +368,7 @@ class ConnectorEngine:
         """One read: handle what it completed; False when the link broke, went silent or
         the connector closed (the caller tears it down)."""
         link = conn.link
-        if link.broken.is_set():
+        if link.broken:
             return False
         try:
             count, items = conn.reader.receive(link.sock)

@@ -47,10 +47,12 @@ class Inbox:
         """Payloads queued per receiver, not counting dropped ones."""
         self._skip: dict[Receiver, int] = {}
         """Dropped payloads per receiver that are still in `_order`."""
-        self._count = 0
+        self.count = 0
+        """Entries queued (not counting dropped payloads); `len(inbox)` without a call of
+        a Python method, for the dispatcher's checks on every read."""
 
     def __len__(self) -> int:
-        return self._count
+        return self.count
 
     def put_messages(self, entries: Sequence[tuple[Receiver, bytes]]) -> list[Receiver]:
         """Queue payloads for their receivers, in order; returns one receiver per payload
@@ -68,14 +70,14 @@ class Inbox:
                 else:
                     self._skip[receiver] = self._skip.get(receiver, 0) + 1
                     dropped.append(receiver)
-            self._count += added
+            self.count += added
         return dropped
 
     def put_task(self, task: Task) -> None:
         """Queue `task` after everything queued so far."""
         with self._lock:
             self._order.append((None, task))
-            self._count += 1
+            self.count += 1
 
     def take(self, max_items: int) -> list[Entry]:
         """Remove and return up to `max_items` entries in order (dropped ones skipped)."""
@@ -101,7 +103,7 @@ class Inbox:
                     else:
                         del live[receiver]
                 out.append(entry)
-            self._count -= len(out)
+            self.count -= len(out)
         return out
 
     def pending(self, receiver: Receiver) -> int:

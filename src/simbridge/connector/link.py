@@ -18,13 +18,14 @@ class Link:
         self.sock = sock
         self.send_lock = threading.Lock()
         """Held by the writer while it sends, so `close()` never frees a socket in use."""
-        self.broken = threading.Event()
+        self.broken = False
+        """Set once by `fail()` (a plain flag: every read and send checks it)."""
 
     def fail(self) -> None:
         """Mark broken and shut the socket down (blocked reads and writes return at once)."""
-        if self.broken.is_set():
+        if self.broken:
             return
-        self.broken.set()
+        self.broken = True
         with contextlib.suppress(OSError):
             self.sock.shutdown(socket.SHUT_RDWR)
 

@@ -55,12 +55,15 @@ class FrameReader:
         "_service_next",
         "_start",
         "_unpackers",
+        "_view",
     )
 
     def __init__(self, proto: ProtocolConnection, max_payload: int, chunk: int) -> None:
         self._proto = proto
         self._max_payload = max_payload
         self._buf = bytearray(max(chunk, 16))
+        self._view = memoryview(self._buf)
+        """A view of `_buf` kept for its life (none made and released per read)."""
         self._start = 0
         self._end = 0
         self._service_next = False
@@ -84,8 +87,8 @@ class FrameReader:
 
     def receive(self, sock: socket.socket) -> tuple[int, list[Received]]:
         """One `recv_into`; returns the byte count (0 at end of stream) and what it completed."""
-        with memoryview(self._buf) as view:
-            count = sock.recv_into(view[self._end :])
+        end = self._end
+        count = sock.recv_into(self._view[end:] if end else self._view)
         if not count:
             return 0, []
         self._end += count
@@ -99,78 +102,77 @@ class FrameReader:
         unpackers = self._unpackers
         run_size, run_head = self._run_size, self._run_head
         run_topic, run_unpack, run_at = self._run_topic, self._run_unpack, len(self._run_head)
-        with memoryview(buf) as view:
-            while end - pos >= 4:
-                if run_size and end - pos >= run_size and buf.startswith(run_head, pos):
-                    events.append((run_topic, run_unpack(buf, pos + run_at)[0]))
-                    pos += run_size
-                    continue
-                dlen = _unpack_u32(buf, pos)[0]
-                if dlen > MAX_DESTINATION_SIZE:
-                    return self._fatal(
-                        events,
-                        f"destination length {dlen} exceeds the limit of "
-                        f"{MAX_DESTINATION_SIZE} bytes",
-                    )
-                if end - pos < 8 + dlen:
-                    need = 8 + dlen
-                    break
-                plen = _unpack_u32(buf, pos + 4 + dlen)[0]
-                if plen > self._max_payload:
-                    return self._fatal(
-                        events,
-                        f"payload length {plen} bytes exceeds the limit of "
-                        f"{self._max_payload} bytes",
-                    )
-                stop = pos + 8 + dlen + plen
-                if stop > end:
-                    need = stop - pos
-                    break
-                if (
-                    self._service_next
-                    or dlen == 0
-                    or (dlen > 1 and buf[pos + 4] == _UNDERSCORE == buf[pos + 5])
-                ):
-                    name = bytes(view[pos + 4 : pos + 4 + dlen]).rstrip(b"\x00")
-                    self._service_next = name in _SERVICE_HEADERS
-                    if self._service_next:
-                        run_size = 0  # the next frame is a service's, whatever its header
-                    events += self._proto.receive_data(bytes(view[pos:stop]))
-                    if self._proto.closed:
-                        return self._fatal(events, "")
+        view = self._view
+        while end - pos >= 4:
+            if run_size and end - pos >= run_size and buf.startswith(run_head, pos):
+                events.append((run_topic, run_unpack(buf, pos + run_at)[0]))
+                pos += run_size
+                continue
+            dlen = _unpack_u32(buf, pos)[0]
+            if dlen > MAX_DESTINATION_SIZE:
+                return self._fatal(
+                    events,
+                    f"destination length {dlen} exceeds the limit of {MAX_DESTINATION_SIZE} bytes",
+                )
+            if end - pos < 8 + dlen:
+                need = 8 + dlen
+                break
+            plen = _unpack_u32(buf, pos + 4 + dlen)[0]
+            if plen > self._max_payload:
+                return self._fatal(
+                    events,
+                    f"payload length {plen} bytes exceeds the limit of {self._max_payload} bytes",
+                )
+            stop = pos + 8 + dlen + plen
+            if stop > end:
+                need = stop - pos
+                break
+            if (
+                self._service_next
+                or dlen == 0
+                or (dlen > 1 and buf[pos + 4] == _UNDERSCORE == buf[pos + 5])
+            ):
+                name = bytes(view[pos + 4 : pos + 4 + dlen]).rstrip(b"\x00")
+                self._service_next = name in _SERVICE_HEADERS
+                if self._service_next:
+                    run_size = 0  # the next frame is a service's, whatever its header
+                events += self._proto.receive_data(bytes(view[pos:stop]))
+                if self._proto.closed:
+                    return self._fatal(events, "")
+            else:
+                if dlen == len(self._last_name) and buf.startswith(self._last_name, pos + 4):
+                    topic = self._last_topic
                 else:
-                    if dlen == len(self._last_name) and buf.startswith(self._last_name, pos + 4):
-                        topic = self._last_topic
-                    else:
-                        found = self._topic(bytes(view[pos + 4 : pos + 4 + dlen]))
-                        if found is None:
-                            return self._fatal(events, "a destination is not valid UTF-8")
-                        topic = found
-                    start = pos + 8 + dlen
-                    if plen < _SMALL:
-                        unpack = unpackers.get(plen)
-                        if unpack is None:
-                            unpack = self._unpacker(plen)
-                        payload = unpack(buf, start)[0]
-                        run_head, run_at = bytes(view[pos:start]), start - pos
-                        run_size, run_topic, run_unpack = stop - pos, topic, unpack
-                    else:
-                        payload = bytes(view[start:stop])
-                    events.append((topic, payload))
-                pos = stop
-            self._run_size, self._run_head = run_size, run_head
-            self._run_topic, self._run_unpack = run_topic, run_unpack
-            left = end - pos
-            if left == 0:
-                pos = end = 0
-            elif need > len(buf) - pos:
-                if need > len(buf):
-                    grown = bytearray(need)
-                    grown[:left] = view[pos:end]
-                    self._buf = grown
+                    found = self._topic(bytes(view[pos + 4 : pos + 4 + dlen]))
+                    if found is None:
+                        return self._fatal(events, "a destination is not valid UTF-8")
+                    topic = found
+                start = pos + 8 + dlen
+                if plen < _SMALL:
+                    unpack = unpackers.get(plen)
+                    if unpack is None:
+                        unpack = self._unpacker(plen)
+                    payload = unpack(buf, start)[0]
+                    run_head, run_at = bytes(view[pos:start]), start - pos
+                    run_size, run_topic, run_unpack = stop - pos, topic, unpack
                 else:
-                    view[:left] = view[pos:end]
-                pos, end = 0, left
+                    payload = bytes(view[start:stop])
+                events.append((topic, payload))
+            pos = stop
+        self._run_size, self._run_head = run_size, run_head
+        self._run_topic, self._run_unpack = run_topic, run_unpack
+        left = end - pos
+        if left == 0:
+            pos = end = 0
+        elif need > len(buf) - pos:
+            if need > len(buf):
+                grown = bytearray(need)
+                grown[:left] = view[pos:end]
+                self._buf = grown
+                self._view = memoryview(grown)
+            else:
+                view[:left] = view[pos:end]
+            pos, end = 0, left
         self._start, self._end = pos, end
         return events
 

@@ -127,7 +127,7 @@ class FrameWriter:
         fifo = self._fifo
         while not self._stop:
             link = self._link
-            if link is None or link.broken.is_set():
+            if link is None or link.broken:
                 self._link_changed.wait()
                 self._link_changed.clear()
                 last_send = time.monotonic()
@@ -147,7 +147,7 @@ class FrameWriter:
     def _drain(self, link: Link) -> bool:
         """Write batches until the FIFO is empty or the link changes; True if any was sent."""
         sent = False
-        while not self._stop and self._link is link and not link.broken.is_set():
+        while not self._stop and self._link is link and not link.broken:
             self._busy = True
             try:
                 batch = self._fifo.take(_BATCH_ITEMS, _BATCH_BYTES)
@@ -189,7 +189,7 @@ class FrameWriter:
         """Write `entries` with one non-blocking send (the FIFO is empty and locked);
         None when that is not possible now, else the framed bytes left over."""
         link = self._link
-        if self._busy or link is None or link.broken.is_set():
+        if self._busy or link is None or link.broken:
             return None
         lock = link.send_lock
         if not lock.acquire(blocking=False):  # the writer thread is sending (a keepalive)
@@ -205,7 +205,7 @@ class FrameWriter:
             except BlockingIOError:
                 return None
             except OSError as exc:
-                if not link.broken.is_set():
+                if not link.broken:
                     _log.warning("connection lost while sending: %s", exc)
                 link.fail()
                 return []  # lost with the connection, as a batch the writer thread sends
@@ -253,7 +253,7 @@ class FrameWriter:
         try:
             sent = send_buffers(link, parts)
         except OSError as exc:
-            if not link.broken.is_set():
+            if not link.broken:
                 _log.warning("connection lost while sending: %s", exc)
             link.fail()
             return False
