@@ -8,6 +8,7 @@ shares code with the endpoint's relaying.
 
 from __future__ import annotations
 
+import itertools
 import time
 from collections.abc import Callable, Iterator
 from typing import Any
@@ -209,6 +210,33 @@ def test_bursts_reach_the_client_whole_and_in_order(client: RawClient) -> None:
         again = _received(client, topics[:1], count)
         assert publisher.expect_json("sent", timeout=60) == count
     assert again == {topics[0]: list(range(count))}
+
+
+def test_a_burst_to_a_client_that_stopped_reading_keeps_order(client: RawClient) -> None:
+    """A burst taken while the client does not read: what the client can no longer take at
+    once is queued up to its queue_size, dropping the oldest (counted); what arrives is in
+    order, ends with the newest, and arrived + dropped is the whole burst. Covers a taken
+    round handed over in part (the session's batch stops once the client pushes back)."""
+    # a long name makes each frame ~170 bytes: the burst (~17 MB) outgrows the kernel's
+    # socket buffers (4 MiB at most here) and the endpoint's 1 MiB write high-water mark
+    topic, count, queue_size = "/sb_burst_stalled/" + "x" * 140, 100_000, 100
+    client.send(Subscribe(topic, "std_msgs/UInt32", queue_size=queue_size).encode())
+    with Ros2Process.node("burst", topic, str(count)) as publisher:
+        assert publisher.expect_json("sent", timeout=90) == count  # all taken from DDS
+    got: list[int] = []
+    deadline = time.monotonic() + 60
+    while (not got or got[-1] != count - 1) and time.monotonic() < deadline:
+        client.poll(0.2)
+        for event in client.events:
+            if isinstance(event, MessageReceived) and event.topic == topic:
+                got.append(int.from_bytes(event.payload[4:8], "little"))  # CDR UInt32
+        client.events.clear()
+    dropped = client.stats()["session"]["dropped"].get(topic, 0)
+    assert got, "nothing arrived"
+    assert got[-1] == count - 1
+    assert all(a < b for a, b in itertools.pairwise(got)), "out of order"
+    assert dropped > 0, "the client never fell behind: the test did not stall it"
+    assert len(got) + dropped == count
 
 
 def test_sim_calls_a_ros2_service(client: RawClient) -> None:

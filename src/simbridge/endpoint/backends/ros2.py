@@ -41,6 +41,7 @@ from simbridge.endpoint.backends.base import (
     BackendPublisher,
     BackendServiceServer,
     BackendSubscription,
+    BatchCallback,
     LentCallback,
     MessageCallback,
     ServiceHandler,
@@ -554,6 +555,7 @@ class _Ros2Subscription(_Entity, BackendSubscription):
         callback: MessageCallback,
     ) -> None:
         self._callback = callback
+        self._batch: BatchCallback | None = None
         self._cls = cls
         self._takes = takes
         self._lent: LentCallback | None = None
@@ -571,6 +573,12 @@ class _Ros2Subscription(_Entity, BackendSubscription):
         super().__init__(backend)
         takes.add(self)
 
+    def batches(self, callback: BatchCallback) -> bool:
+        """What one round takes goes to `callback` in one call (the session frames a run
+        of small messages with one header and one write) instead of one callback each."""
+        self._batch = callback
+        return True
+
     def lends(self, callback: LentCallback) -> bool:
         """Large messages go to `callback` as views of this subscription's own take buffer
         (no bytes object made of them); False when rcl cannot be reached through ctypes."""
@@ -581,26 +589,37 @@ class _Ros2Subscription(_Entity, BackendSubscription):
 
     def take_round(self) -> bool:
         """On the loop: take what is waiting, up to _TAKE_ROUND messages or
-        _TAKE_ROUND_BYTES, handing each to the callback as it comes; True when a bound
-        ended the round (more may be waiting), False when it found none left."""
+        _TAKE_ROUND_BYTES, and hand them over together (`_hand_over`; a large message taken
+        into the lent buffer goes to the lent callback at once, after what came before
+        it); True when a bound ended the round (more may be waiting), False when it found
+        none left."""
         if self.closed:
             return False
-        handle, cls, callback = self.handle, self._cls, self._callback
+        handle, cls = self.handle, self._cls
+        payloads: list[bytes] = []
+        append = payloads.append
         size = 0
+        more = True
         try:
             with handle:
                 take = handle.take_message
                 for _ in range(_TAKE_ROUND):
                     if self._lending:
+                        if payloads:  # what was taken before it goes first
+                            self._hand_over(payloads)
+                            payloads = []
+                            append = payloads.append
                         length = self._take_lent()
                         if length < 0:
-                            return False
+                            more = False
+                            break
                     else:
                         taken = take(cls, True)
                         if taken is None:
-                            return False
+                            more = False
+                            break
                         payload = taken[0]
-                        callback(payload)
+                        append(payload)
                         length = len(payload)
                         self._lending = length >= _LEND_FROM and self._lent is not None
                     size += length
@@ -608,11 +627,28 @@ class _Ros2Subscription(_Entity, BackendSubscription):
                         break
                     if self.closed:
                         return False
+            self._hand_over(payloads)
         except Exception as exc:  # destroyed meanwhile, or the callback failed
             if not self.closed:
                 _log.error("taking from %s failed", self.topic, exc_info=exc)
             return False
-        return True
+        return more and not self.closed
+
+    def _hand_over(self, payloads: list[bytes]) -> None:
+        """Messages taken together, in order: to the batch callback when there are several
+        (it takes what its client can have now), the rest one by one to the message
+        callback (which queues or drops by the client's queue_size: DDS cannot take
+        them back)."""
+        batch = self._batch
+        rest: list[bytes] = payloads
+        if batch is not None and len(payloads) > 1:
+            taken = batch(payloads)
+            rest = payloads[taken:] if taken < len(payloads) else []
+        callback = self._callback
+        for payload in rest:
+            if self.closed:
+                return
+            callback(payload)
 
     def _take_lent(self) -> int:
         """One message through the take buffer to the lent callback: its length, or -1
