@@ -34,6 +34,7 @@ class Publisher:
         "_last",
         "_out",
         "_taps",
+        "_write_one",
         "closed",
         "latch",
         "msg_type",
@@ -58,6 +59,8 @@ class Publisher:
     ) -> None:
         self._out = out
         self._batch = batch
+        self._write_one = batch.writer.write_one if batch is not None else None
+        """The writer's `write_one`, looked up once (a message published on its own)."""
         self._taps = taps if taps is not None else []
         self.msg_type = msg_type
         self.queue_size = queue_size
@@ -122,7 +125,8 @@ class Publisher:
             if pending is not None:
                 pending.append((out, payload, out.bound))
                 return
-            dropped = batch.writer.write_one(out, payload)
+            assert self._write_one is not None
+            dropped = self._write_one(out, payload)
         else:
             dropped = self._fifo.put(out, payload, out.bound, len(payload))
         if dropped:

@@ -35,7 +35,7 @@ def write_chunks(
     sent = 0
     if fd >= 0 and not transport.get_write_buffer_size():
         try:
-            sent = os.writev(fd, chunks[:_IOV_MAX])
+            sent = os.writev(fd, chunks if len(chunks) <= _IOV_MAX else chunks[:_IOV_MAX])
         except (BlockingIOError, InterruptedError):
             sent = 0
         except OSError:
@@ -97,7 +97,7 @@ class SocketWriter:
                 queue.append(chunk)
                 self.queued += len(chunk)
             return
-        sent = self._writev(chunks[:_IOV_MAX])
+        sent = self._writev(chunks if len(chunks) <= _IOV_MAX else chunks[:_IOV_MAX])
         if sent < 0:
             return
         for chunk in chunks:

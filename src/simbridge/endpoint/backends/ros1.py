@@ -31,6 +31,7 @@ from simbridge.endpoint.backends.base import (
     ServiceHandler,
     TopicInfo,
 )
+from simbridge.endpoint.backends.gc_tuning import freeze_startup_objects
 from simbridge.endpoint.backends.malloc_tuning import keep_large_buffers
 from simbridge.endpoint.backends.ros1_native import NativeData
 from simbridge.endpoint.backends.ros1_node import NodeIdentity, join_graph, on_node_shutdown
@@ -130,6 +131,7 @@ class Ros1Backend(Backend):
         if opts.forward_logs:
             self._forwarder = RosoutForwarder()
             logging.getLogger("simbridge").addHandler(self._forwarder)
+        freeze_startup_objects()  # rospy's, the message types' and the node's objects
         _log.info("joined ROS master %s as %s", self._identity.master_uri, rospy.get_name())
 
     async def close(self) -> None:

@@ -193,7 +193,7 @@ class NativePublisher(Ros1Publisher):
         super().__init__(live)
 
     def publish(self, payload: bytes | bytearray) -> None:
-        if self.closed:
+        if self._closed:  # (the attribute, not the property: one call less per message)
             raise EndpointError(f"publisher of {self.topic!r} is closed")
         self._topic.publish(payload)  # a bytearray is handed over: sent from where it lies
 
