@@ -376,7 +376,12 @@ class ConnectorEngine:
         except (BlockingIOError, TimeoutError):  # SO_RCVTIMEO passed with nothing read
             ready = False
         now = time.monotonic()
-        if self._closing.is_set() and (now >= self._close_deadline or self._link is not link):
+        # (the deadline is set before closing is: no Event call per read while open)
+        if (
+            self._close_deadline
+            and self._closing.is_set()
+            and (now >= self._close_deadline or self._link is not link)
+        ):
             return False
         if now - conn.last_check >= _POLL_S:
             conn.last_check = now
