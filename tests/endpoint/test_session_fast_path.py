@@ -1,6 +1,7 @@
-"""The session's shortcut for a read that is one message repeating the last frame's header
-(`ProtocolConnection.message_run`) behaves exactly as the general path: same messages
-published, same replies and errors, same counters, however the bytes are cut into reads."""
+"""The session's shortcuts for a read that is one message repeating the last frame's header
+(`ProtocolConnection.message_run`) or several (`message_runs`, a burst) behave exactly as
+the general path: same messages published, same replies and errors, same counters, however
+the bytes are cut into reads."""
 
 from __future__ import annotations
 
@@ -109,6 +110,7 @@ def _both(data: bytes, cuts: list[int]) -> tuple[tuple[Any, ...], tuple[Any, ...
     """The session's results with the shortcut, then without it; and how often it was taken."""
     taken = 0
     real = ProtocolConnection.message_run
+    real_runs = ProtocolConnection.message_runs
 
     def counting(self: ProtocolConnection, nbytes: int) -> tuple[str, bytes] | None:
         nonlocal taken
@@ -116,9 +118,21 @@ def _both(data: bytes, cuts: list[int]) -> tuple[tuple[Any, ...], tuple[Any, ...
         taken += run is not None
         return run
 
-    with mock.patch.object(ProtocolConnection, "message_run", counting):
+    def counting_runs(self: ProtocolConnection, nbytes: int) -> tuple[str, list[bytes]] | None:
+        nonlocal taken
+        runs = real_runs(self, nbytes)
+        taken += runs is not None
+        return runs
+
+    with (
+        mock.patch.object(ProtocolConnection, "message_run", counting),
+        mock.patch.object(ProtocolConnection, "message_runs", counting_runs),
+    ):
         fast = asyncio.run(_run(data, cuts))
-    with mock.patch.object(ProtocolConnection, "message_run", return_value=None):
+    with (
+        mock.patch.object(ProtocolConnection, "message_run", return_value=None),
+        mock.patch.object(ProtocolConnection, "message_runs", return_value=None),
+    ):
         general = asyncio.run(_run(data, cuts))
     return fast, general, taken
 
@@ -126,7 +140,7 @@ def _both(data: bytes, cuts: list[int]) -> tuple[tuple[Any, ...], tuple[Any, ...
 @settings(max_examples=150, deadline=None)
 @given(
     st.lists(FRAMES, max_size=25),
-    st.lists(st.integers(min_value=1, max_value=80), min_size=1, max_size=6),
+    st.lists(st.integers(min_value=1, max_value=200), min_size=1, max_size=6),
     st.booleans(),
 )
 def test_shortcut_and_general_path_agree_however_cut(
@@ -162,3 +176,19 @@ def test_shortcut_on_an_unregistered_topic_answers_as_the_general_path() -> None
     assert b"not registered for publishing" in out
     assert stats["frames_in"] == 3
     assert stats["errors_sent"] == 1
+
+
+def test_a_burst_per_read_takes_the_burst_shortcut_and_matches() -> None:
+    """Reads of several pings each, cut inside a ping too (its header, or its header and
+    part of its payload, waits for the next read), publish every ping in order."""
+    ping = encode_frame("/a", _string(b"ping"))
+    registration = Publish("/a", TYPE).encode()
+    cuts = [len(registration) + len(ping), 3 * len(ping) + 5, 2 * len(ping) + 15, len(ping)]
+    fast, general, taken = _both(registration + ping * 60, cuts)
+    assert fast == general
+    assert taken > 10
+    published, _, stats, state, closed = fast
+    assert published == [_string(b"ping")] * 60
+    assert stats["frames_in"] == 61
+    assert state == (True, True, False)
+    assert not closed

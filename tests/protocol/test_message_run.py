@@ -72,3 +72,77 @@ def test_a_service_frame_is_never_taken_for_a_message() -> None:
         assert run is None
         events += conn.buffer_updated(len(chunk))
     assert [type(e).__name__ for e in events] == ["MessageReceived", "ServiceRequestReceived"]
+
+
+@given(
+    st.lists(FRAMES, max_size=30),
+    st.lists(st.integers(min_value=1, max_value=120), min_size=1, max_size=6),
+)
+def test_message_runs_give_the_events_buffer_updated_gives(
+    frames: list[bytes], cuts: list[int]
+) -> None:
+    """The burst shortcut (`message_runs`), tried after `message_run`, as the session does."""
+    data = b"".join(frames)
+    fast, plain = ProtocolConnection("endpoint"), ProtocolConnection("endpoint")
+    pos = i = 0
+    while pos < len(data) and not plain.closed:
+        chunk = data[pos : pos + cuts[i % len(cuts)]]
+        targets = fast.get_buffer(), plain.get_buffer()
+        n = min(len(targets[0]), len(targets[1]), len(chunk))
+        for target in targets:
+            target[:n] = chunk[:n]
+            target.release()
+        expected = plain.buffer_updated(n)
+        got: list[Event]
+        run = fast.message_run(n)
+        if run is not None:
+            got = [MessageReceived(*run)]
+        else:
+            burst = fast.message_runs(n)
+            if burst is not None:
+                got = [MessageReceived(burst[0], payload) for payload in burst[1]]
+            else:
+                got = fast.buffer_updated(n)
+        assert got == expected
+        assert fast.closed == plain.closed
+        assert fast.decoder.partial == plain.decoder.partial
+        pos += n
+        i += 1
+
+
+def test_a_burst_cut_inside_a_message_is_taken_and_the_rest_waits() -> None:
+    conn = ProtocolConnection("endpoint")
+    ping = encode_frame("/a", b"ping")
+    data = ping * 5
+    events = []
+    for chunk in (
+        data[: len(ping)],
+        data[len(ping) : 3 * len(ping) + 3],
+        data[3 * len(ping) + 3 :],
+    ):
+        target = conn.get_buffer()
+        target[: len(chunk)] = chunk
+        target.release()
+        burst = conn.message_runs(len(chunk))
+        if burst is None:
+            events += conn.buffer_updated(len(chunk))
+        else:
+            events += [MessageReceived(burst[0], payload) for payload in burst[1]]
+    assert events == [MessageReceived("/a", b"ping")] * 5
+    assert not conn.decoder.partial
+
+
+def test_a_burst_ending_in_another_whole_frame_is_left_to_the_general_path() -> None:
+    """A read whose rest after the repeated messages is a whole frame of its own (here a
+    keepalive, or a shorter message) is not a burst: that frame must not wait for the
+    next read."""
+    ping = encode_frame("/a", b"ping")
+    for tail in (KEEPALIVE, encode_frame("/a", b"p")):
+        conn = ProtocolConnection("endpoint")
+        for chunk in (ping, ping * 3 + tail):
+            target = conn.get_buffer()
+            target[: len(chunk)] = chunk
+            target.release()
+            assert conn.message_runs(len(chunk)) is None
+            conn.buffer_updated(len(chunk))
+        assert not conn.decoder.partial

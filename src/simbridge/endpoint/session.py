@@ -268,7 +268,17 @@ class ClientSession(asyncio.BufferedProtocol):
                     self._internal_error(MessageReceived(*run), exc)
                 return
         else:
-            events = self.proto.buffer_updated(nbytes)
+            burst = self.proto.message_runs(nbytes)
+            if burst is not None:
+                # A burst on one topic: published in one loop, without frame and event
+                # objects, as the loop below would publish them.
+                entry = publishers.get(burst[0])
+                if entry is not None and not self._closing:
+                    self._publish_burst(burst[0], entry[1], burst[1], now)
+                    return
+                events = [MessageReceived(burst[0], payload) for payload in burst[1]]
+            else:
+                events = self.proto.buffer_updated(nbytes)
             if events or not self.frame_started:
                 # Slow-sender clock: restarts whenever a frame completes.
                 if self._decoder.partial:
@@ -297,6 +307,31 @@ class ClientSession(asyncio.BufferedProtocol):
                 self.proven = True
             except Exception as exc:  # one bad request must not drop the client
                 self._internal_error(event, exc)
+
+    def _publish_burst(
+        self, topic: str, publisher: BackendPublisher, payloads: list[bytes], now: float
+    ) -> None:
+        """`_received`'s loop for a read of messages on one registered topic (small ones,
+        `bytes`: nothing to recycle); a failed publish is reported as there and the rest
+        still go out."""
+        stats = self.stats
+        if self._decoder.partial:  # slow-sender clock, as for any read that completes frames
+            self.frame_started, self.frame_bytes = now, stats.bytes_in
+        else:
+            self.frame_started = 0.0
+        publish = publisher.publish
+        published = False
+        for payload in payloads:
+            if self._closing:
+                break
+            stats.frames_in += 1
+            try:
+                publish(payload)
+                published = True
+            except Exception as exc:  # one bad request must not drop the client
+                self._internal_error(MessageReceived(topic, payload), exc)
+        if published:
+            self.proven = True
 
     def _internal_error(self, event: object, exc: Exception) -> None:
         """An unexpected exception while handling `event`: an `__error` naming the

@@ -166,6 +166,15 @@ class ProtocolConnection:
             return None
         return self._decoder.repeated_message(nbytes)
 
+    def message_runs(self, nbytes: int) -> tuple[str, list[bytes]] | None:
+        """`buffer_updated(nbytes)` for a burst: several plain topic messages repeating the
+        header of the frame before them (FrameDecoder.repeated_messages). Returns (topic,
+        payloads), what the MessageReceived events `buffer_updated` would return hold;
+        None, with nothing consumed, for any other read (call `buffer_updated`)."""
+        if self.closed or self._pending is not None:
+            return None
+        return self._decoder.repeated_messages(nbytes)
+
     def _events(self, frames: list[Frame]) -> list[Event]:
         events: list[Event] = []
         append = events.append

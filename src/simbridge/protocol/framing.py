@@ -258,6 +258,44 @@ class FrameDecoder:
         self._start = self._end = self._header_hint = 0
         return dest, payload
 
+    def repeated_messages(self, nbytes: int) -> tuple[str, list[bytes]] | None:
+        """`buffer_updated(nbytes)` for a read of several small topic messages that all
+        repeat the whole header of the frame before them (a burst on one topic), ending
+        on a frame boundary or inside one more such message: their destination and
+        payloads, the decoder left as `buffer_updated` leaves it (that message's start
+        kept for the next read). None for any other read, with nothing consumed or
+        changed: call `buffer_updated(nbytes)` then."""
+        size = self._run_size
+        if not size or self._big is not None or self._broken is not None:
+            return None
+        start, end = self._start, self._end + nbytes
+        count = (end - start) // size
+        dest = self._run_dest
+        if count < 2 or not dest or dest.startswith("__"):
+            return None
+        buf, head = self._buf, self._run_head
+        stop = start + count * size
+        rest = end - stop
+        # what is left is the start of one more message like them (the general path would
+        # leave it too): the header so far, or the whole header and part of the payload
+        if rest and not (
+            buf.startswith(head, stop) if rest >= len(head) else head.startswith(buf[stop:end])
+        ):
+            return None
+        startswith = buf.startswith
+        for pos in range(start, stop, size):
+            if not startswith(head, pos):
+                return None
+        skip = len(head)
+        with memoryview(buf) as view:
+            payloads = [bytes(view[pos + skip : pos + size]) for pos in range(start, stop, size)]
+        if rest:
+            self._start, self._end = stop, end
+        else:
+            self._start = self._end = 0
+        self._header_hint = 0
+        return dest, payloads
+
     def feed(self, data: bytes | bytearray | memoryview) -> list[Frame]:
         """Add received bytes; return every frame they complete, in order."""
         if self._broken is not None:
