@@ -10,8 +10,9 @@ usual time per message, and took the CPU the relay needed.
 
 Here a thread of its own only waits (an rcl wait set on the subscriptions and a guard
 condition, the GIL released) and tells the loop which subscriptions have messages;
-the loop takes them (a bounded round each) and hands each message to its callback at
-once, so nothing queues between threads and the DDS history stays short. The thread
+the loop takes them (a bounded round each) and hands the round to the session at once
+(small messages framed and written together), so nothing queues between threads and the
+DDS history stays short. The thread
 waits again once the loop has taken its round. A round that a bound ended (a burst)
 goes on in the loop's next iteration, after whatever else is ready there, for up to
 _CONTINUED_ROUNDS rounds before the thread waits again: a burst of Twists went through
