@@ -98,9 +98,11 @@ def _twist(seq: float = 1.0) -> bytes:
 
 
 PAYLOADS = (
-    Payload("Twist 48 B", "geometry_msgs/Twist", _twist(), max(int(10000 * SCALE), 10)),
-    # 600 images are ~0.4 s at the ceiling's rate, so one scheduling stall of a few tens
-    # of ms on a shared machine moves a round less; five rounds give the median a middle
+    # Rounds long enough that one scheduling stall of a few tens of ms on a shared machine
+    # moves a round's rate little (30,000 Twists are ~0.25 s at the ceiling's rate, 600
+    # images ~0.3 s; 10,000 Twists were 75 ms, where one 10 ms gap moved a share 13%), and
+    # five rounds so the median has a middle
+    Payload("Twist 48 B", "geometry_msgs/Twist", _twist(), max(int(30000 * SCALE), 10), 5),
     Payload(
         "Image 640x480 rgb8", "sensor_msgs/Image", _image(640, 480), max(int(600 * SCALE), 5), 5
     ),
@@ -460,7 +462,7 @@ def _memory_mb() -> str:
 def run(repeats: int = REPEATS) -> dict[str, list[dict[str, Any]]]:
     """Ceiling and endpoint rows per payload in `repeats` interleaved rounds, or the
     payload's `min_rounds` if more (each share taken against the same round's ceiling;
-    rows give best and median), then the latency rows. Bounded: a few thousand messages
+    rows give best and median), then the latency rows. Bounded: at most 30,000 messages
     per row, each receiver stops after IDLE_END s without a message."""
     from tests.ros2support import child_env, start_endpoint
 
