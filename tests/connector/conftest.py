@@ -71,6 +71,10 @@ def pair() -> Iterator[tuple[socket.socket, socket.socket]]:
     with socket.create_server(("127.0.0.1", 0)) as server:
         a = socket.create_connection(server.getsockname())
         b, _ = server.accept()
+    # blocking, as open_link leaves its socket, whatever default timeout an earlier test's
+    # library set (rospy sets 60 s on import; a send then waits instead of falling short)
+    a.settimeout(None)
+    b.settimeout(None)
     yield a, b
     a.close()
     b.close()
