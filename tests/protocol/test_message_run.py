@@ -4,6 +4,8 @@ whatever the frames (commands, service headers and their frames, keepalives) and
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 from hypothesis import given
 from hypothesis import strategies as st
 
@@ -31,13 +33,12 @@ FRAMES = st.one_of(
 )
 
 
-@given(
-    st.lists(FRAMES, max_size=30),
-    st.lists(st.integers(min_value=1, max_value=60), min_size=1, max_size=6),
-)
-def test_message_run_gives_the_events_buffer_updated_gives(
-    frames: list[bytes], cuts: list[int]
+def _agree(
+    frames: list[bytes], cuts: list[int], take: Callable[[ProtocolConnection, int], list[Event]]
 ) -> None:
+    """Feed the frames, cut into reads of the given sizes, to two connections: one through
+    `take` (a shortcut, falling back to `buffer_updated`), one through `buffer_updated`
+    alone; events, closing and the decoder's partial frame must agree after every read."""
     data = b"".join(frames)
     fast, plain = ProtocolConnection("endpoint"), ProtocolConnection("endpoint")
     pos = i = 0
@@ -49,12 +50,37 @@ def test_message_run_gives_the_events_buffer_updated_gives(
             target[:n] = chunk[:n]
             target.release()
         expected = plain.buffer_updated(n)
-        run = fast.message_run(n)
-        got: list[Event] = [MessageReceived(*run)] if run is not None else fast.buffer_updated(n)
-        assert got == expected
+        assert take(fast, n) == expected
         assert fast.closed == plain.closed
+        assert fast.decoder.partial == plain.decoder.partial
         pos += n
         i += 1
+
+
+def _run_or_general(conn: ProtocolConnection, n: int) -> list[Event]:
+    run = conn.message_run(n)
+    return [MessageReceived(*run)] if run is not None else conn.buffer_updated(n)
+
+
+def _run_burst_or_general(conn: ProtocolConnection, n: int) -> list[Event]:
+    """As the session tries them: one message, then a burst, then the general path."""
+    run = conn.message_run(n)
+    if run is not None:
+        return [MessageReceived(*run)]
+    burst = conn.message_runs(n)
+    if burst is not None:
+        return [MessageReceived(burst[0], payload) for payload in burst[1]]
+    return conn.buffer_updated(n)
+
+
+@given(
+    st.lists(FRAMES, max_size=30),
+    st.lists(st.integers(min_value=1, max_value=60), min_size=1, max_size=6),
+)
+def test_message_run_gives_the_events_buffer_updated_gives(
+    frames: list[bytes], cuts: list[int]
+) -> None:
+    _agree(frames, cuts, _run_or_general)
 
 
 def test_a_service_frame_is_never_taken_for_a_message() -> None:
@@ -82,32 +108,7 @@ def test_message_runs_give_the_events_buffer_updated_gives(
     frames: list[bytes], cuts: list[int]
 ) -> None:
     """The burst shortcut (`message_runs`), tried after `message_run`, as the session does."""
-    data = b"".join(frames)
-    fast, plain = ProtocolConnection("endpoint"), ProtocolConnection("endpoint")
-    pos = i = 0
-    while pos < len(data) and not plain.closed:
-        chunk = data[pos : pos + cuts[i % len(cuts)]]
-        targets = fast.get_buffer(), plain.get_buffer()
-        n = min(len(targets[0]), len(targets[1]), len(chunk))
-        for target in targets:
-            target[:n] = chunk[:n]
-            target.release()
-        expected = plain.buffer_updated(n)
-        got: list[Event]
-        run = fast.message_run(n)
-        if run is not None:
-            got = [MessageReceived(*run)]
-        else:
-            burst = fast.message_runs(n)
-            if burst is not None:
-                got = [MessageReceived(burst[0], payload) for payload in burst[1]]
-            else:
-                got = fast.buffer_updated(n)
-        assert got == expected
-        assert fast.closed == plain.closed
-        assert fast.decoder.partial == plain.decoder.partial
-        pos += n
-        i += 1
+    _agree(frames, cuts, _run_burst_or_general)
 
 
 def test_a_burst_cut_inside_a_message_is_taken_and_the_rest_waits() -> None:

@@ -83,6 +83,16 @@ def main(argv: list[str]) -> None:
         rclpy.try_shutdown()
 
 
+def matched_publisher(node: Any, cls: Any, topic: str, qos: Any) -> Any:
+    """A publisher, once a subscription matched it or 30 s passed (discovery can be slow on
+    a busy machine)."""
+    publisher = node.create_publisher(cls, topic, qos)
+    deadline = time.monotonic() + 30
+    while publisher.get_subscription_count() == 0 and time.monotonic() < deadline:
+        rclpy.spin_once(node, timeout_sec=0.05)
+    return publisher
+
+
 def run(node: Any, argv: list[str]) -> None:
     mode = argv[0]
     if mode == "echo":
@@ -104,12 +114,9 @@ def run(node: Any, argv: list[str]) -> None:
     elif mode == "pub":
         topic, cls, values = argv[1], load(argv[2]), json.loads(argv[3])
         rate, count = float(argv[4]), int(argv[5])
-        publisher = node.create_publisher(cls, topic, 10)
         msg = cls()
         set_message_fields(msg, values)
-        deadline = time.monotonic() + 30  # discovery can be slow on a busy machine
-        while publisher.get_subscription_count() == 0 and time.monotonic() < deadline:
-            rclpy.spin_once(node, timeout_sec=0.05)
+        publisher = matched_publisher(node, cls, topic, 10)
         for _ in range(count):
             publisher.publish(msg)
             rclpy.spin_once(node, timeout_sec=1.0 / rate)
@@ -118,10 +125,7 @@ def run(node: Any, argv: list[str]) -> None:
         topic, count = argv[1], int(argv[2])
         cls = load("std_msgs/msg/UInt32")
         qos = QoSProfile(depth=count, reliability=ReliabilityPolicy.RELIABLE)
-        publisher = node.create_publisher(cls, topic, qos)
-        deadline = time.monotonic() + 30
-        while publisher.get_subscription_count() == 0 and time.monotonic() < deadline:
-            rclpy.spin_once(node, timeout_sec=0.05)
+        publisher = matched_publisher(node, cls, topic, qos)
         for i in range(count):
             publisher.publish(cls(data=i))
         publisher.wait_for_all_acked(rclpy.duration.Duration(seconds=30))
@@ -131,10 +135,7 @@ def run(node: Any, argv: list[str]) -> None:
         widths = [int(w) for w in argv[3].split(",")]
         cls = load("sensor_msgs/msg/Image")
         qos = QoSProfile(depth=count, reliability=ReliabilityPolicy.RELIABLE)
-        publisher = node.create_publisher(cls, topic, qos)
-        deadline = time.monotonic() + 30
-        while publisher.get_subscription_count() == 0 and time.monotonic() < deadline:
-            rclpy.spin_once(node, timeout_sec=0.05)
+        publisher = matched_publisher(node, cls, topic, qos)
         for i in range(count):
             width = widths[i % len(widths)]
             msg = cls(height=1, width=width, encoding="mono8", step=width)
