@@ -1,7 +1,7 @@
-"""The session's shortcuts for a read that is one message repeating the last frame's header
-(`ProtocolConnection.message_run`) or several (`message_runs`, a burst) behave exactly as
-the general path: same messages published, same replies and errors, same counters, however
-the bytes are cut into reads."""
+"""The session's shortcut for a read of messages repeating the last frame's header
+(`ProtocolConnection.message_runs`: one, or a burst) behaves exactly as the general path:
+same messages published, same replies and errors, same counters, however the bytes are
+cut into reads."""
 
 from __future__ import annotations
 
@@ -109,14 +109,7 @@ async def _run(data: bytes, cuts: list[int]) -> tuple[Any, ...]:
 def _both(data: bytes, cuts: list[int]) -> tuple[tuple[Any, ...], tuple[Any, ...], int]:
     """The session's results with the shortcut, then without it; and how often it was taken."""
     taken = 0
-    real = ProtocolConnection.message_run
     real_runs = ProtocolConnection.message_runs
-
-    def counting(self: ProtocolConnection, nbytes: int) -> tuple[str, bytes] | None:
-        nonlocal taken
-        run = real(self, nbytes)
-        taken += run is not None
-        return run
 
     def counting_runs(self: ProtocolConnection, nbytes: int) -> tuple[str, list[bytes]] | None:
         nonlocal taken
@@ -124,15 +117,9 @@ def _both(data: bytes, cuts: list[int]) -> tuple[tuple[Any, ...], tuple[Any, ...
         taken += runs is not None
         return runs
 
-    with (
-        mock.patch.object(ProtocolConnection, "message_run", counting),
-        mock.patch.object(ProtocolConnection, "message_runs", counting_runs),
-    ):
+    with mock.patch.object(ProtocolConnection, "message_runs", counting_runs):
         fast = asyncio.run(_run(data, cuts))
-    with (
-        mock.patch.object(ProtocolConnection, "message_run", return_value=None),
-        mock.patch.object(ProtocolConnection, "message_runs", return_value=None),
-    ):
+    with mock.patch.object(ProtocolConnection, "message_runs", return_value=None):
         general = asyncio.run(_run(data, cuts))
     return fast, general, taken
 

@@ -214,11 +214,12 @@ def test_repeated_headers_decode_like_any_other_however_cut(
 
 
 @given(_repeating, st.lists(st.integers(min_value=1, max_value=200), min_size=1))
-def test_repeated_message_shortcut_agrees_with_buffer_updated_however_cut(
+def test_repeated_messages_shortcut_agrees_with_buffer_updated_however_cut(
     frames: list[tuple[str, bytes]], cuts: list[int]
 ) -> None:
-    """`repeated_message(n)` either returns what `buffer_updated(n)` would (one plain
-    topic message) and leaves the decoder in the same state, or consumes nothing."""
+    """`repeated_messages(n)` either returns what `buffer_updated(n)` would (plain topic
+    messages on one destination) and leaves the decoder in the same state, or consumes
+    nothing."""
     data = b"".join(encode_frame(d, p) for d, p in frames)
     fast, plain = FrameDecoder(), FrameDecoder()
     out: list[Frame] = []
@@ -232,15 +233,15 @@ def test_repeated_message_shortcut_agrees_with_buffer_updated_however_cut(
             target[:n] = chunk[:n]
             target.release()
         expected = plain.buffer_updated(n)
-        run = fast.repeated_message(n)
+        run = fast.repeated_messages(n)
         if run is None:
             got = fast.buffer_updated(n)
         else:
-            got = [Frame(*run)]
-            assert len(expected) == 1
-            assert not expected[0].is_command
-            assert expected[0].destination
-            assert type(run[1]) is bytes
+            got = [Frame(run[0], payload) for payload in run[1]]
+            assert expected
+            assert not any(frame.is_command for frame in expected)
+            assert all(frame.destination == run[0] for frame in expected)
+            assert all(type(payload) is bytes for payload in run[1])
         assert got == expected
         assert (fast.buffered, fast.partial) == (plain.buffered, plain.partial)
         out += got
@@ -249,30 +250,36 @@ def test_repeated_message_shortcut_agrees_with_buffer_updated_however_cut(
     assert [(f.destination, f.payload) for f in out] == frames
 
 
-def test_repeated_message_is_refused_for_commands_keepalives_and_partial_reads() -> None:
+def test_repeated_messages_refused_for_commands_keepalives_and_partial_reads() -> None:
     decoder = FrameDecoder()
     for frame in (encode_frame("__x", b"{}"), KEEPALIVE):
         assert len(decoder.feed(frame)) == 1
         target = decoder.get_buffer()
         target[: len(frame)] = frame
         target.release()
-        assert decoder.repeated_message(len(frame)) is None  # a command or keepalive
+        assert decoder.repeated_messages(len(frame)) is None  # a command or keepalive
         assert len(decoder.buffer_updated(len(frame))) == 1
     ping = encode_frame("/a", b"ping")
     decoder.feed(ping)
-    for n in (len(ping) - 1, len(ping) + 1):  # not exactly one frame
-        twin = FrameDecoder()
-        twin.feed(ping)
-        target = twin.get_buffer()
-        data = (ping * 2)[:n]
-        target[:n] = data
-        target.release()
-        assert twin.repeated_message(n) is None
-        assert twin.buffered == 0
+    twin = FrameDecoder()  # less than one whole frame
+    twin.feed(ping)
+    target = twin.get_buffer()
+    target[: len(ping) - 1] = ping[:-1]
+    target.release()
+    assert twin.repeated_messages(len(ping) - 1) is None
+    assert twin.buffered == 0
+    twin = FrameDecoder()  # one frame and the first byte of the next: that byte waits
+    twin.feed(ping)
+    target = twin.get_buffer()
+    target[: len(ping) + 1] = ping + ping[:1]
+    target.release()
+    assert twin.repeated_messages(len(ping) + 1) == ("/a", [b"ping"])
+    assert twin.buffered == 1
+    assert twin.partial
     target = decoder.get_buffer()
     target[: len(ping)] = ping
     target.release()
-    assert decoder.repeated_message(len(ping)) == ("/a", b"ping")
+    assert decoder.repeated_messages(len(ping)) == ("/a", [b"ping"])
     assert decoder.buffered == 0
     assert not decoder.partial
 

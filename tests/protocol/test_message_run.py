@@ -1,10 +1,8 @@
-"""`ProtocolConnection.message_run`, the shortcut for a read holding one plain message
-that repeats the last frame's header, yields exactly the events `buffer_updated` would,
+"""`ProtocolConnection.message_runs`, the shortcut for a read of plain messages that
+repeat the last frame's header, yields exactly the events `buffer_updated` would,
 whatever the frames (commands, service headers and their frames, keepalives) and cuts."""
 
 from __future__ import annotations
-
-from collections.abc import Callable
 
 from hypothesis import given
 from hypothesis import strategies as st
@@ -33,12 +31,16 @@ FRAMES = st.one_of(
 )
 
 
-def _agree(
-    frames: list[bytes], cuts: list[int], take: Callable[[ProtocolConnection, int], list[Event]]
+@given(
+    st.lists(FRAMES, max_size=30),
+    st.lists(st.integers(min_value=1, max_value=120), min_size=1, max_size=6),
+)
+def test_message_runs_give_the_events_buffer_updated_gives(
+    frames: list[bytes], cuts: list[int]
 ) -> None:
-    """Feed the frames, cut into reads of the given sizes, to two connections: one through
-    `take` (a shortcut, falling back to `buffer_updated`), one through `buffer_updated`
-    alone; events, closing and the decoder's partial frame must agree after every read."""
+    """The frames, cut into reads of the given sizes, go to two connections: one tries the
+    shortcut first (as the session does), one uses `buffer_updated` alone; events, closing
+    and the decoder's partial frame agree after every read."""
     data = b"".join(frames)
     fast, plain = ProtocolConnection("endpoint"), ProtocolConnection("endpoint")
     pos = i = 0
@@ -50,37 +52,17 @@ def _agree(
             target[:n] = chunk[:n]
             target.release()
         expected = plain.buffer_updated(n)
-        assert take(fast, n) == expected
+        burst = fast.message_runs(n)
+        got: list[Event]
+        if burst is not None:
+            got = [MessageReceived(burst[0], payload) for payload in burst[1]]
+        else:
+            got = fast.buffer_updated(n)
+        assert got == expected
         assert fast.closed == plain.closed
         assert fast.decoder.partial == plain.decoder.partial
         pos += n
         i += 1
-
-
-def _run_or_general(conn: ProtocolConnection, n: int) -> list[Event]:
-    run = conn.message_run(n)
-    return [MessageReceived(*run)] if run is not None else conn.buffer_updated(n)
-
-
-def _run_burst_or_general(conn: ProtocolConnection, n: int) -> list[Event]:
-    """As the session tries them: one message, then a burst, then the general path."""
-    run = conn.message_run(n)
-    if run is not None:
-        return [MessageReceived(*run)]
-    burst = conn.message_runs(n)
-    if burst is not None:
-        return [MessageReceived(burst[0], payload) for payload in burst[1]]
-    return conn.buffer_updated(n)
-
-
-@given(
-    st.lists(FRAMES, max_size=30),
-    st.lists(st.integers(min_value=1, max_value=60), min_size=1, max_size=6),
-)
-def test_message_run_gives_the_events_buffer_updated_gives(
-    frames: list[bytes], cuts: list[int]
-) -> None:
-    _agree(frames, cuts, _run_or_general)
 
 
 def test_a_service_frame_is_never_taken_for_a_message() -> None:
@@ -94,21 +76,9 @@ def test_a_service_frame_is_never_taken_for_a_message() -> None:
         target = conn.get_buffer()
         target[: len(chunk)] = chunk
         target.release()
-        run = conn.message_run(len(chunk))
-        assert run is None
+        assert conn.message_runs(len(chunk)) is None
         events += conn.buffer_updated(len(chunk))
     assert [type(e).__name__ for e in events] == ["MessageReceived", "ServiceRequestReceived"]
-
-
-@given(
-    st.lists(FRAMES, max_size=30),
-    st.lists(st.integers(min_value=1, max_value=120), min_size=1, max_size=6),
-)
-def test_message_runs_give_the_events_buffer_updated_gives(
-    frames: list[bytes], cuts: list[int]
-) -> None:
-    """The burst shortcut (`message_runs`), tried after `message_run`, as the session does."""
-    _agree(frames, cuts, _run_burst_or_general)
 
 
 def test_a_burst_cut_inside_a_message_is_taken_and_the_rest_waits() -> None:

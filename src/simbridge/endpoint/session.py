@@ -251,40 +251,25 @@ class ClientSession(asyncio.BufferedProtocol):
         stats = self.stats
         stats.bytes_in += nbytes
         publishers = self.publishers
-        run = self.proto.message_run(nbytes)
-        if run is not None:
-            # The commonest read, one message on a topic of the frame before it: handled
-            # as the loop below would, without building the frame and event objects.
-            self.frame_started = 0.0  # a frame completed, and nothing is left partial
-            entry = publishers.get(run[0])
-            if entry is None or self._closing:
-                events: list[Event] = [MessageReceived(*run)]
-            else:
-                stats.frames_in += 1
-                try:
-                    entry[1].publish(run[1])
-                    self.proven = True
-                except Exception as exc:  # one bad request must not drop the client
-                    self._internal_error(MessageReceived(*run), exc)
+        events: list[Event]
+        burst = self.proto.message_runs(nbytes)
+        if burst is not None:
+            # The commonest reads, messages on the topic of the frame before them (one
+            # command a step, a ping, a burst): published in one loop, without frame and
+            # event objects, as the loop below would publish them.
+            entry = publishers.get(burst[0])
+            if entry is not None and not self._closing:
+                self._publish_burst(burst[0], entry[1], burst[1], now)
                 return
+            events = [MessageReceived(burst[0], payload) for payload in burst[1]]
         else:
-            burst = self.proto.message_runs(nbytes)
-            if burst is not None:
-                # A burst on one topic: published in one loop, without frame and event
-                # objects, as the loop below would publish them.
-                entry = publishers.get(burst[0])
-                if entry is not None and not self._closing:
-                    self._publish_burst(burst[0], entry[1], burst[1], now)
-                    return
-                events = [MessageReceived(burst[0], payload) for payload in burst[1]]
+            events = self.proto.buffer_updated(nbytes)
+        if events or not self.frame_started:
+            # Slow-sender clock: restarts whenever a frame completes.
+            if self._decoder.partial:
+                self.frame_started, self.frame_bytes = now, stats.bytes_in
             else:
-                events = self.proto.buffer_updated(nbytes)
-            if events or not self.frame_started:
-                # Slow-sender clock: restarts whenever a frame completes.
-                if self._decoder.partial:
-                    self.frame_started, self.frame_bytes = now, stats.bytes_in
-                else:
-                    self.frame_started = 0.0
+                self.frame_started = 0.0
         recycle = self._recycle
         for event in events:
             if self._closing:

@@ -157,18 +157,10 @@ class ProtocolConnection:
             frames = []
         return self._events(frames)
 
-    def message_run(self, nbytes: int) -> tuple[str, bytes] | None:
-        """`buffer_updated(nbytes)` for the commonest read: one plain topic message with
-        the whole header of the frame before it (FrameDecoder.repeated_message). Returns
-        (topic, payload), what the one MessageReceived `buffer_updated` would return
-        holds; None, with nothing consumed, for any other read (call `buffer_updated`)."""
-        if self.closed or self._pending is not None:
-            return None
-        return self._decoder.repeated_message(nbytes)
-
     def message_runs(self, nbytes: int) -> tuple[str, list[bytes]] | None:
-        """`buffer_updated(nbytes)` for a burst: several plain topic messages repeating the
-        header of the frame before them (FrameDecoder.repeated_messages). Returns (topic,
+        """`buffer_updated(nbytes)` for the commonest reads: one or more plain topic
+        messages repeating the header of the frame before them (a command each step, a
+        ping, a burst on one topic; FrameDecoder.repeated_messages). Returns (topic,
         payloads), what the MessageReceived events `buffer_updated` would return hold;
         None, with nothing consumed, for any other read (call `buffer_updated`)."""
         if self.closed or self._pending is not None:

@@ -234,44 +234,21 @@ class FrameDecoder:
             raise self._broken
         return frames
 
-    def repeated_message(self, nbytes: int) -> tuple[str, bytes] | None:
-        """`buffer_updated(nbytes)` for a read that is exactly one small topic message (not
-        a command or keepalive) repeating the whole header of the frame before it (a
-        command each step, each ping of a round trip): its destination and payload, the
-        decoder left as `buffer_updated` leaves it. None for any other read, with nothing
-        consumed or changed: call `buffer_updated(nbytes)` then."""
-        start = self._start
-        size = self._run_size
-        if (
-            not size
-            or self._end + nbytes - start != size
-            or self._big is not None
-            or self._broken is not None
-        ):
-            return None
-        dest = self._run_dest
-        buf = self._buf
-        head = self._run_head
-        if not dest or dest.startswith("__") or not buf.startswith(head, start):
-            return None
-        payload = bytes(buf[start + len(head) : start + size])
-        self._start = self._end = self._header_hint = 0
-        return dest, payload
-
     def repeated_messages(self, nbytes: int) -> tuple[str, list[bytes]] | None:
-        """`buffer_updated(nbytes)` for a read of several small topic messages that all
-        repeat the whole header of the frame before them (a burst on one topic), ending
-        on a frame boundary or inside one more such message: their destination and
-        payloads, the decoder left as `buffer_updated` leaves it (that message's start
-        kept for the next read). None for any other read, with nothing consumed or
-        changed: call `buffer_updated(nbytes)` then."""
+        """`buffer_updated(nbytes)` for the commonest reads: one or more small topic
+        messages (not commands or keepalives) that all repeat the whole header of the
+        frame before them (a command each step, each ping of a round trip, a burst on one
+        topic), ending on a frame boundary or inside one more such message: their
+        destination and payloads, the decoder left as `buffer_updated` leaves it (that
+        message's start kept for the next read). None for any other read, with nothing
+        consumed or changed: call `buffer_updated(nbytes)` then."""
         size = self._run_size
         if not size or self._big is not None or self._broken is not None:
             return None
         start, end = self._start, self._end + nbytes
         count = (end - start) // size
         dest = self._run_dest
-        if count < 2 or not dest or dest.startswith("__"):
+        if not count or not dest or dest.startswith("__"):
             return None
         buf, head = self._buf, self._run_head
         stop = start + count * size
@@ -282,13 +259,18 @@ class FrameDecoder:
             buf.startswith(head, stop) if rest >= len(head) else head.startswith(buf[stop:end])
         ):
             return None
-        startswith = buf.startswith
-        for pos in range(start, stop, size):
-            if not startswith(head, pos):
-                return None
         skip = len(head)
-        with memoryview(buf) as view:
-            payloads = [bytes(view[pos + skip : pos + size]) for pos in range(start, stop, size)]
+        if count == 1:  # the commonest read (a round trip's ping): no loop, no view
+            if not buf.startswith(head, start):
+                return None
+            payloads = [bytes(buf[start + skip : stop])]
+        else:
+            startswith = buf.startswith
+            for pos in range(start, stop, size):
+                if not startswith(head, pos):
+                    return None
+            with memoryview(buf) as view:
+                payloads = [bytes(view[p + skip : p + size]) for p in range(start, stop, size)]
         if rest:
             self._start, self._end = stop, end
         else:
