@@ -14,10 +14,11 @@ the loop takes them (a bounded round each) and hands the round to the session at
 (small messages framed and written together), so nothing queues between threads and the
 DDS history stays short. The thread waits again once the loop has taken its round. A
 round that a bound ended (a burst) goes on in the loop's next iteration, after whatever
-else is ready there, for up to _CONTINUED_ROUNDS rounds before the thread waits again: a burst of Twists went through
-the thread every 256 messages, and each trip (building a wait set, waking the loop
-from another thread, the two threads taking turns at the GIL) left the samples waiting
-in the DDS history meanwhile, which makes every new one cost the DDS thread more.
+else is ready there, for up to _CONTINUED_ROUNDS rounds before the thread waits again:
+a burst of Twists went through the thread every 256 messages, and each trip (building a
+wait set, waking the loop from another thread, the two threads taking turns at the GIL)
+left the samples waiting in the DDS history meanwhile, which makes every new one cost
+the DDS thread more.
 Subscriptions join a callback group the executor never runs, so the executor leaves
 them alone.
 """
