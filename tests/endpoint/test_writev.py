@@ -8,10 +8,11 @@ import socket
 import threading
 import tracemalloc
 from collections.abc import Iterator
+from typing import Any
 
 import pytest
 
-from simbridge.endpoint.writev import SocketWriter
+from simbridge.endpoint.writev import SocketWriter, write_chunks
 
 MB = 1 << 20
 
@@ -128,3 +129,36 @@ def test_a_failed_write_reports_once_and_stops(
     assert writer.closed
     assert writer.queued == 0
     assert not drained.is_set()
+
+
+def test_write_chunks_gives_the_transport_its_own_copy_of_a_lent_view(
+    pair: tuple[socket.socket, socket.socket],
+) -> None:
+    """What the kernel does not take goes to the transport; a transport that keeps what it
+    is given without copying (asyncio's since Python 3.12) must not see a lent buffer
+    change when its owner reuses it after the call."""
+
+    class KeepingTransport:
+        def __init__(self) -> None:
+            self.kept: list[Any] = []
+
+        def get_write_buffer_size(self) -> int:
+            return sum(len(chunk) for chunk in self.kept)
+
+        def write(self, data: Any) -> None:
+            self.kept.append(data)
+
+    out, into = pair
+    lent = bytearray(b"a" * 4 * MB)
+    transport: Any = KeepingTransport()
+    with memoryview(lent) as view:
+        write_chunks(transport, out.fileno(), [b"head", view])
+    lent[:] = b"b" * len(lent)  # the owner takes its next message into the same memory
+    assert transport.kept  # the kernel did not take it all
+    received = bytearray()
+    while True:
+        try:
+            received += into.recv(MB)
+        except BlockingIOError:
+            break
+    assert received + b"".join(bytes(chunk) for chunk in transport.kept) == b"head" + b"a" * 4 * MB

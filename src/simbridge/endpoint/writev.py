@@ -1,10 +1,10 @@
 """Scatter-gather writes to a socket with as few copies as the kernel allows.
 
 `write_chunks` writes through an asyncio transport (what the kernel does not take at
-once is copied into the transport's buffer, joined with the rest). `SocketWriter` owns a
-non-blocking socket's writes instead: what the kernel does not take is kept as views of
-the caller's buffers and written from them when the socket has room, so a camera image
-crosses user space no more than once however slowly its reader reads.
+once goes to the transport's buffer, small pieces joined, a view of lent memory copied).
+`SocketWriter` owns a non-blocking socket's writes instead: what the kernel does not take
+is kept as views of the caller's buffers and written from them when the socket has room,
+so a camera image crosses user space no more than once however slowly its reader reads.
 """
 
 from __future__ import annotations
@@ -53,9 +53,18 @@ def write_chunks(
         if small:
             transport.write(b"".join(small))
             small = []
-        transport.write(rest)
+        transport.write(_owned(rest))
     if small:
-        transport.write(b"".join(small) if len(small) > 1 else small[0])
+        transport.write(b"".join(small) if len(small) > 1 else _owned(small[0]))
+
+
+def _owned(chunk: bytes | memoryview) -> bytes | memoryview:
+    """`chunk`, or a copy of it when it is a view of memory its owner may reuse (a payload
+    a backend lends for one call): asyncio's transports queue what they are given without
+    copying it since Python 3.12 (3.11's copied)."""
+    if isinstance(chunk, memoryview) and not isinstance(chunk.obj, bytes):
+        return bytes(chunk)
+    return chunk
 
 
 class SocketWriter:
