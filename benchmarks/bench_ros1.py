@@ -14,7 +14,8 @@ Round trip: a small message (std_msgs/Header) sent one at a time through a rospy
 node and back, sim -> endpoint -> echo -> endpoint -> sim, beside rospy -> echo ->
 rospy (a rospy pinger node in place of the sim and endpoint) in the same run; p50 and
 p99 of `RT_COUNT` pings after a warm-up (target: the endpoint adds at most 50% to the
-rospy p50 and 100% to its p99).
+rospy p50 and 100% to its p99). The endpoint is measured twice, as started by default and
+with `--busy-poll-us RT_BUSY_POLL_US`, each with its CPU time per ping (the price of the spin).
 
 Every figure is taken `REPEATS` (>= 3) times in interleaved rounds; rows give the best
 and the median round and the 1-minute load average when the row's first round started.
@@ -149,6 +150,8 @@ _NODE_SCRIPT = textwrap.dedent(
 RT_COUNT = max(int(1000 * SCALE), 50)
 """Pings per round-trip run (after `RT_WARMUP` unmeasured ones)."""
 RT_WARMUP = 50
+RT_BUSY_POLL_US = 1000
+"""The busy-poll row's `--busy-poll-us`: long enough to span the echo node's turn."""
 RT_TYPE = "std_msgs/Header"
 RT_PAYLOAD = struct.pack("<III", 0, 0, 0) + _ros_string("rt")
 """The ping: a std_msgs/Header (seq, stamp, frame_id "rt") in ROS 1 binary."""
@@ -355,11 +358,11 @@ async def _ros_to_sim(env: dict[str, str], script: Path, p: Payload, topic: str)
 class _EndpointProcess:
     """`simbridge endpoint --backend ros1` as its own process and ROS node."""
 
-    def __init__(self, env: dict[str, str]) -> None:
+    def __init__(self, env: dict[str, str], *extra: str) -> None:
         command = [sys.executable, "-m", "simbridge.cli", "--log-level", "WARNING", "endpoint"]
         command += ["--backend", "ros1", "--node-name", "/bench_endpoint", "--port", "0"]
         self._proc = subprocess.Popen(
-            [*command, "--idle-timeout", "0"],
+            [*command, "--idle-timeout", "0", *extra],
             env=env,
             stdout=subprocess.PIPE,
             text=True,
@@ -372,6 +375,14 @@ class _EndpointProcess:
             self.stop()
             raise RuntimeError(f"the endpoint did not start: {line!r}")
         self.port = int(found[1])
+
+    def cpu_seconds(self) -> float:
+        """CPU time its threads have run so far (user and system)."""
+        total = 0
+        for task in Path(f"/proc/{self._proc.pid}/task").iterdir():
+            with contextlib.suppress(OSError):  # a thread that just ended
+                total += int((task / "schedstat").read_text().split()[0])
+        return total / 1e9
 
     def stop(self) -> None:
         if self._proc.poll() is None:
@@ -498,11 +509,14 @@ def _rospy_round_trip(env: dict[str, str], script: Path, topic: str) -> dict[str
     return _latency(json.loads(out.strip().splitlines()[-1]))
 
 
-def _endpoint_round_trip(env: dict[str, str], script: Path, topic: str) -> dict[str, float]:
-    """Connector -> `simbridge endpoint --backend ros1` -> rospy echo -> endpoint -> Connector."""
+def _endpoint_round_trip(
+    env: dict[str, str], script: Path, topic: str, busy_poll_us: int = 0
+) -> dict[str, float]:
+    """Connector -> `simbridge endpoint --backend ros1` -> rospy echo -> endpoint -> Connector;
+    with the endpoint's CPU time per ping."""
     from simbridge.connector import Connector
 
-    endpoint = _EndpointProcess(env)
+    endpoint = _EndpointProcess(env, "--busy-poll-us", str(busy_poll_us))
     conn = Connector("127.0.0.1", endpoint.port).connect(wait=10)
     echo: subprocess.Popen[str] | None = None
     try:
@@ -518,17 +532,20 @@ def _endpoint_round_trip(env: dict[str, str], script: Path, topic: str) -> dict[
                 break
         samples = []
         for i in range(RT_WARMUP + RT_COUNT):
+            if i == RT_WARMUP:
+                cpu = endpoint.cpu_seconds()
             got.clear()
             start = time.perf_counter()
             ping.publish(RT_PAYLOAD)
             if got.wait(2) and i >= RT_WARMUP:
                 samples.append((time.perf_counter() - start) * 1e6)
+        cpu = endpoint.cpu_seconds() - cpu
     finally:
         if echo is not None:
             _stop(echo)
         conn.close()
         endpoint.stop()
-    return _latency(samples)
+    return {**_latency(samples), "endpoint_cpu_us": cpu / RT_COUNT * 1e6}
 
 
 Measure = Callable[[dict[str, str], Path, Payload, str], dict[str, Any]]
@@ -600,16 +617,20 @@ def _throughput(
 def _round_trips(env: dict[str, str], rt_script: Path, repeats: int) -> list[dict[str, Any]]:
     """rospy and endpoint round trips in `repeats` alternating rounds; each ratio is
     against the rospy round trip of the same round."""
-    rt: dict[str, list[dict[str, float]]] = {"rospy": [], "endpoint": []}
+    rt: dict[str, list[dict[str, float]]] = {"rospy": [], "endpoint": [], "busy": []}
     rt_loads: dict[str, float] = {}
     for r in range(repeats):
         rt_loads.setdefault("rospy", load_average())
         rt["rospy"].append(_rospy_round_trip(env, rt_script, f"/bench/rt{r}/rospy"))
         rt_loads.setdefault("endpoint", load_average())
         rt["endpoint"].append(_endpoint_round_trip(env, rt_script, f"/bench/rt{r}/endpoint"))
+        rt_loads.setdefault("busy", load_average())
+        topic = f"/bench/rt{r}/busy"
+        rt["busy"].append(_endpoint_round_trip(env, rt_script, topic, RT_BUSY_POLL_US))
     labels = {
         "rospy": "rospy -> rospy echo -> rospy",
         "endpoint": "sim -> endpoint -> rospy echo -> endpoint -> sim",
+        "busy": f"the same, endpoint --busy-poll-us {RT_BUSY_POLL_US}",
     }
     round_trips: list[dict[str, Any]] = []
     for key, runs in rt.items():
@@ -620,6 +641,8 @@ def _round_trips(env: dict[str, str], rt_script: Path, repeats: int) -> list[dic
             # The share of the rospy figure, round by round (1.5 = 50% added).
             ratios = [a[figure] / b[figure] for a, b in zip(runs, rt["rospy"], strict=True)]
             row[f"{figure}_vs_rospy"] = statistics.median(ratios)
+        cpu = [run["endpoint_cpu_us"] for run in runs if "endpoint_cpu_us" in run]
+        row["endpoint_cpu_us_per_ping"] = statistics.median(cpu) if cpu else ""
         row["lost"] = sum(int(run["lost"]) for run in runs)
         round_trips.append(row)
     return round_trips

@@ -224,3 +224,8 @@ def test_msg_genpy_writes_importable_modules(tmp_path, capsys: pytest.CaptureFix
         check=True,
     )
     assert done.stdout.strip() == default_registry().md5("niryo_moveit/MoverService")
+
+
+def test_endpoint_refuses_a_busy_poll_time_out_of_range(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["endpoint", "--port", "0", "--busy-poll-us", "-5"]) == 2
+    assert "busy-poll time -5.0 µs is out of range: expected 0 to 100000" in capsys.readouterr().err

@@ -7,12 +7,15 @@ so it is a separate ROS node that can be killed and restarted.
 from __future__ import annotations
 
 import contextlib
+import operator
+import re
 import struct
 import subprocess
 import sys
 import textwrap
 import time
 from collections.abc import Callable, Iterator
+from functools import partial
 from pathlib import Path
 
 import pytest
@@ -259,3 +262,49 @@ def test_drop_in_private_params_choose_the_address(master: RosMaster) -> None:
             assert isinstance(conn.topic_list(), dict)
     finally:
         terminate(process)
+
+
+def test_busy_polling_endpoint_relays_round_trips_through_a_rospy_echo(
+    master: RosMaster, tmp_path: Path
+) -> None:
+    """`--busy-poll-us`: pings go out and back through a rospy echo node in order, and the
+    endpoint's exit line shows its spins found I/O."""
+    script = tmp_path / "echo_node.py"
+    script.write_text(
+        textwrap.dedent(
+            """
+            import rospy
+            from std_msgs.msg import String
+
+            rospy.init_node("e2e_busy_echo")
+            out = rospy.Publisher("/e2e/busy/pong", String, queue_size=10)
+            rospy.Subscriber("/e2e/busy/ping", String, out.publish, tcp_nodelay=True)
+            rospy.spin()
+            """
+        )
+    )
+    endpoint = EndpointProcess(master, "/simbridge_busy", "--busy-poll-us", "5000")
+    got: list[bytes] = []
+    try:
+        with Connector("127.0.0.1", endpoint.port, FAST).connect(wait=10) as conn:
+            conn.subscribe("/e2e/busy/pong", "std_msgs/String", got.append, raw=True)
+            ping = conn.register_publisher("/e2e/busy/ping", "std_msgs/String")
+            with master.running([SYSTEM_PYTHON, str(script)]):
+                deadline = time.monotonic() + 30
+                while not got and time.monotonic() < deadline:  # until the echo is wired up
+                    ping.publish(ros_string("hello"))
+                    time.sleep(0.1)
+                for i in range(20):
+                    pong = ros_string(f"ping {i}")
+                    ping.publish(pong)
+                    wait_until(partial(operator.contains, got, pong), 10, f"pong {i}")
+    finally:
+        endpoint.stop()
+    pongs = [m for m in got if m != ros_string("hello")]  # the echo's warm-up left aside
+    assert pongs == [ros_string(f"ping {i}") for i in range(20)]
+    wait_until(lambda: "busy poll:" in endpoint.output(), 10, "the endpoint's exit line")
+    line = next(x for x in endpoint.lines if "busy poll:" in x)
+    found = re.search(r"(\d+) polls, (\d+) found I/O", line)
+    assert found is not None, line
+    assert int(found[1]) > 0, line
+    assert int(found[2]) > 0, line

@@ -5,18 +5,23 @@ from __future__ import annotations
 import argparse
 import asyncio
 import contextlib
+import logging
 import signal
 
 from .common import reexec_in_ros2_venv
 
 __all__ = ["add_parser"]
 
+_log = logging.getLogger("simbridge.endpoint")
+
 
 def run_endpoint(args: argparse.Namespace) -> int:
     if args.backend == "ros2":
         reexec_in_ros2_venv()
     from simbridge.endpoint import EndpointOptions, EndpointServer, make_backend
+    from simbridge.endpoint.busypoll import BusyPollSelector
 
+    selector = BusyPollSelector(args.busy_poll_us) if args.busy_poll_us else None
     backend = make_backend(
         args.backend,
         node_name=args.node_name,
@@ -82,7 +87,16 @@ def run_endpoint(args: argparse.Namespace) -> int:
             serving.result()  # raises the EndpointError of a backend that left the graph
 
     with contextlib.suppress(KeyboardInterrupt):
-        asyncio.run(run())
+        factory = None if selector is None else lambda: asyncio.SelectorEventLoop(selector)
+        with asyncio.Runner(loop_factory=factory) as runner:
+            runner.run(run())
+    if selector is not None:
+        _log.info(
+            "busy poll: %d polls, %d found I/O, %.3f s spinning",
+            selector.polls,
+            selector.hits,
+            selector.spin_seconds,
+        )
     return 0
 
 
@@ -114,6 +128,14 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         default=None,
         help="local backend: serialization clients are told to use (ROS2: CDR with ROS 2 "
         "layouts, to test a sim's ROS 2 path without ROS 2 installed; default ROS1)",
+    )
+    ep.add_argument(
+        "--busy-poll-us",
+        type=float,
+        default=0.0,
+        metavar="US",
+        help="after handling I/O, poll this long (µs) before sleeping: lower latency for "
+        "CPU (0 = off, the default; README: Latency)",
     )
     ep.add_argument("--max-frame-mb", type=float, default=64.0, help="largest accepted frame")
     ep.add_argument(
