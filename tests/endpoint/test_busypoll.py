@@ -24,11 +24,19 @@ def pair() -> Iterator[tuple[socket.socket, socket.socket]]:
     b.close()
 
 
-def _after_work(selector: BusyPollSelector, reader: socket.socket, writer: socket.socket) -> None:
-    """One select that returns an event, so the next one may spin."""
-    writer.send(b"x")
-    assert selector.select(1.0)
-    reader.recv(16)
+@pytest.fixture
+def hot(
+    pair: tuple[socket.socket, socket.socket],
+) -> Iterator[tuple[BusyPollSelector, socket.socket]]:
+    """A selector (0.1 s spin) watching `pair`'s reader, whose last select returned an
+    event, so its next one may spin; and the writer."""
+    reader, writer = pair
+    with BusyPollSelector(MAX_BUSY_POLL_US) as selector:
+        selector.register(reader, selectors.EVENT_READ)
+        writer.send(b"x")
+        assert selector.select(1.0)
+        reader.recv(16)
+        yield selector, writer
 
 
 @pytest.mark.parametrize("spin_us", [-1, MAX_BUSY_POLL_US + 1, float("nan")])
@@ -50,50 +58,41 @@ def test_an_idle_loop_blocks_without_spinning(pair: tuple[socket.socket, socket.
 
 
 def test_after_work_an_event_within_the_spin_is_found_by_polling(
-    pair: tuple[socket.socket, socket.socket],
+    hot: tuple[BusyPollSelector, socket.socket],
 ) -> None:
-    reader, writer = pair
-    with BusyPollSelector(MAX_BUSY_POLL_US) as selector:
-        selector.register(reader, selectors.EVENT_READ)
-        _after_work(selector, reader, writer)
-        late = threading.Timer(0.02, writer.send, (b"y",))
-        late.start()
-        ready = selector.select(None)
-        late.join()
-        assert [key.fileobj for key, _ in ready] == [reader]
-        assert selector.hits == 1
-        assert selector.polls > 1
-        assert 0.015 <= selector.spin_seconds < 1.0
+    selector, writer = hot
+    late = threading.Timer(0.02, writer.send, (b"y",))
+    late.start()
+    ready = selector.select(None)
+    late.join()
+    assert len(ready) == 1
+    assert selector.hits == 1
+    assert selector.polls > 1
+    assert 0.015 <= selector.spin_seconds < 1.0
 
 
 def test_a_spin_ends_at_asyncio_timeout_and_the_next_wait_sleeps(
-    pair: tuple[socket.socket, socket.socket],
+    hot: tuple[BusyPollSelector, socket.socket],
 ) -> None:
-    reader, writer = pair
-    with BusyPollSelector(MAX_BUSY_POLL_US) as selector:
-        selector.register(reader, selectors.EVENT_READ)
-        _after_work(selector, reader, writer)
-        started = time.perf_counter()
-        assert selector.select(0.01) == []
-        assert time.perf_counter() - started < 0.09  # well short of the 0.1 s spin
-        assert selector.hits == 0
-        polls = selector.polls
-        assert polls > 0
-        assert selector.select(0.01) == []  # nothing came: no more spinning
-        assert selector.polls == polls
+    selector, _ = hot
+    started = time.perf_counter()
+    assert selector.select(0.01) == []
+    assert time.perf_counter() - started < 0.09  # well short of the 0.1 s spin
+    assert selector.hits == 0
+    polls = selector.polls
+    assert polls > 0
+    assert selector.select(0.01) == []  # nothing came: no more spinning
+    assert selector.polls == polls
 
 
 def test_a_zero_timeout_look_neither_spins_nor_forgets_work(
-    pair: tuple[socket.socket, socket.socket],
+    hot: tuple[BusyPollSelector, socket.socket],
 ) -> None:
-    reader, writer = pair
-    with BusyPollSelector(MAX_BUSY_POLL_US) as selector:
-        selector.register(reader, selectors.EVENT_READ)
-        _after_work(selector, reader, writer)
-        assert selector.select(0) == []  # asyncio with callbacks ready
-        assert selector.polls == 0
-        assert selector.select(0.005) == []  # the wait after them still spins
-        assert selector.polls > 0
+    selector, _ = hot
+    assert selector.select(0) == []  # asyncio with callbacks ready
+    assert selector.polls == 0
+    assert selector.select(0.005) == []  # the wait after them still spins
+    assert selector.polls > 0
 
 
 def test_an_asyncio_loop_on_it_echoes() -> None:
