@@ -17,11 +17,12 @@ geometry_msgs/Twist and a 640x480 rgb8 sensor_msgs/Image. Latency: Twists sent b
 Connector, echoed back by an rclpy node (raw), timed per message at a modest rate:
 sim -> ROS 2 -> sim.
 
-`--cpu` runs only the Image rows, with the CPU each process spends per image (every
-thread's run time from /proc/PID/task/*/schedstat, sampled every 10 ms and interpolated at
-the first send and the last receipt; this process, the Connector, without its sampling
-thread), and the rate those figures allow: processes sharing N cores relay at most
-N / (sum of their CPU per image) images per second.
+`--cpu` runs only the throughput rows (`--cpu twist` or `--cpu image`: one payload's), with
+the CPU each process spends per message (every thread's run time from
+/proc/PID/task/*/schedstat, sampled every 10 ms and interpolated at the first send and the
+last receipt; this process, the Connector, without its sampling thread), and the rate those
+figures allow: processes sharing N cores relay at most N / (sum of their CPU per message)
+messages per second.
 """
 
 from __future__ import annotations
@@ -507,73 +508,86 @@ def run(repeats: int = REPEATS) -> dict[str, list[dict[str, Any]]]:
     }
 
 
-def cpu_accounting(rounds: int = 5) -> list[dict[str, Any]]:
-    """The Image rows (ceiling, sim -> ros2, ros2 -> sim) in `rounds` interleaved rounds
-    with each process's CPU per image: per row the medians of the rate and of each
-    process's CPU, their sum, the rate that sum allows on this machine's cores, and the
-    share of the ceiling it allows (the same round's ceiling sum over the row's sum)."""
+def cpu_accounting(
+    payloads: tuple[Payload, ...] = PAYLOADS, rounds: int = 5
+) -> list[dict[str, Any]]:
+    """Per payload, its three rows (ceiling, sim -> ros2, ros2 -> sim) in `rounds`
+    interleaved rounds with each process's CPU per message: per row the medians of the rate
+    and of each process's CPU, their sum, the rate that sum allows on this machine's cores,
+    and the share of the ceiling it allows (the same round's ceiling sum over the row's)."""
     from tests.ros2support import child_env, start_endpoint
 
     env = child_env()
-    p = PAYLOADS[1]
     cores = os.cpu_count() or 1
-    load = load_average()
-    runs: list[list[dict[str, Any]]] = []
+    rows: list[dict[str, Any]] = []
     with tempfile.TemporaryDirectory() as tmp:
         script = Path(tmp, "bench_ros2_node.py")
         script.write_text(_NODE_SCRIPT % {"idle": IDLE_END})
-        data = Path(tmp, "image.bin")
-        data.write_bytes(p.data)
         endpoint, port = start_endpoint("--idle-timeout", "0", "--max-memory-mb", _memory_mb())
         pid = endpoint.proc.pid
         try:
-            for r in range(rounds):
-                topic = f"/bench/cpu{r}"
-                ceiling = _ceiling(env, script, data, p, topic + "/ceiling", cpu=True)
-                out = _sim_to_ros(env, script, port, p, topic + "/sim_to_ros", endpoint_pid=pid)
-                back = _ros_to_sim(
-                    env, script, data, port, p, topic=topic + "/ros_to_sim", endpoint_pid=pid
-                )
-                runs.append([ceiling, out, back])
+            for i, p in enumerate(payloads):
+                data = Path(tmp, f"payload{i}.bin")
+                data.write_bytes(p.data)
+                load = load_average()
+                runs: list[list[dict[str, Any]]] = []
+                for r in range(rounds):
+                    topic = f"/bench/cpu{i}r{r}"
+                    ceiling = _ceiling(env, script, data, p, topic + "/ceiling", cpu=True)
+                    out = _sim_to_ros(env, script, port, p, topic + "/sim_to_ros", endpoint_pid=pid)
+                    back = _ros_to_sim(
+                        env, script, data, port, p, topic=topic + "/ros_to_sim", endpoint_pid=pid
+                    )
+                    runs.append([ceiling, out, back])
+                rows += [_cpu_row(runs, k, load, cores) for k in range(3)]
         finally:
             endpoint.stop()
-    rows = []
-    for k in range(3):
-        series = [run[k] for run in runs]
-        cpu = {
-            name: statistics.median(row["cpu_us"][name] for row in series)
-            for name in series[0]["cpu_us"]
-        }
-        total = statistics.median(sum(row["cpu_us"].values()) for row in series)
-        rows.append(
-            {
-                "direction": series[0]["direction"],
-                "load_1min": load,
-                "msg_per_s_median": statistics.median(row["msg_per_s"] for row in series),
-                "of_ceiling_median": statistics.median(
-                    row["msg_per_s"] / max(run[0]["msg_per_s"], 1e-9)
-                    for row, run in zip(series, runs, strict=True)
-                ),
-                "loss_worst": max(row["loss"] for row in series),
-                "cpu_us_per_image_median": {name: round(v) for name, v in cpu.items()},
-                "cpu_us_sum_median": round(total),
-                f"bound_msg_per_s_{cores}_cores": cores / total * 1e6 if total else 0.0,
-                # the share of the ceiling that CPU alone allows (both at their bound)
-                "bound_of_ceiling_median": statistics.median(
-                    sum(run[0]["cpu_us"].values()) / max(sum(row["cpu_us"].values()), 1e-9)
-                    for row, run in zip(series, runs, strict=True)
-                ),
-            }
-        )
     return rows
+
+
+def _cpu_row(runs: list[list[dict[str, Any]]], k: int, load: float, cores: int) -> dict[str, Any]:
+    """Row `k` of `runs` (each round's ceiling first) summed up: medians over the rounds."""
+    series = [run[k] for run in runs]
+    cpu = {
+        name: statistics.median(row["cpu_us"][name] for row in series)
+        for name in series[0]["cpu_us"]
+    }
+    total = statistics.median(sum(row["cpu_us"].values()) for row in series)
+    return {
+        "direction": series[0]["direction"],
+        "payload": series[0]["payload"],
+        "load_1min": load,
+        "msg_per_s_median": statistics.median(row["msg_per_s"] for row in series),
+        "of_ceiling_median": statistics.median(
+            row["msg_per_s"] / max(run[0]["msg_per_s"], 1e-9)
+            for row, run in zip(series, runs, strict=True)
+        ),
+        "loss_worst": max(row["loss"] for row in series),
+        "cpu_us_per_msg_median": {name: round(v, 1) for name, v in cpu.items()},
+        "cpu_us_sum_median": round(total, 1),
+        f"bound_msg_per_s_{cores}_cores": cores / total * 1e6 if total else 0.0,
+        # the share of the ceiling that CPU alone allows (both at their bound)
+        "bound_of_ceiling_median": statistics.median(
+            sum(run[0]["cpu_us"].values()) / max(sum(row["cpu_us"].values()), 1e-9)
+            for row, run in zip(series, runs, strict=True)
+        ),
+    }
 
 
 if __name__ == "__main__":
     from benchmarks.usage import exit_on_help
 
-    exit_on_help(__doc__, "  --cpu   only the Image rows, with CPU per image per process")
+    exit_on_help(
+        __doc__,
+        "  --cpu [twist|image]   only the throughput rows (of one payload), with CPU per\n"
+        "                        message per process",
+    )
     if "--cpu" in sys.argv[1:]:
-        for row in cpu_accounting():
+        wanted = {a for a in sys.argv[1:] if a != "--cpu"}
+        chosen = tuple(p for p in PAYLOADS if not wanted or p.label.split()[0].lower() in wanted)
+        if wanted and not chosen:
+            raise SystemExit(f"--cpu takes twist or image, not {' '.join(sorted(wanted))}")
+        for row in cpu_accounting(chosen):
             print(row, flush=True)
         raise SystemExit(0)
     for title, table in run().items():
