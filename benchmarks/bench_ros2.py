@@ -546,7 +546,8 @@ def cpu_accounting(
 
 
 def _cpu_row(runs: list[list[dict[str, Any]]], k: int, load: float, cores: int) -> dict[str, Any]:
-    """Row `k` of `runs` (each round's ceiling first) summed up: medians over the rounds."""
+    """Row `k` of `runs` (each round's ceiling first) summed up: medians over the rounds,
+    and each round's rate and CPU sum."""
     series = [run[k] for run in runs]
     cpu = {
         name: statistics.median(row["cpu_us"][name] for row in series)
@@ -565,6 +566,10 @@ def _cpu_row(runs: list[list[dict[str, Any]]], k: int, load: float, cores: int) 
         "loss_worst": max(row["loss"] for row in series),
         "cpu_us_per_msg_median": {name: round(v, 1) for name, v in cpu.items()},
         "cpu_us_sum_median": round(total, 1),
+        # each round's rate and CPU sum: the spread behind the medians
+        "rounds_msg_per_s_cpu_us": [
+            (round(row["msg_per_s"]), round(sum(row["cpu_us"].values()), 1)) for row in series
+        ],
         f"bound_msg_per_s_{cores}_cores": cores / total * 1e6 if total else 0.0,
         # the share of the ceiling that CPU alone allows (both at their bound)
         "bound_of_ceiling_median": statistics.median(
