@@ -69,3 +69,29 @@ def test_cpu_sampler_counts_a_process_s_cpu_time_not_its_own() -> None:
         child.wait(10)
     assert 0.38e6 <= cpu["child"] <= 0.6e6, cpu
     assert cpu["self"] < 0.1e6, cpu
+
+
+def test_cpu_row_gives_medians_each_round_and_the_bound_against_the_same_round_s_ceiling() -> None:
+    """`--cpu`'s summary of one row: medians of the rate and each process's CPU, every
+    round's rate and CPU sum (the Twist rounds are bimodal), and the share of the ceiling
+    the CPU allows, each round against its own ceiling."""
+    bench = pytest.importorskip("benchmarks.bench_ros2")
+
+    def row(rate: float, cpu: dict[str, float]) -> dict[str, object]:
+        return {"direction": "d", "payload": "Twist 48 B", "msg_per_s": rate, "loss": 0.0,
+                "cpu_us": cpu}  # fmt: skip
+
+    runs = [
+        [row(50000, {"pub": 12, "sub": 13}), row(40000, {"c": 5, "e": 15, "sub": 30})],
+        [row(20000, {"pub": 30, "sub": 30}), row(30000, {"c": 6, "e": 14, "sub": 20})],
+        [row(40000, {"pub": 15, "sub": 15}), row(10000, {"c": 7, "e": 40, "sub": 53})],
+    ]
+    out = bench._cpu_row(runs, 1, 0.5, 2)
+    assert out["payload"] == "Twist 48 B"
+    assert out["msg_per_s_median"] == 30000
+    assert out["of_ceiling_median"] == pytest.approx(0.8)  # 0.8, 1.5, 0.25
+    assert out["cpu_us_per_msg_median"] == {"c": 6, "e": 15, "sub": 30}
+    assert out["cpu_us_sum_median"] == 50
+    assert out["rounds_msg_per_s_cpu_us"] == [(40000, 50), (30000, 40), (10000, 100)]
+    assert out["bound_msg_per_s_2_cores"] == pytest.approx(40000)
+    assert out["bound_of_ceiling_median"] == pytest.approx(0.5)  # 25/50, 60/40, 30/100
