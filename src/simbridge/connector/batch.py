@@ -19,6 +19,13 @@ from simbridge.connector.writer import FrameWriter, OutTopic
 __all__ = ["PublishBatch"]
 
 
+class _ThreadBatch(threading.local):
+    """One thread's open batch: its messages (None outside one) and how deeply nested."""
+
+    pending: list[tuple[OutTopic, bytes, int]] | None = None
+    depth = 0
+
+
 class PublishBatch:
     """A reusable, re-entrant context manager; batches are per thread (publishes from
     other threads meanwhile are queued as usual), and the outermost `with` sends."""
@@ -26,7 +33,7 @@ class PublishBatch:
     def __init__(self, writer: FrameWriter, counters: StatsCounters) -> None:
         self._writer = writer
         self._counters = counters
-        self._local = threading.local()
+        self._local = _ThreadBatch()
 
     @property
     def writer(self) -> FrameWriter:
@@ -35,8 +42,7 @@ class PublishBatch:
 
     def pending(self) -> list[tuple[OutTopic, bytes, int]] | None:
         """The calling thread's open batch (None outside one)."""
-        pending: list[tuple[OutTopic, bytes, int]] | None = getattr(self._local, "pending", None)
-        return pending
+        return self._local.pending
 
     def send_pending(self) -> None:
         """Send what the calling thread's open batch holds so far (before a command that
@@ -52,7 +58,7 @@ class PublishBatch:
 
     def __enter__(self) -> PublishBatch:
         local = self._local
-        depth = getattr(local, "depth", 0)
+        depth = local.depth
         if depth == 0:
             local.pending = []
         local.depth = depth + 1
@@ -68,7 +74,7 @@ class PublishBatch:
         local.depth -= 1
         if local.depth:
             return
-        entries: list[tuple[OutTopic, bytes, int]] = local.pending
+        entries = local.pending
         local.pending = None
         if entries:
             self._send(entries)
