@@ -1,7 +1,7 @@
 """Busy polling: after handling I/O the endpoint's loop polls a while before it sleeps.
 
-A reply that arrives within the spin is handled without a wake-up of the sleeping process,
-which on a virtual machine costs tens of microseconds per message (the idle vCPU halts).
+A reply that arrives within the spin is handled without waking a sleeping process, which
+costs tens of microseconds per message on the 2-core virtual machine the benchmarks run on.
 It trades CPU for latency, as Linux's `busy_poll` does: off unless asked for
 (`simbridge endpoint --busy-poll-us N`, or an asyncio loop built on this selector).
 """
@@ -20,9 +20,9 @@ MAX_BUSY_POLL_US = 100_000
 """The longest spin accepted (0.1 s); longer only burns CPU."""
 
 
-class BusyPollSelector(selectors.EpollSelector):
-    """An epoll selector that, once events came, polls without blocking for up to
-    `spin_us` (yielding the CPU between polls) before it blocks again.
+class BusyPollSelector(selectors.DefaultSelector):
+    """The platform's selector (epoll on Linux) that, once events came, polls without
+    blocking for up to `spin_us` (yielding the CPU between polls) before it blocks again.
 
     A loop that found nothing in its last wait sleeps as before, so an idle endpoint costs
     nothing; a spin never outlasts the timeout asyncio passes for its next timer. `polls`,
