@@ -50,6 +50,7 @@ from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # also as a bare script
 
+from benchmarks.cpu import process_cpu_ns
 from benchmarks.repeats import REPEATS, best_and_median, ceiling_summary, load_average
 
 __all__ = ["run"]
@@ -378,11 +379,7 @@ class _EndpointProcess:
 
     def cpu_seconds(self) -> float:
         """CPU time its threads have run so far (user and system)."""
-        total = 0
-        for task in Path(f"/proc/{self._proc.pid}/task").iterdir():
-            with contextlib.suppress(OSError):  # a thread that just ended
-                total += int((task / "schedstat").read_text().split()[0])
-        return total / 1e9
+        return process_cpu_ns(self._proc.pid) / 1e9
 
     def stop(self) -> None:
         if self._proc.poll() is None:

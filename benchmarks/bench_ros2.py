@@ -27,7 +27,6 @@ messages per second.
 
 from __future__ import annotations
 
-import contextlib
 import itertools
 import json
 import os
@@ -46,6 +45,7 @@ from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # also as a bare script
 
+from benchmarks.cpu import process_cpu_ns
 from benchmarks.repeats import REPEATS, best_and_median, ceiling_summary, load_average
 from simbridge.endpoint.backends.ros2_env import ros2_python
 
@@ -250,24 +250,12 @@ class _CpuSampler:
         self._thread.start()
         time.sleep(0.05)  # a sample before the round starts
 
-    def _cpu_ns(self, pid: int) -> int:
-        total = 0
-        try:
-            tasks = os.listdir(f"/proc/{pid}/task")
-        except OSError:
-            return 0
-        for task in tasks:
-            if int(task) == self._own:
-                continue
-            with contextlib.suppress(OSError, IndexError, ValueError):  # a thread ended
-                total += int(Path(f"/proc/{pid}/task/{task}/schedstat").read_text().split()[0])
-        return total
-
     def _run(self) -> None:
         self._own = threading.get_native_id()
         while not self._stop.is_set():
             now = time.perf_counter()
-            self.samples.append((now, {k: self._cpu_ns(p) for k, p in self.pids.items()}))
+            cpu = {k: process_cpu_ns(p, self._own) for k, p in self.pids.items()}
+            self.samples.append((now, cpu))
             self._stop.wait(0.01)
 
     def _at(self, t: float) -> dict[str, float]:
