@@ -14,8 +14,9 @@ Round trip: a small message (std_msgs/Header) sent one at a time through a rospy
 node and back, sim -> endpoint -> echo -> endpoint -> sim, beside rospy -> echo ->
 rospy (a rospy pinger node in place of the sim and endpoint) in the same run; p50 and
 p99 of `RT_COUNT` pings after a warm-up (target: the endpoint adds at most 50% to the
-rospy p50 and 100% to its p99). The endpoint is measured twice, as started by default and
-with `--busy-poll-us RT_BUSY_POLL_US`, each with its CPU time per ping (the price of the spin).
+rospy p50 and 100% to its p99). The endpoint is measured twice, as started by default (its
+adaptive busy poll on) and with `--busy-poll-us 0`, each with its CPU time per ping (the
+price of the spin).
 
 Every figure is taken `REPEATS` (>= 3) times in interleaved rounds; rows give the best
 and the median round and the 1-minute load average when the row's first round started.
@@ -151,8 +152,6 @@ _NODE_SCRIPT = textwrap.dedent(
 RT_COUNT = max(int(1000 * SCALE), 50)
 """Pings per round-trip run (after `RT_WARMUP` unmeasured ones)."""
 RT_WARMUP = 50
-RT_BUSY_POLL_US = 1000
-"""The busy-poll row's `--busy-poll-us`: long enough to span the echo node's turn."""
 RT_TYPE = "std_msgs/Header"
 RT_PAYLOAD = struct.pack("<III", 0, 0, 0) + _ros_string("rt")
 """The ping: a std_msgs/Header (seq, stamp, frame_id "rt") in ROS 1 binary."""
@@ -507,13 +506,13 @@ def _rospy_round_trip(env: dict[str, str], script: Path, topic: str) -> dict[str
 
 
 def _endpoint_round_trip(
-    env: dict[str, str], script: Path, topic: str, busy_poll_us: int = 0
+    env: dict[str, str], script: Path, topic: str, *endpoint_args: str
 ) -> dict[str, float]:
-    """Connector -> `simbridge endpoint --backend ros1` -> rospy echo -> endpoint -> Connector;
-    with the endpoint's CPU time per ping."""
+    """Connector -> `simbridge endpoint --backend ros1 [endpoint_args]` -> rospy echo ->
+    endpoint -> Connector; with the endpoint's CPU time per ping."""
     from simbridge.connector import Connector
 
-    endpoint = _EndpointProcess(env, "--busy-poll-us", str(busy_poll_us))
+    endpoint = _EndpointProcess(env, *endpoint_args)
     conn = Connector("127.0.0.1", endpoint.port).connect(wait=10)
     echo: subprocess.Popen[str] | None = None
     try:
@@ -614,20 +613,20 @@ def _throughput(
 def _round_trips(env: dict[str, str], rt_script: Path, repeats: int) -> list[dict[str, Any]]:
     """rospy and endpoint round trips in `repeats` alternating rounds; each ratio is
     against the rospy round trip of the same round."""
-    rt: dict[str, list[dict[str, float]]] = {"rospy": [], "endpoint": [], "busy": []}
+    rt: dict[str, list[dict[str, float]]] = {"rospy": [], "endpoint": [], "off": []}
     rt_loads: dict[str, float] = {}
     for r in range(repeats):
         rt_loads.setdefault("rospy", load_average())
         rt["rospy"].append(_rospy_round_trip(env, rt_script, f"/bench/rt{r}/rospy"))
         rt_loads.setdefault("endpoint", load_average())
         rt["endpoint"].append(_endpoint_round_trip(env, rt_script, f"/bench/rt{r}/endpoint"))
-        rt_loads.setdefault("busy", load_average())
-        topic = f"/bench/rt{r}/busy"
-        rt["busy"].append(_endpoint_round_trip(env, rt_script, topic, RT_BUSY_POLL_US))
+        rt_loads.setdefault("off", load_average())
+        topic = f"/bench/rt{r}/off"
+        rt["off"].append(_endpoint_round_trip(env, rt_script, topic, "--busy-poll-us", "0"))
     labels = {
         "rospy": "rospy -> rospy echo -> rospy",
         "endpoint": "sim -> endpoint -> rospy echo -> endpoint -> sim",
-        "busy": f"the same, endpoint --busy-poll-us {RT_BUSY_POLL_US}",
+        "off": "the same, endpoint --busy-poll-us 0 (spin off)",
     }
     round_trips: list[dict[str, Any]] = []
     for key, runs in rt.items():

@@ -7,7 +7,7 @@ from collections.abc import Iterator
 
 import pytest
 
-from simbridge.cli import main
+from simbridge.cli import build_parser, main
 from simbridge.endpoint import EndpointOptions, EndpointThread, LocalBus, Node
 from simbridge.messages import default_registry
 
@@ -229,3 +229,28 @@ def test_msg_genpy_writes_importable_modules(tmp_path, capsys: pytest.CaptureFix
 def test_endpoint_refuses_a_busy_poll_time_out_of_range(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["endpoint", "--port", "0", "--busy-poll-us", "-5"]) == 2
     assert "busy-poll time -5.0 µs is out of range: expected 0 to 100000" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    ("given", "limit"),
+    [
+        (["--backend", "ros1"], 500e-6),  # on by default where rospy nodes answer
+        (["--backend", "ros1", "--busy-poll-us", "2000"], 2000e-6),
+        (["--backend", "ros1", "--busy-poll-us", "0"], None),
+        (["--backend", "local"], None),
+        (["--backend", "local", "--busy-poll-us", "300"], 300e-6),
+        (["--backend", "ros2"], None),
+    ],
+)
+def test_endpoint_busy_poll_defaults_on_for_ros1_alone(
+    given: list[str], limit: float | None
+) -> None:
+    from simbridge.cli.endpoint import busy_poll_selector
+
+    selector = busy_poll_selector(build_parser().parse_args(["endpoint", *given]))
+    if limit is None:
+        assert selector is None
+    else:
+        assert selector is not None
+        assert selector.limit == pytest.approx(limit)
+        selector.close()

@@ -1,5 +1,6 @@
-"""BusyPollSelector: spins only after work, never past asyncio's timeout, and an asyncio
-loop built on it serves as the default one does."""
+"""BusyPollSelector: learns to spin for answers on another socket, not for streams or long
+waits; never spins past asyncio's timeout or its duty cap; an asyncio loop on it serves as
+the default one does."""
 
 from __future__ import annotations
 
@@ -13,86 +14,159 @@ from collections.abc import Iterator
 import pytest
 
 from simbridge.endpoint.busypoll import MAX_BUSY_POLL_US, BusyPollSelector
-from simbridge.errors import EndpointError, SimbridgeError
+from simbridge.errors import EndpointError
+
+LIMIT_US = 50_000
+"""Limit of the selectors under test (50 ms): wide enough for thread timers' jitter."""
+
+
+class Wires:
+    """Two socket pairs (as a sim client and a ROS node) watched by one selector."""
+
+    def __init__(self, selector: BusyPollSelector) -> None:
+        self.selector = selector
+        self.pairs = [socket.socketpair(), socket.socketpair()]
+        for reader, _ in self.pairs:
+            selector.register(reader, selectors.EVENT_READ)
+
+    def send_later(self, which: int, delay: float) -> threading.Timer:
+        timer = threading.Timer(delay, self.pairs[which][1].send, (b"x",))
+        timer.start()
+        return timer
+
+    def wait(self, which: int, delay: float, timeout: float | None = 1.0) -> None:
+        """An event on pair `which` after `delay` s; the selector must return it."""
+        timer = self.send_later(which, delay)
+        ready = self.selector.select(timeout)
+        timer.join()
+        assert [key.fileobj for key, _ in ready] == [self.pairs[which][0]]
+        self.pairs[which][0].recv(16)
+
+    def close(self) -> None:
+        for reader, writer in self.pairs:
+            reader.close()
+            writer.close()
 
 
 @pytest.fixture
-def pair() -> Iterator[tuple[socket.socket, socket.socket]]:
-    a, b = socket.socketpair()
-    yield a, b
-    a.close()
-    b.close()
+def wires() -> Iterator[Wires]:
+    with BusyPollSelector(LIMIT_US) as selector:
+        w = Wires(selector)
+        yield w
+        w.close()
 
 
-@pytest.fixture
-def hot(
-    pair: tuple[socket.socket, socket.socket],
-) -> Iterator[tuple[BusyPollSelector, socket.socket]]:
-    """A selector (0.1 s spin) watching `pair`'s reader, whose last select returned an
-    event, so its next one may spin; and the writer."""
-    reader, writer = pair
-    with BusyPollSelector(MAX_BUSY_POLL_US) as selector:
-        selector.register(reader, selectors.EVENT_READ)
-        writer.send(b"x")
-        assert selector.select(1.0)
-        reader.recv(16)
-        yield selector, writer
+def learned(wires: Wires, delay: float = 0.01) -> Wires:
+    """Work on pair 0, answered on pair 1 `delay` s later, and that answered on pair 0: a spin
+    of twice `delay` is learned after each, and the next event awaited is on pair 1."""
+    wires.wait(0, 0)
+    wires.wait(1, delay)
+    wires.wait(0, delay)
+    for reader, _ in wires.pairs:
+        assert wires.selector.window(reader) >= 2 * delay
+    assert wires.selector.polls == 0
+    return wires
 
 
-@pytest.mark.parametrize("spin_us", [-1, MAX_BUSY_POLL_US + 1, float("nan")])
-def test_out_of_range_spin_is_refused_naming_it(spin_us: float) -> None:
-    with pytest.raises(EndpointError, match=f"busy-poll time {spin_us!r}.*expected 0 to 100000"):
-        BusyPollSelector(spin_us)
-    assert issubclass(EndpointError, SimbridgeError)
+def window(wires: Wires, which: int) -> float:
+    return wires.selector.window(wires.pairs[which][0])
 
 
-def test_an_idle_loop_blocks_without_spinning(pair: tuple[socket.socket, socket.socket]) -> None:
-    reader, _ = pair
-    with BusyPollSelector(50_000) as selector:
-        selector.register(reader, selectors.EVENT_READ)
-        started = time.perf_counter()
-        assert selector.select(0.05) == []
-        assert time.perf_counter() - started >= 0.04
-        assert selector.polls == 0
-        assert selector.spin_seconds == 0
+@pytest.mark.parametrize("limit_us", [-1, MAX_BUSY_POLL_US + 1, float("nan")])
+def test_out_of_range_limit_is_refused_naming_it(limit_us: float) -> None:
+    with pytest.raises(EndpointError, match=f"busy-poll time {limit_us!r}.*expected 0 to 100000"):
+        BusyPollSelector(limit_us)
 
 
-def test_after_work_an_event_within_the_spin_is_found_by_polling(
-    hot: tuple[BusyPollSelector, socket.socket],
-) -> None:
-    selector, writer = hot
-    late = threading.Timer(0.02, writer.send, (b"y",))
-    late.start()
-    ready = selector.select(None)
-    late.join()
-    assert len(ready) == 1
+@pytest.mark.parametrize("duty", [0, -0.5, 1.5])
+def test_out_of_range_duty_is_refused_naming_it(duty: float) -> None:
+    with pytest.raises(EndpointError, match=f"busy-poll duty {duty!r}.*expected"):
+        BusyPollSelector(100, duty)
+
+
+def test_an_idle_loop_blocks_without_spinning(wires: Wires) -> None:
+    started = time.perf_counter()
+    assert wires.selector.select(0.05) == []
+    assert time.perf_counter() - started >= 0.04
+    assert wires.selector.polls == 0
+    assert wires.selector.spin_seconds == 0
+
+
+def test_an_answer_within_the_limit_teaches_a_spin_that_catches_the_next(wires: Wires) -> None:
+    selector = learned(wires).selector
+    wires.wait(1, 0.003)  # the next answer: found by polling, not by sleeping
     assert selector.hits == 1
     assert selector.polls > 1
-    assert 0.015 <= selector.spin_seconds < 1.0
+    assert 0.002 <= selector.spin_seconds < 0.05
 
 
-def test_a_spin_ends_at_asyncio_timeout_and_the_next_wait_sleeps(
-    hot: tuple[BusyPollSelector, socket.socket],
-) -> None:
-    selector, _ = hot
-    started = time.perf_counter()
-    assert selector.select(0.01) == []
-    assert time.perf_counter() - started < 0.09  # well short of the 0.1 s spin
-    assert selector.hits == 0
+def test_a_stream_on_one_socket_never_spins(wires: Wires) -> None:
+    for _ in range(6):
+        wires.wait(0, 0.003)
+    assert window(wires, 0) == 0
+    assert wires.selector.polls == 0
+
+
+def test_a_spin_that_finds_the_same_socket_again_shrinks(wires: Wires) -> None:
+    selector = learned(wires).selector
+    before = window(wires, 0)
+    wires.wait(0, 0.002)  # pair 0 again: a stream, not an answer
+    assert selector.hits == 1
+    assert window(wires, 0) == before / 2
+
+
+def test_a_wait_past_the_limit_turns_the_spin_off(wires: Wires) -> None:
+    selector = learned(wires).selector
+    wires.wait(1, 0.08)  # spins, finds nothing, then sleeps past the 50 ms limit
+    assert (selector.polls > 0, selector.hits) == (True, 0)
+    assert window(wires, 0) == 0
+    wires.wait(0, 0.002)  # after pair 1: still spins
+    assert selector.hits == 1
     polls = selector.polls
-    assert polls > 0
-    assert selector.select(0.01) == []  # nothing came: no more spinning
+    wires.wait(1, 0.002)  # after pair 0: sleeps at once
     assert selector.polls == polls
 
 
-def test_a_zero_timeout_look_neither_spins_nor_forgets_work(
-    hot: tuple[BusyPollSelector, socket.socket],
-) -> None:
-    selector, _ = hot
+def test_a_spin_that_finds_nothing_in_its_window_is_a_miss(wires: Wires) -> None:
+    selector = learned(wires, 0.002).selector
+    wires.wait(1, 0.04)  # the answer comes late, but within the limit: the window grows to it
+    assert (selector.hits, selector.misses) == (0, 1)
+    assert window(wires, 0) == 0.05
+
+
+def test_a_spin_ends_at_asyncio_timeout_and_the_next_wait_sleeps(wires: Wires) -> None:
+    selector = learned(wires).selector
+    started = time.perf_counter()
+    assert selector.select(0.002) == []
+    assert time.perf_counter() - started < 0.009  # well short of the learned window
+    assert selector.hits == 0
+    polls = selector.polls
+    assert polls > 0
+    assert selector.select(0.002) == []  # nothing came: no more spinning
+    assert selector.polls == polls
+
+
+def test_a_zero_timeout_look_neither_spins_nor_forgets_work(wires: Wires) -> None:
+    selector = learned(wires).selector
     assert selector.select(0) == []  # asyncio with callbacks ready
     assert selector.polls == 0
-    assert selector.select(0.005) == []  # the wait after them still spins
+    assert selector.select(0.002) == []  # the wait after them still spins
     assert selector.polls > 0
+
+
+def test_spinning_takes_at_most_its_duty_share_of_wall_time() -> None:
+    with BusyPollSelector(LIMIT_US, duty=0.1) as selector:
+        wires = Wires(selector)
+        try:
+            learned(wires)
+            started = time.perf_counter()
+            for i in range(40):  # a closed loop whose answers take 5 ms: worth a full spin
+                wires.wait((i + 1) % 2, 0.005)
+            elapsed = time.perf_counter() - started
+        finally:
+            wires.close()
+    assert selector.hits > 0
+    assert selector.spin_seconds <= 0.1 * elapsed + 0.02 + 0.005  # duty, burst, one poll
 
 
 def test_an_asyncio_loop_on_it_echoes() -> None:
@@ -118,4 +192,12 @@ def test_an_asyncio_loop_on_it_echoes() -> None:
 
     with asyncio.Runner(loop_factory=lambda: asyncio.SelectorEventLoop(selector)) as runner:
         assert runner.run(main()) == [b"%d;" % i for i in range(50)]
-    assert selector.hits > 0
+
+
+def test_a_socket_unregistered_and_registered_again_starts_unlearned(wires: Wires) -> None:
+    learned(wires)
+    reader = wires.pairs[1][0]
+    wires.selector.unregister(reader)
+    wires.selector.register(reader, selectors.EVENT_READ)
+    assert window(wires, 1) == 0
+    assert window(wires, 0) > 0
