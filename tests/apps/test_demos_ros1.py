@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import statistics
 import sys
 import time
 import xmlrpc.client
@@ -52,11 +53,13 @@ def test_mobile_robot_drives_over_real_ros_topics(master: RosMaster) -> None:
         assert node.startswith("/simbridge_mobile_robot_")  # a unique node name
         assert publishers(master, "/cmd_vel") == [node]
         assert publishers(master, "/odom") == [node]
-        echo = master.run(["rostopic", "echo", "-n", "1", "/imu"], timeout=60)
+        echo = master.run(["rostopic", "echo", "-n", "9", "/imu"], timeout=60)
         assert echo.returncode == 0, echo.stderr
-        imu = yaml.safe_load(echo.stdout.split("---")[0])
-        assert imu["header"]["frame_id"] == "imu_link"
-        assert abs(imu["linear_acceleration"]["z"] - 9.81) < 1.0  # gravity, robot upright
+        imus = [yaml.safe_load(doc) for doc in echo.stdout.split("---") if doc.strip()]
+        assert {imu["header"]["frame_id"] for imu in imus} == {"imu_link"}
+        # Gravity, robot upright: the median, as one sample may catch a bump while driving.
+        z = statistics.median(imu["linear_acceleration"]["z"] for imu in imus)
+        assert abs(z - 9.81) < 1.0, [imu["linear_acceleration"]["z"] for imu in imus]
         kind = master.run(["rostopic", "type", "/odom"])
         assert kind.stdout.strip() == "nav_msgs/Odometry"
         out, err = demo.communicate(timeout=180)
