@@ -201,3 +201,17 @@ def test_a_socket_unregistered_and_registered_again_starts_unlearned(wires: Wire
     wires.selector.register(reader, selectors.EVENT_READ)
     assert window(wires, 1) == 0
     assert window(wires, 0) > 0
+
+
+def test_room_to_write_on_another_socket_is_no_answer(wires: Wires) -> None:
+    """An image going out in pieces alternates reads from the sim with room to write to ROS:
+    a stream, which must not teach a spin."""
+    wires.wait(0, 0)
+    writer = wires.pairs[1][1]
+    wires.selector.register(writer, selectors.EVENT_WRITE)
+    ready = wires.selector.select(1.0)
+    assert [(key.fileobj, events) for key, events in ready] == [(writer, selectors.EVENT_WRITE)]
+    wires.selector.unregister(writer)
+    assert window(wires, 0) == 0
+    wires.wait(0, 0.002)  # and the sim's next read is not an answer either
+    assert window(wires, 0) == 0

@@ -3,8 +3,8 @@ when recent waits show that a spin would catch an answer.
 
 A reply that arrives within the spin is handled without waking a sleeping process, which
 costs tens of microseconds per message on the 2-core virtual machine the benchmarks run on.
-The spin after events on a socket is learned from the waits that followed them. An answer
-(an event on another socket, as when a ROS node replies to what the sim sent) that came within
+The spin after reading from a socket is learned from the waits that followed. An answer
+(data to read on another socket, as when a ROS node replies to what the sim sent) that came within
 the limit sets it to twice that wait; a wait that outlasted the limit, a spin that found
 nothing, or one that found the same socket again (a stream, where a spin buys little) shrinks
 it. So a closed loop spins, and a stream, a slow sender or an idle endpoint does not. A duty
@@ -40,9 +40,9 @@ _SHORTEST = 5e-6
 
 
 class BusyPollSelector(selectors.DefaultSelector):
-    """The platform's selector (epoll on Linux) that, once events came on a socket, polls
-    without blocking (yielding the CPU between polls) for as long as the answers to work on
-    that socket have lately taken, up to `limit_us`, before it blocks again.
+    """The platform's selector (epoll on Linux) that, after reading from a socket, polls
+    without blocking (yielding the CPU between polls) for as long as the answers to what it
+    read have lately taken, up to `limit_us`, before it blocks again.
 
     A loop that found nothing in its last wait sleeps as before, and a spin never outlasts
     the timeout asyncio passes for its next timer or the allowance of `duty` seconds of spin
@@ -117,13 +117,20 @@ class BusyPollSelector(selectors.DefaultSelector):
         return ready
 
     def _answered(self, ready: list[tuple[selectors.SelectorKey, int]]) -> bool:
-        """Whether `ready` is on other sockets than the last events (an answer, not a stream)."""
+        """Whether `ready` reads from other sockets than the last reads did (an answer, not a
+        stream); room to write is no answer."""
         last = self._last
         if len(ready) == 1:
-            self._last = (ready[0][0].fd,)
-            return self._last[0] not in last
-        self._last = tuple(key.fd for key, _ in ready)
-        return all(fd not in last for fd in self._last)
+            key, events = ready[0]
+            if not events & selectors.EVENT_READ:
+                return False
+            self._last = (key.fd,)
+            return key.fd not in last
+        reads = tuple(key.fd for key, events in ready if events & selectors.EVENT_READ)
+        if not reads:
+            return False
+        self._last = reads
+        return all(fd not in last for fd in reads)
 
     def _shrink(self, after: int) -> None:
         half = self._windows.get(after, 0.0) / 2
