@@ -192,3 +192,31 @@ def test_recycle_within_the_budget_only() -> None:
     ledger.held = 0
     (again,) = decoder.feed(encode_frame("/img", b"\x06" * 900_000))
     assert again.payload is not frame.payload
+
+
+def test_a_lent_payload_nobody_holds_receives_the_next_frame_of_its_size() -> None:
+    """Without `recycle`: a lent payload its receiver still holds (here through a view) is
+    left alone and the next image gets a new, zeroed buffer; once nothing holds it, the next
+    image of its size is received into it (no allocation, no zero-fill)."""
+    ledger = Ledger(10**12)
+    decoder = FrameDecoder(reserve=ledger.reserve, release=ledger.release, lend_large=True)
+    size = 900_000
+    frames = [encode_frame("/img", bytes([n]) * size) for n in (1, 2, 3)]
+    header = len(frames[0]) - size
+
+    def next_buffer_starts(frame: bytes) -> bytes:
+        """Feed `frame`'s header; the first bytes of the buffer its payload will fill."""
+        assert decoder.feed(frame[:header]) == []
+        with decoder.get_buffer() as target:
+            return bytes(target[:4])
+
+    view = memoryview(decoder.feed(frames[0])[0].payload)
+    assert next_buffer_starts(frames[1]) == bytes(4)  # held: a new buffer
+    assert decoder.feed(frames[1][header:])[0].payload == bytes([2]) * size
+    assert view == bytes([1]) * size  # the held payload is untouched
+    view.release()
+    assert ledger.held == 0
+    assert next_buffer_starts(frames[2]) == bytes([2]) * 4  # let go: received into it
+    assert ledger.held == size
+    assert decoder.feed(frames[2][header:])[0].payload == bytes([3]) * size
+    assert ledger.held == 0

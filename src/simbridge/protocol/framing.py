@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import struct
+import sys
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -94,7 +95,8 @@ class FrameDecoder:
     memory. A large payload is read into a buffer of exactly its size. With `lend_large`
     that buffer becomes the frame's payload (no copy; it leaves the decoder's budget and a
     new one is allocated for the next large frame, unless the receiver gives it back with
-    `recycle`); else the payload is copied to bytes and the buffer reused.
+    `recycle` or holds no reference to it by then); else the payload is copied to bytes and
+    the buffer reused.
 
     After a large frame, `get_buffer` offers only that frame's header length (an image
     stream's next frame has the same header), so the next image's bytes go straight into
@@ -118,6 +120,7 @@ class FrameDecoder:
         "_end",
         "_header_hint",
         "_lend",
+        "_lent",
         "_max_command",
         "_max_dest",
         "_max_payload",
@@ -155,6 +158,8 @@ class FrameDecoder:
         self._big_filled = 0
         self._big_size = 0
         self._spare: bytearray | None = None
+        self._lent: bytearray | None = None
+        """The last payload lent, reused for the next one of its size if nobody holds it."""
         self._header_hint = 0
         """Header length of the last large frame while no small frame has followed it."""
         self._lend = lend_large
@@ -220,6 +225,7 @@ class FrameDecoder:
             self._big, self._big_filled = None, 0
             if self._lend:
                 self._release(len(big))  # handed over: no longer the decoder's to account for
+                self._lent = big if len(big) <= self.FIRST_CHUNK else None
                 return [Frame(self._big_dest, big)]
             with memoryview(big) as view:
                 frame = Frame(self._big_dest, bytes(view[: self._big_size]))
@@ -313,6 +319,11 @@ class FrameDecoder:
         given back by `recycle`, fits only a payload of its very size.)"""
         size = max(min(plen, self.FIRST_CHUNK), have)
         spare, self._spare = self._spare, None
+        lent, self._lent = self._lent, None
+        if spare is None and lent is not None and len(lent) == plen and sys.getrefcount(lent) == 2:
+            # Its receiver let go of it (CPython counts every reference, views included):
+            # the decoder's again, as if given back with `recycle`.
+            return lent if self._reserve(plen) else None
         if spare is not None:
             if len(spare) == plen if self._lend else len(spare) >= size:
                 return spare
@@ -335,7 +346,7 @@ class FrameDecoder:
         for buf in (self._big, self._spare):
             if buf is not None:
                 self._release(len(buf))
-        self._big = self._spare = None
+        self._big = self._spare = self._lent = None
         self._big_filled = 0
 
     def _parse(self) -> list[Frame]:
