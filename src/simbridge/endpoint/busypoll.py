@@ -4,11 +4,11 @@ when recent waits show that a spin would catch an answer.
 A reply that arrives within the spin is handled without waking a sleeping process, which
 costs tens of microseconds per message on the 2-core virtual machine the benchmarks run on.
 The spin after reading from a socket is learned from the waits that followed. An answer
-(data to read on another socket, as when a ROS node replies to what the sim sent) that came within
-the limit sets it to twice that wait; a wait that outlasted the limit, a spin that found
-nothing, or one that found the same socket again (a stream, where a spin buys little) shrinks
-it. So a closed loop spins, and a stream, a slow sender or an idle endpoint does not. A duty
-cap bounds the CPU a spin may take.
+(data to read on another socket, as when a ROS node replies to what the sim sent) that came
+within the limit sets it to twice that wait; a wait that outlasted the limit, a spin that
+found nothing, or one that found the same socket again (a stream, where a spin buys little)
+shrinks it. So a closed loop spins, and a stream, a slow sender or an idle endpoint does
+not. A duty cap bounds the CPU a spin may take.
 """
 
 from __future__ import annotations
