@@ -15,7 +15,8 @@ from the first message sent to the last one received, so a path that hands its f
 message over late (a batch arriving at once) does not look faster for it. Payloads:
 geometry_msgs/Twist and a 640x480 rgb8 sensor_msgs/Image. Latency: Twists sent by the
 Connector, echoed back by an rclpy node (raw), timed per message at a modest rate:
-sim -> ROS 2 -> sim.
+sim -> ROS 2 -> sim, alternating with the reference, an rclpy node that publishes the same
+Twists at the same rate and waits for the same echo (its executor woken by the reply).
 
 `--cpu` runs only the throughput rows (`--cpu twist` or `--cpu image`: one payload's), with
 the CPU each process spends per message (every thread's run time from
@@ -61,6 +62,10 @@ IDLE_END = 4.0
 3 s heartbeat, so a sample repaired by reliability still counts)."""
 LATENCY_COUNT = max(int(500 * SCALE), 20)
 LATENCY_RATE = 200.0
+ROUND_TRIP_TITLE = (
+    "ROS 2 round trip through an rclpy echo node, beside rclpy -> echo -> rclpy in the same "
+    "run (Twist, one at a time at 200 Hz)"
+)
 
 
 @dataclass(frozen=True, slots=True)
@@ -177,6 +182,39 @@ _NODE_SCRIPT = textwrap.dedent(
                 last, last_len = time.time(), len(times)
         print(json.dumps({"times": [times[0], times[-1]] if times else [], "count": len(times)}),
               flush=True)
+    elif role == "ping":  # the reference round trip: publish, wait for the echo, pace
+        import struct
+        payload = bytearray(open(sys.argv[5], "rb").read())
+        pub = node.create_publisher(cls, topic, qos)
+        back = {}
+
+        def got(data):  # linear.x (after the CDR header) carries the ping's number
+            back[struct.unpack_from("<d", data, 4)[0]] = time.perf_counter()
+
+        sub = node.create_subscription(cls, topic + "_back", got, qos, raw=True)
+        executor = rclpy.executors.SingleThreadedExecutor()
+        executor.add_node(node)
+        deadline = time.time() + 60
+        while (pub.get_subscription_count() == 0 or sub.get_publisher_count() == 0) and (
+                time.time() < deadline):
+            time.sleep(0.01)
+        time.sleep(1.0)
+        print("READY", flush=True)
+        sys.stdin.readline()
+        publish = getattr(getattr(pub, "_Publisher__publisher", None), "publish_raw",
+                          pub.publish)
+        rtts = []
+        for seq in range(count):
+            struct.pack_into("<d", payload, 4, float(seq))
+            sent = time.perf_counter()
+            publish(bytes(payload))
+            while float(seq) not in back and time.perf_counter() - sent < 1.0:
+                executor.spin_once(timeout_sec=0.05)
+            if float(seq) in back:
+                rtts.append(back[float(seq)] - sent)
+            time.sleep(max(0.0, sent + 1.0 / %(rate)s - time.perf_counter()))
+        print(json.dumps({"rtts": rtts}), flush=True)
+        sys.stdin.readline()
     else:  # echo: topic -> topic + "_back", raw
         back = node.create_publisher(cls, topic + "_back", qos)
         node.create_subscription(cls, topic, back.publish, qos, raw=True)
@@ -402,8 +440,8 @@ def _ros_to_sim(env: dict[str, str], script: Path, data: Path, port: int, p: Pay
     return row
 
 
-def _latency(env: dict[str, str], script: Path, port: int, topic: str) -> dict[str, Any]:
-    """Round trips sim -> endpoint -> rclpy echo -> endpoint -> sim, one at a time."""
+def _latency(env: dict[str, str], script: Path, port: int, topic: str) -> list[float]:
+    """Round trips sim -> endpoint -> rclpy echo -> endpoint -> sim, one at a time (s)."""
     p = Payload("Twist 48 B", "geometry_msgs/Twist", _twist(), LATENCY_COUNT)
     conn = _connector(port, p.count)
     echo = _node(env, script, "echo", topic, p)
@@ -431,13 +469,49 @@ def _latency(env: dict[str, str], script: Path, port: int, topic: str) -> dict[s
     finally:
         echo.stop()
         conn.close()
-    rtts.sort()
+    return rtts
 
-    def pct(q: float) -> float:
-        return rtts[min(len(rtts) - 1, int(q * len(rtts)))] * 1e3 if rtts else float("nan")
 
-    return {"messages": p.count, "returned": len(rtts), "p50_ms": pct(0.5), "p99_ms": pct(0.99),
-            "max_ms": rtts[-1] * 1e3 if rtts else float("nan")}  # fmt: skip
+def _rclpy_latency(env: dict[str, str], script: Path, data: Path, topic: str) -> list[float]:
+    """The reference: an rclpy pinger -> the same kind of rclpy echo -> the pinger (s)."""
+    p = Payload("Twist 48 B", "geometry_msgs/Twist", _twist(), LATENCY_COUNT)
+    echo = _node(env, script, "echo", topic, p)
+    ping = None
+    try:
+        assert echo.line() == "READY"
+        ping = _node(env, script, "ping", topic, p, payload_file=data)
+        assert ping.line() == "READY"
+        ping.tell()
+        rtts: list[float] = json.loads(ping.line(timeout=60 + 2 * p.count / LATENCY_RATE))["rtts"]
+    finally:
+        if ping is not None:
+            ping.stop()
+        echo.stop()
+    return rtts
+
+
+def latency_row(path: str, runs: list[list[float]], reference: list[list[float]],
+                load: float) -> dict[str, Any]:  # fmt: skip
+    """One round-trip row: p50, p99 and max of each run in ms (best and median over the
+    runs), and p50 and p99 against the reference run of the same round (median ratio)."""
+    row: dict[str, Any] = {"path": path, "messages": LATENCY_COUNT, "load_1min": load}
+    row["returned_worst"] = min(len(rtts) for rtts in runs)
+    for figure, q in (("p50_ms", 0.5), ("p99_ms", 0.99), ("max_ms", 1.0)):
+        values = [_percentile(rtts, q) for rtts in runs]
+        row[f"{figure}_best"], row[f"{figure}_median"] = best_and_median(values, True)
+        if figure != "max_ms":
+            pairs = zip(runs, reference, strict=True)
+            ratios = [_percentile(a, q) / _percentile(b, q) for a, b in pairs]
+            row[f"{figure}_vs_rclpy"] = statistics.median(ratios)
+    return row
+
+
+def _percentile(rtts: list[float], q: float) -> float:
+    """The `q` quantile of round trips given in s, in ms (nan when none came back)."""
+    if not rtts:
+        return float("nan")
+    ordered = sorted(rtts)
+    return ordered[min(len(ordered) - 1, int(q * len(ordered)))] * 1e3
 
 
 def _memory_mb() -> str:
@@ -457,10 +531,11 @@ def run(repeats: int = REPEATS) -> dict[str, list[dict[str, Any]]]:
 
     env = child_env()
     rows: list[dict[str, Any]] = []
-    latencies: list[dict[str, Any]] = []
+    latencies: list[list[float]] = []
+    reference: list[list[float]] = []
     with tempfile.TemporaryDirectory() as tmp:
         script = Path(tmp, "bench_ros2_node.py")
-        script.write_text(_NODE_SCRIPT % {"idle": IDLE_END})
+        script.write_text(_NODE_SCRIPT % {"idle": IDLE_END, "rate": LATENCY_RATE})
         endpoint, port = start_endpoint("--idle-timeout", "0", "--max-memory-mb", _memory_mb())
         try:
             for i, p in enumerate(PAYLOADS):
@@ -481,18 +556,24 @@ def run(repeats: int = REPEATS) -> dict[str, list[dict[str, Any]]]:
                     ceiling_summary(rounds, k, load, len(p.data), "median")
                     for k in range(len(rounds[0]))
                 ]
-            load = load_average()
-            latencies = [_latency(env, script, port, f"/bench/latency{r}") for r in range(repeats)]
+            twist = Path(tmp, "twist.bin")
+            twist.write_bytes(_twist())
+            loads = [load_average()]
+            for r in range(repeats):  # alternating, each ratio against its own round
+                reference.append(_rclpy_latency(env, script, twist, f"/bench/rt{r}/rclpy"))
+                if r == 0:
+                    loads.append(load_average())
+                latencies.append(_latency(env, script, port, f"/bench/rt{r}/endpoint"))
         finally:
             endpoint.stop()
-    latency: dict[str, Any] = {"messages": latencies[0]["messages"], "load_1min": load}
-    latency["returned_worst"] = min(run["returned"] for run in latencies)
-    for figure in ("p50_ms", "p99_ms", "max_ms"):
-        values = [run[figure] for run in latencies]
-        latency[f"{figure}_best"], latency[f"{figure}_median"] = best_and_median(values, True)
     return {
         "ROS 2 backend against the rclpy ceiling, same run (target: >= 90%, zero loss)": rows,
-        "ROS 2 round trip sim -> ROS 2 -> sim (Twist, one at a time at 200 Hz)": [latency],
+        ROUND_TRIP_TITLE: [
+            latency_row("rclpy -> rclpy echo -> rclpy", reference, reference, loads[0]),
+            latency_row(
+                "sim -> endpoint -> rclpy echo -> endpoint -> sim", latencies, reference, loads[1]
+            ),
+        ],
     }
 
 
@@ -510,7 +591,7 @@ def cpu_accounting(
     rows: list[dict[str, Any]] = []
     with tempfile.TemporaryDirectory() as tmp:
         script = Path(tmp, "bench_ros2_node.py")
-        script.write_text(_NODE_SCRIPT % {"idle": IDLE_END})
+        script.write_text(_NODE_SCRIPT % {"idle": IDLE_END, "rate": LATENCY_RATE})
         endpoint, port = start_endpoint("--idle-timeout", "0", "--max-memory-mb", _memory_mb())
         pid = endpoint.proc.pid
         try:

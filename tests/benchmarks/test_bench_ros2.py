@@ -3,6 +3,7 @@ CPU sampler counts the processes it watches and not itself."""
 
 from __future__ import annotations
 
+import math
 import os
 import subprocess
 import sys
@@ -95,3 +96,41 @@ def test_cpu_row_gives_medians_each_round_and_the_bound_against_the_same_round_s
     assert out["rounds_msg_per_s_cpu_us"] == [(40000, 50), (30000, 40), (10000, 100)]
     assert out["bound_msg_per_s_2_cores"] == pytest.approx(40000)
     assert out["bound_of_ceiling_median"] == pytest.approx(0.5)  # 25/50, 60/40, 30/100
+
+
+def test_latency_row_takes_each_round_against_its_own_reference() -> None:
+    """The round-trip rows: percentiles in ms over each run, best and median over the
+    runs, and p50/p99 ratios round by round against the reference (rclpy) run."""
+    bench = pytest.importorskip("benchmarks.bench_ros2")
+    ms = 1e-3
+    reference = [[1 * ms] * 100, [2 * ms] * 100, [1 * ms] * 100]
+    runs = [[3 * ms] * 100, [3 * ms] * 100, [1.5 * ms] * 99 + [9 * ms]]
+    row = bench.latency_row("endpoint", runs, reference, 0.5)
+    assert row["returned_worst"] == 100
+    assert row["p50_ms_best"] == pytest.approx(1.5)
+    assert row["p50_ms_median"] == pytest.approx(3)
+    assert row["p50_ms_vs_rclpy"] == pytest.approx(1.5)  # 3, 1.5, 1.5
+    assert row["p99_ms_vs_rclpy"] == pytest.approx(3)  # 3, 1.5, 9
+    assert row["max_ms_best"] == pytest.approx(3)
+    assert "max_ms_vs_rclpy" not in row
+    empty = bench.latency_row("lost all", [[]], [[1 * ms]], 0.5)
+    assert empty["returned_worst"] == 0
+    assert math.isnan(empty["p50_ms_median"])
+
+
+def test_rclpy_reference_round_trip_gets_every_ping_back_from_a_real_echo_node(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The reference row's pinger against the bench's rclpy echo node (real processes,
+    this test's own ROS domain): every ping returns once, in a plausible time."""
+    bench = pytest.importorskip("benchmarks.bench_ros2")
+    from tests.ros2support import child_env
+
+    monkeypatch.setattr(bench, "LATENCY_COUNT", 30)
+    script = tmp_path / "node.py"
+    script.write_text(bench._NODE_SCRIPT % {"idle": bench.IDLE_END, "rate": bench.LATENCY_RATE})
+    twist = tmp_path / "twist.bin"
+    twist.write_bytes(bench._twist())
+    rtts = bench._rclpy_latency(child_env(), script, twist, "/test_bench/rt")
+    assert len(rtts) == 30
+    assert all(0 < rtt < 1.0 for rtt in rtts), rtts
