@@ -8,7 +8,8 @@ event loop (ros->sim). Publishers queue without limit, so loss must be zero.
 Payloads: geometry_msgs/Twist (48 B) and a 640x480 rgb8 sensor_msgs/Image.
 For reference it also measures the whole path a simulation sees: a Connector in
 this process -> `simbridge endpoint --backend ros1` (a subprocess) -> the rospy
-subscriber node, and back.
+subscriber node, and back; for the image also with `--no-splice` (copied through the
+endpoint rather than spliced between the sockets).
 
 Round trip: a small message (std_msgs/Header) sent one at a time through a rospy echo
 node and back, sim -> endpoint -> echo -> endpoint -> sim, beside rospy -> echo ->
@@ -53,6 +54,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # also as a bare s
 
 from benchmarks.cpu import process_cpu_ns
 from benchmarks.repeats import REPEATS, best_and_median, ceiling_summary, load_average
+from simbridge.protocol.framing import FrameDecoder
 
 __all__ = ["run"]
 
@@ -397,8 +399,10 @@ def _connector(port: int, p: Payload) -> Any:
     return Connector("127.0.0.1", port, options).connect(wait=10)
 
 
-def _full_sim_to_ros(env: dict[str, str], script: Path, p: Payload, topic: str) -> dict[str, Any]:
-    endpoint = _EndpointProcess(env)
+def _full_sim_to_ros(
+    env: dict[str, str], script: Path, p: Payload, topic: str, *endpoint_args: str
+) -> dict[str, Any]:
+    endpoint = _EndpointProcess(env, *endpoint_args)
     conn = _connector(endpoint.port, p)
     sub = _Node(env, script, "sub", topic, p)
     try:
@@ -418,7 +422,9 @@ def _full_sim_to_ros(env: dict[str, str], script: Path, p: Payload, topic: str) 
         conn.close()
         endpoint.stop()
     span = result["times"][1] - result["times"][0] if result["times"] else 0.0
-    return _row("sim -> ros (connector -> endpoint)", p, result["count"], span)
+    label = "sim -> ros (connector -> endpoint)"
+    return _row(f"the same, endpoint {' '.join(endpoint_args)}" if endpoint_args else label,
+                p, result["count"], span)  # fmt: skip
 
 
 def _full_ros_to_sim(env: dict[str, str], script: Path, p: Payload, topic: str) -> dict[str, Any]:
@@ -550,9 +556,13 @@ MEASURES: list[tuple[str, Measure]] = [
     ("sim_to_ros", lambda env, script, p, t: asyncio.run(_sim_to_ros(env, script, p, t))),
     ("ros_to_sim", lambda env, script, p, t: asyncio.run(_ros_to_sim(env, script, p, t))),
     ("full_sim_to_ros", _full_sim_to_ros),
+    ("full_sim_to_ros_copy", lambda env, s, p, t: _full_sim_to_ros(env, s, p, t, "--no-splice")),
     ("full_ros_to_sim", _full_ros_to_sim),
 ]
 """Throughput measurements of one round, each on its own topic."""
+
+_LARGE_ONLY = {"full_sim_to_ros_copy"}
+"""Rows measured only for payloads the endpoint treats as large (spliced by default)."""
 
 THROUGHPUT_TITLE = (
     "ROS 1 backend against the rospy ceiling, same run "
@@ -595,7 +605,10 @@ def _throughput(
 ) -> list[dict[str, Any]]:
     """Every row of `measures` (the ceiling first) for every payload, in `repeats` rounds."""
     throughput: list[dict[str, Any]] = []
+    every = measures
     for i, p in enumerate(PAYLOADS):
+        large = len(p.data) >= FrameDecoder.LARGE
+        measures = [m for m in every if large or m[0] not in _LARGE_ONLY]
         loads: list[float] = []
         rounds: list[list[dict[str, Any]]] = []
         for r in range(repeats):

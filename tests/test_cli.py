@@ -254,3 +254,13 @@ def test_endpoint_busy_poll_defaults_on_for_ros1_alone(
         assert selector is not None
         assert selector.limit == pytest.approx(limit)
         selector.close()
+
+
+@pytest.mark.parametrize(("given", "splice"), [([], True), (["--no-splice"], False)])
+def test_endpoint_splices_large_messages_unless_told_not_to(given: list[str], splice: bool) -> None:
+    from simbridge.cli.endpoint import endpoint_options
+
+    options = endpoint_options(build_parser().parse_args(["endpoint", *given]), None, 0)
+    assert options.splice is splice
+    assert options.host == "127.0.0.1"
+    assert options.port == 0

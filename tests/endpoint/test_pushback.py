@@ -7,7 +7,7 @@ from __future__ import annotations
 import asyncio
 import socket
 
-from simbridge.endpoint.pushback import PUSHBACK_LIMIT, ReadPushback, pushback_limit
+from simbridge.endpoint.pushback import PUSHBACK_LIMIT, ReadGate, ReadPushback, pushback_limit
 
 LIMIT = 0.2
 
@@ -80,3 +80,32 @@ def test_the_limit_stays_below_the_client_timeouts() -> None:
     assert pushback_limit(1.0, 10.0) == 0.5
     assert pushback_limit(0.0, 3.0) == 1.5
     assert pushback_limit(0.0, 0.0) == PUSHBACK_LIMIT  # both off
+
+
+def test_a_gate_reads_again_only_when_every_holder_let_go() -> None:
+    """Back-pressure and a splice pause the same transport: an expired pushback episode
+    must not resume reading while a splice still holds it, nor the splice's end while
+    pushback does."""
+
+    async def scenario() -> list[bool]:
+        transport, peer = await _transport()
+        gate = ReadGate()
+        gate.transport = transport
+        pushback = ReadPushback(asyncio.get_running_loop(), limit=60)
+        pushback.transport = gate.holder("pushback")
+        gate.pause("splice")
+        seen = [transport.is_reading()]
+        pushback.behind("a")
+        pushback.caught_up("a")
+        seen.append(transport.is_reading())  # the splice still holds it
+        pushback.behind("a")
+        gate.resume("splice")
+        seen.append(transport.is_reading())  # pushback still holds it
+        gate.resume("splice")  # not a holder any more: nothing happens
+        pushback.caught_up("a")
+        seen.append(transport.is_reading())
+        transport.close()
+        peer.close()
+        return seen
+
+    assert asyncio.run(scenario()) == [False, False, False, True]

@@ -220,3 +220,50 @@ def test_a_lent_payload_nobody_holds_receives_the_next_frame_of_its_size() -> No
     assert ledger.held == size
     assert decoder.feed(frames[2][header:])[0].payload == bytes([3]) * size
     assert ledger.held == 0
+
+
+def test_a_large_payload_waiting_untouched_can_be_taken_elsewhere() -> None:
+    """`waiting_large` names a large topic payload whose header alone has arrived, with
+    the buffer reserved for it; after `skip_large` the decoder reads the next frame, and
+    the buffer is kept for the next payload of that size, or leaves the budget when
+    `taken` with the payload."""
+    ledger = Ledger(10**12)
+    decoder = FrameDecoder(reserve=ledger.reserve, release=ledger.release, lend_large=True)
+    assert decoder.waiting_large() is None
+    assert decoder.feed(_header(b"/img", 900_000)) == []
+    waiting = decoder.waiting_large()
+    assert waiting is not None
+    assert waiting[0] == "/img"
+    assert len(waiting[1]) == 900_000
+    assert ledger.held == 900_000
+    decoder.skip_large()
+    assert decoder.waiting_large() is None
+    assert not decoder.partial
+    assert ledger.held == 900_000  # kept for the next one
+    assert decoder.feed(encode_frame("/small", b"abc")) == [Frame("/small", b"abc")]
+    assert decoder.feed(_header(b"/img", 900_000)) == []
+    again = decoder.waiting_large()
+    assert again is not None
+    assert again[1] is waiting[1]  # the kept buffer
+    decoder.skip_large(taken=True)
+    assert ledger.held == 0
+    (frame,) = decoder.feed(encode_frame("/img", b"\x07" * 900_000))
+    assert frame.payload == b"\x07" * 900_000
+    assert frame.payload is not waiting[1]
+
+
+@pytest.mark.parametrize(
+    "data",
+    [
+        encode_frame("/small", b"x" * 100),  # small: never waiting
+        _header(b"__publish", 70_000),  # a command is never moved elsewhere
+        _header(b"", 70_000),
+        _header(b"/img", 900_000) + b"\x01",  # some of its payload has arrived
+    ],
+)
+def test_nothing_else_is_a_waiting_large_payload(data: bytes) -> None:
+    decoder = FrameDecoder(max_command=10**6, lend_large=True)
+    decoder.feed(data)
+    assert decoder.waiting_large() is None
+    with pytest.raises(ValueError, match="no large payload"):
+        decoder.skip_large()

@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING
 from .common import reexec_in_ros2_venv
 
 if TYPE_CHECKING:
+    from simbridge.endpoint import EndpointOptions
     from simbridge.endpoint.busypoll import BusyPollSelector
 
 __all__ = ["add_parser"]
@@ -20,6 +21,24 @@ _log = logging.getLogger("simbridge.endpoint")
 
 DEFAULT_BUSY_POLL_US = 500.0
 """The ros1 backend's busy-poll limit: covers a rospy node's answer (~0.1-0.3 ms here)."""
+
+
+def endpoint_options(
+    args: argparse.Namespace, host: str | None, port: int | None
+) -> EndpointOptions:
+    """The server's options from the command line (`host` and `port` as resolved, None
+    for the defaults)."""
+    from simbridge.endpoint import EndpointOptions
+
+    return EndpointOptions(
+        host=host if host is not None else "127.0.0.1",
+        port=port if port is not None else 10000,
+        max_frame_size=int(args.max_frame_mb * 1024 * 1024),
+        idle_timeout=args.idle_timeout,
+        max_clients=args.max_clients,
+        max_memory=int(args.max_memory_mb * 1024 * 1024),
+        splice=not args.no_splice,
+    )
 
 
 def busy_poll_selector(args: argparse.Namespace) -> BusyPollSelector | None:
@@ -35,7 +54,7 @@ def busy_poll_selector(args: argparse.Namespace) -> BusyPollSelector | None:
 def run_endpoint(args: argparse.Namespace) -> int:
     if args.backend == "ros2":
         reexec_in_ros2_venv()
-    from simbridge.endpoint import EndpointOptions, EndpointServer, make_backend
+    from simbridge.endpoint import EndpointServer, make_backend
 
     selector = busy_poll_selector(args)
     backend = make_backend(
@@ -70,14 +89,7 @@ def run_endpoint(args: argparse.Namespace) -> int:
             param_host, param_port = read_drop_in_params()
             host = host if host is not None else param_host
             port = port if port is not None else param_port
-        options = EndpointOptions(
-            host=host if host is not None else "127.0.0.1",
-            port=port if port is not None else 10000,
-            max_frame_size=int(args.max_frame_mb * 1024 * 1024),
-            idle_timeout=args.idle_timeout,
-            max_clients=args.max_clients,
-            max_memory=int(args.max_memory_mb * 1024 * 1024),
-        )
+        options = endpoint_options(args, host, port)
         server = EndpointServer(options, backend)
         await server.start()
         print(
@@ -154,6 +166,12 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         help="after handling I/O, poll up to this long (µs) before sleeping, while recent "
         f"waits show it pays: lower latency for CPU (0 = off; default {DEFAULT_BUSY_POLL_US:g} "
         "with --backend ros1, else 0; README: Latency)",
+    )
+    ep.add_argument(
+        "--no-splice",
+        action="store_true",
+        help="copy large messages for a single ROS 1 subscriber through the endpoint instead "
+        "of moving them between the sockets in the kernel (Linux splice)",
     )
     ep.add_argument("--max-frame-mb", type=float, default=64.0, help="largest accepted frame")
     ep.add_argument(

@@ -13,8 +13,9 @@ dropping, as before.
 from __future__ import annotations
 
 import asyncio
+from typing import Protocol
 
-__all__ = ["PUSHBACK_LIMIT", "ReadPushback", "pushback_limit"]
+__all__ = ["PUSHBACK_LIMIT", "ReadGate", "ReadPushback", "pushback_limit"]
 
 PUSHBACK_LIMIT = 2.0
 """Seconds one episode may keep a client's socket unread at most."""
@@ -25,6 +26,60 @@ def pushback_limit(*timeouts: float) -> float:
     is off): PUSHBACK_LIMIT, or half the shortest, so a client held unread is never
     closed as idle or as a slow sender for it."""
     return min([PUSHBACK_LIMIT, *(t / 2 for t in timeouts if t > 0)])
+
+
+class Pausable(Protocol):
+    """What pausing a client's reading needs of its transport."""
+
+    def pause_reading(self) -> None: ...
+    def resume_reading(self) -> None: ...
+    def is_closing(self) -> bool: ...
+
+
+class ReadGate:
+    """A transport read only while none of its holders has paused it (back-pressure and
+    a splice of a large message each pause it for their own reasons)."""
+
+    __slots__ = ("_held", "transport")
+
+    def __init__(self) -> None:
+        self.transport: asyncio.Transport | None = None
+        self._held: set[str] = set()
+
+    def pause(self, holder: str) -> None:
+        """`holder` wants reading stopped."""
+        if not self._held and self.transport is not None and not self.transport.is_closing():
+            self.transport.pause_reading()
+        self._held.add(holder)
+
+    def resume(self, holder: str) -> None:
+        """`holder` is done; reading resumes once no holder is left."""
+        if holder not in self._held:
+            return
+        self._held.discard(holder)
+        if not self._held and self.transport is not None and not self.transport.is_closing():
+            self.transport.resume_reading()
+
+    def holder(self, name: str) -> Pausable:
+        """`name`'s handle, shaped like the transport's pause and resume."""
+        return _Holder(self, name)
+
+
+class _Holder:
+    __slots__ = ("_gate", "_name")
+
+    def __init__(self, gate: ReadGate, name: str) -> None:
+        self._gate, self._name = gate, name
+
+    def pause_reading(self) -> None:
+        self._gate.pause(self._name)
+
+    def resume_reading(self) -> None:
+        self._gate.resume(self._name)
+
+    def is_closing(self) -> bool:
+        transport = self._gate.transport
+        return transport is None or transport.is_closing()
 
 
 class ReadPushback:
@@ -50,7 +105,7 @@ class ReadPushback:
         self._paused = False
         self.pauses = 0
         """How many times reading was paused."""
-        self.transport: asyncio.Transport | None = None
+        self.transport: Pausable | None = None
 
     def behind(self, key: object) -> None:
         """The publisher `key` fell behind: stop reading (unless this episode expired)."""

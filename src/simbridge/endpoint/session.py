@@ -7,6 +7,7 @@ import contextlib
 import functools
 import itertools
 import logging
+import os
 import struct
 import time
 from collections import deque
@@ -19,8 +20,9 @@ from simbridge.endpoint.backends.base import (
     BackendSubscription,
 )
 from simbridge.endpoint.deferred import deferred_writes
-from simbridge.endpoint.pushback import ReadPushback, pushback_limit
+from simbridge.endpoint.pushback import ReadGate, ReadPushback, pushback_limit
 from simbridge.endpoint.session_actions import SessionActions
+from simbridge.endpoint.splice import SpliceRelay, can_splice
 from simbridge.endpoint.stats import SessionStats
 from simbridge.endpoint.writev import WRITE_ALONE, write_chunks
 from simbridge.errors import EndpointError, ServiceError, SimbridgeError
@@ -142,6 +144,13 @@ class ClientSession(asyncio.BufferedProtocol):
         self._paused = False
         self._paused_at = 0.0
         opts = server.options
+        self._gate = ReadGate()
+        """Reading this client's socket, paused by back-pressure or while a splice reads it."""
+        self._splices = opts.splice and can_splice()
+        self._relay: SpliceRelay | None = None
+        self._splice_fd = -1
+        """A duplicate of the socket's descriptor: a relay's reader (the transport owns the
+        original's)."""
         self._pushback = ReadPushback(
             server.loop, pushback_limit(opts.idle_timeout, opts.frame_timeout)
         )
@@ -172,7 +181,8 @@ class ClientSession(asyncio.BufferedProtocol):
     def connection_made(self, transport: asyncio.BaseTransport) -> None:
         assert isinstance(transport, asyncio.Transport)
         self.transport = transport
-        self._pushback.transport = transport
+        self._gate.transport = transport
+        self._pushback.transport = self._gate.holder("pushback")
         sock = transport.get_extra_info("socket")
         if sock is not None:
             with contextlib.suppress(OSError):  # reset already: the first read says so
@@ -207,6 +217,12 @@ class ClientSession(asyncio.BufferedProtocol):
         log.info("client %s disconnected%s", self.peer, f" ({exc})" if exc else "")
         self._release_all()
         self._pushback.close()
+        if self._relay is not None:
+            self._relay.cancel()
+            self._relay = None
+        if self._splice_fd >= 0:
+            os.close(self._splice_fd)
+            self._splice_fd = -1
         self.proto.decoder.discard()
         self._control.clear()
         self._backlogged.clear()
@@ -241,8 +257,46 @@ class ClientSession(asyncio.BufferedProtocol):
         writes.hold()
         try:
             self._received(nbytes)
+            if self._splices:
+                self._splice_next()
         finally:
             writes.release()
+
+    def _splice_next(self) -> None:
+        """When a large message is next on the socket and its topic's only subscriber can
+        take it, move it there by splice while reading is paused (`endpoint.splice`)."""
+        waiting = self.proto.waiting_message()
+        if waiting is None or self._closing or self._relay is not None or self._fd < 0:
+            return
+        entry = self.publishers.get(waiting[0])
+        sink = entry[1].splice_sink() if entry is not None else None
+        if sink is None:
+            return
+        if self._splice_fd < 0:
+            self._splice_fd = os.dup(self._fd)
+        loop, fd, buffer = self.server.loop, self._splice_fd, waiting[1]
+        relay = SpliceRelay(loop, fd, buffer, sink, done=self._spliced, moved=self._moved)
+        self._gate.pause("splice")
+        self._relay = relay
+        if not relay.start():
+            self._relay = None
+            self._gate.resume("splice")
+
+    def _moved(self, nbytes: int) -> None:
+        self.stats.bytes_in += nbytes
+        self.last_recv = time.monotonic()
+
+    def _spliced(self, whole: bool, buffer_taken: bool) -> None:
+        self._relay = None
+        if not whole:  # the client left (or its socket failed) in the middle of a message
+            if self.transport is not None:
+                self.transport.abort()
+            return
+        self.proto.message_moved(taken=buffer_taken)
+        self.stats.frames_in += 1
+        self.frame_started = 0.0
+        self.proven = True
+        self._gate.resume("splice")
 
     def _received(self, nbytes: int) -> None:
         """Handle the frames `nbytes` more bytes complete (what they make the endpoint

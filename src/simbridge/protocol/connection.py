@@ -167,6 +167,19 @@ class ProtocolConnection:
             return None
         return self._decoder.repeated_messages(nbytes)
 
+    def waiting_message(self) -> tuple[str, bytearray] | None:
+        """(topic, buffer) when the next bytes on the stream are the whole payload of a
+        large plain topic message (not a service frame), `buffer` reserved for it: see
+        FrameDecoder.waiting_large. After taking those bytes, call `message_moved`."""
+        if self.closed or self._pending is not None:
+            return None
+        return self._decoder.waiting_large()
+
+    def message_moved(self, *, taken: bool = False) -> None:
+        """The payload `waiting_message` named was moved elsewhere (with `taken`, in its
+        buffer, which goes with it): go on to the next frame."""
+        self._decoder.skip_large(taken=taken)
+
     def _events(self, frames: list[Frame]) -> list[Event]:
         events: list[Event] = []
         append = events.append

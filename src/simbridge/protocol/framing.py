@@ -341,6 +341,33 @@ class FrameDecoder:
         if self._lend and self._spare is None and size <= self.FIRST_CHUNK and self._reserve(size):
             self._spare = buffer
 
+    def waiting_large(self) -> tuple[str, bytearray] | None:
+        """(destination, buffer) of a large topic message whose header is parsed and none
+        of whose payload has arrived yet, `buffer` reserved for exactly that payload: a
+        caller may move the payload elsewhere (straight from the socket, or into `buffer`
+        itself) and then call `skip_large`. None otherwise (commands included)."""
+        big = self._big
+        if big is None or self._big_filled or self._broken is not None:
+            return None
+        dest = self._big_dest
+        if not dest or dest.startswith("__") or len(big) != self._big_size:
+            return None
+        return dest, big
+
+    def skip_large(self, *, taken: bool = False) -> None:
+        """The payload `waiting_large` named was taken from the stream elsewhere: expect
+        the next frame. Its buffer is kept for the next large payload, or with `taken`
+        handed over with the payload (it leaves the budget, as a lent one does)."""
+        waiting = self.waiting_large()
+        if waiting is None:
+            raise ValueError("no large payload is waiting untouched")
+        big = waiting[1]
+        self._big = None
+        if not taken and self._spare is None and len(big) <= self.FIRST_CHUNK:
+            self._spare = big
+        else:
+            self._release(len(big))
+
     def discard(self) -> None:
         """Drop a partly received large frame and hand its memory back (connection closed)."""
         for buf in (self._big, self._spare):

@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Any, Literal
 from simbridge.errors import EndpointError
 
 if TYPE_CHECKING:
+    from simbridge.endpoint.splice import SpliceSink
     from simbridge.endpoint.typecheck import TypeCheck
 
 __all__ = [
@@ -73,6 +74,11 @@ class BackendPublisher(abc.ABC):
         Returns False when the backend cannot tell (the default).
         """
         return False
+
+    def splice_sink(self) -> SpliceSink | None:
+        """Where the next large message may be spliced straight from the client's socket
+        (`endpoint.splice`), or None: it is published as usual (the default)."""
+        return None
 
     def watch_backlog(self, behind: Callable[[], None], caught_up: Callable[[], None]) -> bool:
         """Call `behind()` when a subscriber falls behind on a topic that must not drop

@@ -30,6 +30,7 @@ from simbridge.endpoint.backends.ros1_tcpros_hook import (
 )
 from simbridge.endpoint.backends.ros1_tcpros_pub import PublishedTopic, TopicServer
 from simbridge.endpoint.backends.ros1_tcpros_sub import Sink, SubscribedTopic
+from simbridge.endpoint.splice import SpliceSink
 from simbridge.errors import EndpointError
 
 __all__ = ["NativeData"]
@@ -98,6 +99,7 @@ class NativeData:
             "ros1_dropped_to_ros": server.dropped if server else 0,
             "ros1_pushbacks": server.pushbacks if server else 0,
             "ros1_refused_connections": server.refused if server else 0,
+            "ros1_spliced_messages": server.spliced if server else 0,
             "ros1_failed_connections": self._failed_before + sum(t.errors for t in topics),
             "ros1_reconnects": self._reconnects_before + sum(t.reconnects for t in topics),
             "ros1_coalesced_reads": self._coalesced_before + sum(t.coalesced for t in topics),
@@ -199,6 +201,11 @@ class NativePublisher(Ros1Publisher):
 
     def subscriber_count(self) -> int:
         return len(self._topic.connections)
+
+    def splice_sink(self) -> SpliceSink | None:
+        """The topic's only subscriber's connection, when a large message may go to it
+        by splice (`PublishedTopic.splice_sink`)."""
+        return None if self._closed else self._topic.splice_sink()
 
     def watch_subscribers(self, callback: Callable[[int], None]) -> bool:
         """Call `callback(count)` now and whenever a subscriber connects or leaves."""

@@ -90,6 +90,15 @@ class PublishedTopic:
         for connection in self.connections:
             connection.send(prefix, payload)
 
+    def splice_sink(self) -> _SubscriberConnection | None:
+        """The connection a large message may be spliced to (`endpoint.splice`): the
+        topic's only subscriber, keeping up, on a topic that does not latch (a latched
+        message is kept, so it must be in memory)."""
+        if self.latch or len(self.connections) != 1:
+            return None
+        connection = self.connections[0]
+        return connection if connection.can_splice() else None
+
     def header(self, callerid: str) -> bytes:
         """The header this publisher answers a subscriber with."""
         return encode_header(
@@ -163,6 +172,8 @@ class TopicServer:
         """Messages dropped for ROS subscribers that did not keep up (past queue_size)."""
         self.pushbacks = 0
         """Times a topic that may not drop had a subscriber fall behind (see `fell_behind`)."""
+        self.spliced = 0
+        """Large messages moved to a subscriber by splice (`endpoint.splice`)."""
         self._listener: socket.socket | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
         self._writes: DeferredWrites | None = None
@@ -270,6 +281,8 @@ class _SubscriberConnection:
         self._paused = False
         self._closing = False
         self._closed = False
+        self._splice: Callable[[], None] | None = None
+        """While a relay owns the socket: what to call if the connection goes away."""
         self.peer = "?"
         self.callerid = "?"
         """The subscriber node, from its header."""
@@ -357,10 +370,47 @@ class _SubscriberConnection:
             self._writer.write([encode_header({"error": reason})])
             self.close()
 
+    def can_splice(self) -> bool:
+        """Whether a relay may take this connection now: subscribed, free, and with
+        nothing waiting for the subscriber (a relay never waits for it)."""
+        return (
+            self._topic is not None
+            and self._splice is None
+            and not (self._paused or self._closing or self._held or self._writer.queued)
+        )
+
+    def splice_start(self, lost: Callable[[], None]) -> int | None:
+        """The socket for a relay once what this read queued is sent, else None; messages
+        sent meanwhile are held (`endpoint.splice.SpliceSink`)."""
+        if not self.can_splice():
+            return None
+        self.flush()
+        if self._writer.queued or self._paused or self._closing:
+            return None
+        self._splice = lost
+        return self._fd
+
+    def splice_end(self, rest: list[bytes | memoryview] | None) -> None:
+        """The relay is done: queue the part of its message it did not move, then what was
+        held; None: it cut a message short, so close."""
+        self._splice = None
+        if rest is None:
+            self.abort()
+            return
+        self._server.spliced += 1
+        if rest and not self._closing:
+            self._writer.write(rest)
+            if self._writer.queued > WRITE_HIGH_WATER:  # as `flush` does
+                self._paused = True
+                if self._topic is not None:
+                    self._topic.fell_behind(self)
+                return
+        self._drained()
+
     def send(self, prefix: bytes, payload: bytes | bytearray) -> None:
         """Queue one message (its length prefix and bytes); it leaves once the read that
         published it is done, or is held while the subscriber is not reading."""
-        if self._paused:
+        if self._paused or self._splice is not None:
             self._hold(prefix, payload)
             return
         if not self._pending:
@@ -444,6 +494,9 @@ class _SubscriberConnection:
         if self._timer is not None:
             self._timer.cancel()
             self._timer = None
+        splice, self._splice = self._splice, None
+        if splice is not None:
+            splice()  # the relay lets go of the socket before it closes
         self._writer.close()
         self._loop.remove_reader(self._fd)
         self._sock.close()
