@@ -8,9 +8,10 @@ endpoint's CPU per image. `SpliceRelay` moves it with `os.splice` through a pipe
 standalone relay of 921 KB messages: 134-141 us of CPU per message against 408-458 us
 with the copies.
 
-Only while the subscriber keeps up: when its socket has had no room for SINK_WAIT, the
-relay reads the rest of the message into the buffer the decoder had reserved for it and
-hands the unsent part to the connection, which queues, holds and pushes back as for any
+Only while the subscriber keeps up: when its socket has no room (for SINK_WAIT on a
+topic that may not drop, where the client would be pushed back on anyway), the relay
+reads the rest of the message into the buffer the decoder had reserved for it and hands
+the unsent part to the connection, which queues, holds and pushes back as for any
 message.
 """
 
@@ -33,8 +34,9 @@ PIPE_SIZE = 1 << 20
 """Bytes a relay's pipe is asked to hold (Linux's default limit for unprivileged users)."""
 
 SINK_WAIT = 0.01
-"""Seconds a relay waits for room in a subscriber's full socket (the client is not read
-meanwhile) before the rest of the message goes to the connection's queue instead."""
+"""Seconds a relay waits for room in a full socket of a subscriber whose messages may not
+be dropped (the client is not read meanwhile) before the rest of the message goes to
+the connection's queue instead."""
 
 _F_SETPIPE_SZ = 1031
 _FLAGS = getattr(os, "SPLICE_F_MOVE", 1) | getattr(os, "SPLICE_F_NONBLOCK", 2)
@@ -48,6 +50,12 @@ def can_splice() -> bool:
 class SpliceSink(Protocol):
     """Where a relay writes: a subscriber connection that holds its other messages while
     the relay owns its socket."""
+
+    @property
+    def splice_wait(self) -> float:
+        """Seconds to wait for room in the socket before copying the rest: SINK_WAIT
+        where the client would be pushed back on anyway (nothing may be dropped), else
+        0 (a client is not held up by a subscriber whose messages may be dropped)."""
 
     def splice_start(self, lost: Callable[[], None]) -> int | None:
         """The socket to write to, when everything queued before has been sent; until
@@ -170,10 +178,14 @@ class SpliceRelay:
         self._watch()
 
     def _wait_for_sink(self) -> None:
-        """The subscriber's socket is full: wait for room, for SINK_WAIT at most."""
-        if self._sink_timer is None:
+        """The subscriber's socket is full: wait for room (for the sink's `splice_wait`
+        at most), or copy the rest."""
+        wait = self._sink.splice_wait
+        if not wait:
+            self._start_copy()
+        elif self._sink_timer is None:
             self._loop.add_writer(self._out_fd, self._pump)
-            self._sink_timer = self._loop.call_later(SINK_WAIT, self._start_copy)
+            self._sink_timer = self._loop.call_later(wait, self._start_copy)
 
     def _sink_taking(self) -> None:
         if self._sink_timer is not None:

@@ -199,7 +199,7 @@ def test_large_messages_reach_a_lagging_subscriber_whole_and_in_order(master: Ro
             data = sock.recv(65536)
             assert data, "the server closed without a header"
             decoder.feed(data)
-        sender = _send_in_background(client, [encode_frame(topic, m) for m in messages])
+        sender = send_in_background(client, [encode_frame(topic, m) for m in messages])
         got: list[bytes] = []
         deadline = time.monotonic() + 60
         while len(got) < count:
@@ -238,7 +238,7 @@ def test_a_stalled_subscriber_pushes_back_on_the_client_then_lets_go(master: Ros
     with EndpointThread(options, Ros1Backend()) as ep:
         client = RawClient(ep.port)
         client.send(Publish(topic, "std_msgs/String", queue_size=0).encode())
-        _topic_list(client)
+        topic_list(client)
         host, port = tcpros_address(topic)
         sock = socket.socket()
         sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 64 * 1024)
@@ -251,7 +251,7 @@ def test_a_stalled_subscriber_pushes_back_on_the_client_then_lets_go(master: Ros
             decoder.feed(data)
         frames = [encode_frame(topic, m) for m in messages]
         started = time.monotonic()
-        sender = _send_in_background(client, [*frames, TopicListRequest().encode()])
+        sender = send_in_background(client, [*frames, TopicListRequest().encode()])
         while not any(
             isinstance(e, CommandReceived) and isinstance(e.command, TopicListReply)
             for e in client.events
@@ -278,7 +278,7 @@ def test_a_stalled_subscriber_pushes_back_on_the_client_then_lets_go(master: Ros
     assert counters["ros1_dropped_to_ros"] == 0
 
 
-def _send_in_background(client: RawClient, frames: list[bytes]) -> threading.Thread:
+def send_in_background(client: RawClient, frames: list[bytes]) -> threading.Thread:
     """Send `frames` on a thread (the endpoint may push back on the client meanwhile); the
     socket blocks without a timeout until then (read it only when select says so)."""
     client.sock.settimeout(None)
@@ -287,7 +287,7 @@ def _send_in_background(client: RawClient, frames: list[bytes]) -> threading.Thr
     return thread
 
 
-def _topic_list(client: RawClient) -> None:
+def topic_list(client: RawClient) -> None:
     client.send(TopicListRequest().encode())
     client.expect(
         lambda e: isinstance(e, CommandReceived) and isinstance(e.command, TopicListReply)

@@ -6,7 +6,6 @@ mid-message cuts only that subscriber's connection; --no-splice copies as before
 from __future__ import annotations
 
 import socket
-import threading
 import time
 
 import pytest
@@ -15,10 +14,7 @@ from tests.ros1support import RosMaster, require_ros, ros_string
 
 from simbridge.endpoint import EndpointOptions, EndpointThread
 from simbridge.protocol import (
-    CommandReceived,
     Publish,
-    TopicListReply,
-    TopicListRequest,
     encode_frame,
 )
 from simbridge.protocol.tcpros import TcprosDecoder
@@ -26,8 +22,10 @@ from simbridge.protocol.tcpros import TcprosDecoder
 require_ros(module_level=True)
 
 from tests.endpoint.backends.test_ros1_native import (  # noqa: E402
+    send_in_background,
     subscriber_header,
     tcpros_address,
+    topic_list,
 )
 
 from simbridge.endpoint.backends.ros1 import Ros1Backend  # noqa: E402
@@ -46,10 +44,7 @@ def _messages(count: int, size: int = 900_000, tag: str = "m") -> list[bytes]:
 def _publisher(port: int, topic: str) -> RawClient:
     client = RawClient(port)
     client.send(Publish(topic, "std_msgs/String", queue_size=0).encode())
-    client.send(TopicListRequest().encode())
-    client.expect(
-        lambda e: isinstance(e, CommandReceived) and isinstance(e.command, TopicListReply)
-    )
+    topic_list(client)  # every earlier frame was handled
     return client
 
 
@@ -83,13 +78,6 @@ def _receive(
     return got
 
 
-def _send_in_background(client: RawClient, frames: list[bytes]) -> threading.Thread:
-    client.sock.settimeout(None)
-    thread = threading.Thread(target=lambda: client.sock.sendall(b"".join(frames)), daemon=True)
-    thread.start()
-    return thread
-
-
 @pytest.mark.parametrize("splice", [True, False])
 def test_large_messages_reach_a_prompt_subscriber_whole_spliced_or_not(
     master: RosMaster, splice: bool
@@ -102,7 +90,7 @@ def test_large_messages_reach_a_prompt_subscriber_whole_spliced_or_not(
     with EndpointThread(options, Ros1Backend()) as ep:
         client = _publisher(ep.port, topic)
         sock, decoder = _subscribe(topic)
-        sender = _send_in_background(client, [encode_frame(topic, m) for m in messages])
+        sender = send_in_background(client, [encode_frame(topic, m) for m in messages])
         got = _receive(sock, decoder, len(messages))
         sender.join(10)
         counters = client.stats()["server"]["backend_counters"]
@@ -126,7 +114,7 @@ def test_a_lagging_subscriber_gets_every_byte_when_copying_takes_over(master: Ro
     with EndpointThread(options, Ros1Backend()) as ep:
         client = _publisher(ep.port, topic)
         sock, decoder = _subscribe(topic, rcvbuf=64 * 1024)
-        sender = _send_in_background(client, [encode_frame(topic, m) for m in messages])
+        sender = send_in_background(client, [encode_frame(topic, m) for m in messages])
         got = _receive(sock, decoder, len(messages), pause=0.003)
         sender.join(10)
         counters = client.stats()["server"]["backend_counters"]
@@ -149,8 +137,8 @@ def test_two_clients_on_one_topic_never_interleave_inside_a_message(master: RosM
         small_client = _publisher(ep.port, topic)
         sock, decoder = _subscribe(topic)
         senders = [
-            _send_in_background(big_client, [encode_frame(topic, m) for m in large]),
-            _send_in_background(small_client, [encode_frame(topic, m) for m in small]),
+            send_in_background(big_client, [encode_frame(topic, m) for m in large]),
+            send_in_background(small_client, [encode_frame(topic, m) for m in small]),
         ]
         got = _receive(sock, decoder, len(large) + len(small))
         for sender in senders:
@@ -171,7 +159,7 @@ def test_a_subscriber_leaving_mid_stream_costs_the_client_nothing(master: RosMas
         client = _publisher(ep.port, topic)
         sock, decoder = _subscribe(topic, rcvbuf=64 * 1024)
         first = _messages(10, tag="a")
-        sender = _send_in_background(client, [encode_frame(topic, m) for m in first])
+        sender = send_in_background(client, [encode_frame(topic, m) for m in first])
         _receive(sock, decoder, 2)
         sock.close()  # mid-stream, most likely mid-message
         sender.join(30)
@@ -179,7 +167,7 @@ def test_a_subscriber_leaving_mid_stream_costs_the_client_nothing(master: RosMas
         assert client.stats()["server"]["backend_counters"]["ros1_spliced_messages"] >= 1
         again, again_decoder = _subscribe(topic)
         later = _messages(5, tag="b")
-        sender = _send_in_background(client, [encode_frame(topic, m) for m in later])
+        sender = send_in_background(client, [encode_frame(topic, m) for m in later])
         got = _receive(again, again_decoder, len(later))
         sender.join(10)
         assert not client.closed_by_peer(timeout=0.2)
@@ -213,7 +201,7 @@ def test_a_client_leaving_mid_message_cuts_only_that_message(master: RosMaster) 
         other = _publisher(ep.port, topic)
         again, again_decoder = _subscribe(topic)
         later = _messages(3, tag="n")
-        sender = _send_in_background(other, [encode_frame(topic, m) for m in later])
+        sender = send_in_background(other, [encode_frame(topic, m) for m in later])
         got_later = _receive(again, again_decoder, len(later))
         sender.join(10)
         again.close()
@@ -241,3 +229,43 @@ def test_a_client_stalling_mid_message_is_closed_as_a_slow_sender(master: RosMas
             pass
         sock.close()
     assert got == [first]
+
+
+def test_a_stalled_subscriber_of_a_topic_that_may_drop_never_holds_the_client(
+    master: RosMaster,
+) -> None:
+    """queue_size 1: the client is read on while its subscriber takes nothing (a request
+    after 20 large messages is answered at once), the messages past the queue are dropped
+    and counted, and those the subscriber gets are whole, in order, ending with the last."""
+    topic = "/sb/splice/may_drop"
+    messages = _messages(20, tag="d")
+    options = EndpointOptions(port=0, idle_timeout=0)
+    with EndpointThread(options, Ros1Backend()) as ep:
+        client = RawClient(ep.port)
+        client.send(Publish(topic, "std_msgs/String", queue_size=1).encode())
+        topic_list(client)
+        sock, decoder = _subscribe(topic, rcvbuf=64 * 1024)
+        frames = [encode_frame(topic, m) for m in messages]
+        sender = send_in_background(client, frames)
+        sender.join(20)
+        assert not sender.is_alive(), "the client was not read while its subscriber stalled"
+        started = time.monotonic()
+        counters = client.stats()["server"]["backend_counters"]
+        assert time.monotonic() - started < 2.0
+        sock.settimeout(2.0)
+        got: list[bytes] = []
+        try:
+            while True:
+                data = sock.recv(1 << 20)
+                if not data:
+                    break
+                got += decoder.feed(data)
+        except TimeoutError:
+            pass
+        sock.close()
+        client.close()
+    assert counters["ros1_dropped_to_ros"] >= 1
+    assert got
+    assert got[-1] == messages[-1]
+    positions = [messages.index(m) for m in got]  # each one whole, as sent
+    assert positions == sorted(positions)

@@ -25,6 +25,7 @@ from collections.abc import Callable
 
 from simbridge.endpoint.backends.ros1_raw import RawMessageType
 from simbridge.endpoint.deferred import DeferredWrites, deferred_writes
+from simbridge.endpoint.splice import SINK_WAIT
 from simbridge.endpoint.writev import SocketWriter
 from simbridge.protocol.tcpros import TcprosDecoder, TcprosError, encode_header
 
@@ -378,6 +379,12 @@ class _SubscriberConnection:
             and self._splice is None
             and not (self._paused or self._closing or self._held or self._writer.queued)
         )
+
+    @property
+    def splice_wait(self) -> float:
+        """How long a relay waits for room in this socket (`endpoint.splice.SpliceSink`)."""
+        topic = self._topic
+        return SINK_WAIT if topic is not None and topic.queue_size == 0 else 0.0
 
     def splice_start(self, lost: Callable[[], None]) -> int | None:
         """The socket for a relay once what this read queued is sent, else None; messages
