@@ -127,6 +127,9 @@ _NODE_SCRIPT = textwrap.dedent(
     sys.excepthook = _quiet
     from rclpy.qos import QoSProfile, ReliabilityPolicy, HistoryPolicy
 
+    def raw_publish(pub):  # what publish(bytes) ends in, without its checks, as the endpoint's
+        return getattr(getattr(pub, "_Publisher__publisher", None), "publish_raw", pub.publish)
+
     role, topic, msg_type, count = sys.argv[1], sys.argv[2], sys.argv[3], int(sys.argv[4])
     pkg, name = msg_type.split("/")
     cls = getattr(importlib.import_module(pkg + ".msg"), name)
@@ -142,9 +145,7 @@ _NODE_SCRIPT = textwrap.dedent(
         time.sleep(0.3)
         print("READY", flush=True)
         sys.stdin.readline()
-        # what publish(bytes) ends in, without its checks: as the endpoint publishes
-        publish = getattr(getattr(pub, "_Publisher__publisher", None), "publish_raw",
-                          pub.publish)
+        publish = raw_publish(pub)
         start = time.perf_counter()
         for _ in range(count):
             publish(payload)
@@ -201,8 +202,7 @@ _NODE_SCRIPT = textwrap.dedent(
         time.sleep(1.0)
         print("READY", flush=True)
         sys.stdin.readline()
-        publish = getattr(getattr(pub, "_Publisher__publisher", None), "publish_raw",
-                          pub.publish)
+        publish = raw_publish(pub)
         rtts = []
         for seq in range(count):
             struct.pack_into("<d", payload, 4, float(seq))
