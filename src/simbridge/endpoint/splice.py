@@ -63,10 +63,10 @@ class SpliceSink(Protocol):
         call `lost()` before its socket closes. None when the socket is busy (nothing
         changes; the message goes the usual way)."""
 
-    def splice_end(self, rest: list[bytes | memoryview] | None) -> None:
+    def splice_end(self, rest: list[bytes | memoryview] | None, *, moved: bool = True) -> None:
         """The relay is done: queue `rest` (the part of the message it did not move,
         maybe none) and send what was held; None: close the connection (the message was
-        cut short on it)."""
+        cut short on it). `moved` False: the relay could not start after all."""
 
 
 class SpliceRelay:
@@ -113,8 +113,14 @@ class SpliceRelay:
         if fd is None:
             self._finished = True
             return False
+        try:
+            self._pipe = _pipe()
+        except OSError as exc:  # out of descriptors: copy as usual
+            _log.warning("cannot splice a large message: %s", exc)
+            self._finished = True
+            self._sink.splice_end([], moved=False)
+            return False
         self._out_fd = fd
-        self._pipe = _pipe()
         os.write(self._pipe[1], self._prefix)
         self._in_pipe = len(self._prefix)
         self._pump()

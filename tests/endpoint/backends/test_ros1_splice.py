@@ -269,3 +269,30 @@ def test_a_stalled_subscriber_of_a_topic_that_may_drop_never_holds_the_client(
     assert got[-1] == messages[-1]
     positions = [messages.index(m) for m in got]  # each one whole, as sent
     assert positions == sorted(positions)
+
+
+def test_without_a_pipe_large_messages_are_copied_as_usual(
+    master: RosMaster, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A relay that cannot get a pipe (out of descriptors) gives the connection back at
+    once: every message arrives whole, none counted as spliced, and the client is read on."""
+    from simbridge.endpoint import splice
+
+    def no_pipe() -> tuple[int, int]:
+        raise OSError(24, "Too many open files")
+
+    monkeypatch.setattr(splice, "_pipe", no_pipe)
+    topic = "/sb/splice/no_pipe"
+    messages = _messages(6, tag="p")
+    options = EndpointOptions(port=0, idle_timeout=0)
+    with EndpointThread(options, Ros1Backend()) as ep:
+        client = _publisher(ep.port, topic)
+        sock, decoder = _subscribe(topic)
+        sender = send_in_background(client, [encode_frame(topic, m) for m in messages])
+        got = _receive(sock, decoder, len(messages))
+        sender.join(10)
+        counters = client.stats()["server"]["backend_counters"]
+        sock.close()
+        client.close()
+    assert got == messages
+    assert counters["ros1_spliced_messages"] == 0

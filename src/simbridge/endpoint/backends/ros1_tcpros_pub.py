@@ -397,14 +397,14 @@ class _SubscriberConnection:
         self._splice = lost
         return self._fd
 
-    def splice_end(self, rest: list[bytes | memoryview] | None) -> None:
+    def splice_end(self, rest: list[bytes | memoryview] | None, *, moved: bool = True) -> None:
         """The relay is done: queue the part of its message it did not move, then what was
         held; None: it cut a message short, so close."""
         self._splice = None
         if rest is None:
             self.abort()
             return
-        self._server.spliced += 1
+        self._server.spliced += moved
         if rest and not self._closing:
             self._writer.write(rest)
             if self._writer.queued > WRITE_HIGH_WATER:  # as `flush` does
