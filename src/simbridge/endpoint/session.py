@@ -146,7 +146,7 @@ class ClientSession(asyncio.BufferedProtocol):
         opts = server.options
         self._gate = ReadGate()
         """Reading this client's socket, paused by back-pressure or while a splice reads it."""
-        self._splices = opts.splice and can_splice()
+        self._splices = opts.splice and server.backend.splices_large_payloads and can_splice()
         self._relay: SpliceRelay | None = None
         self._splice_fd = -1
         """A duplicate of the socket's descriptor: a relay's reader (the transport owns the

@@ -78,6 +78,22 @@ def _receive(
     return got
 
 
+def _stream(
+    options: EndpointOptions, topic: str, messages: list[bytes]
+) -> tuple[list[bytes], dict[str, int]]:
+    """`messages` from a client to one prompt subscriber: what it got, and the counters."""
+    with EndpointThread(options, Ros1Backend()) as ep:
+        client = _publisher(ep.port, topic)
+        sock, decoder = _subscribe(topic)
+        sender = send_in_background(client, [encode_frame(topic, m) for m in messages])
+        got = _receive(sock, decoder, len(messages))
+        sender.join(10)
+        counters: dict[str, int] = client.stats()["server"]["backend_counters"]
+        sock.close()
+        client.close()
+    return got, counters
+
+
 @pytest.mark.parametrize("splice", [True, False])
 def test_large_messages_reach_a_prompt_subscriber_whole_spliced_or_not(
     master: RosMaster, splice: bool
@@ -87,15 +103,7 @@ def test_large_messages_reach_a_prompt_subscriber_whole_spliced_or_not(
     topic = "/sb/splice/prompt"
     messages = _messages(20)
     options = EndpointOptions(port=0, idle_timeout=0, splice=splice)
-    with EndpointThread(options, Ros1Backend()) as ep:
-        client = _publisher(ep.port, topic)
-        sock, decoder = _subscribe(topic)
-        sender = send_in_background(client, [encode_frame(topic, m) for m in messages])
-        got = _receive(sock, decoder, len(messages))
-        sender.join(10)
-        counters = client.stats()["server"]["backend_counters"]
-        sock.close()
-        client.close()
+    got, counters = _stream(options, topic, messages)
     assert got == messages
     if splice:
         # the first one arrives with its header in one read (copied); the rest are spliced
@@ -285,14 +293,6 @@ def test_without_a_pipe_large_messages_are_copied_as_usual(
     topic = "/sb/splice/no_pipe"
     messages = _messages(6, tag="p")
     options = EndpointOptions(port=0, idle_timeout=0)
-    with EndpointThread(options, Ros1Backend()) as ep:
-        client = _publisher(ep.port, topic)
-        sock, decoder = _subscribe(topic)
-        sender = send_in_background(client, [encode_frame(topic, m) for m in messages])
-        got = _receive(sock, decoder, len(messages))
-        sender.join(10)
-        counters = client.stats()["server"]["backend_counters"]
-        sock.close()
-        client.close()
+    got, counters = _stream(options, topic, messages)
     assert got == messages
     assert counters["ros1_spliced_messages"] == 0

@@ -153,6 +153,9 @@ class Backend(abc.ABC):
     """Its publishers take a large payload as the bytearray it was received into (the
     client's decoder then allocates one per large frame instead of reusing its buffer);
     worth it only where the publisher would otherwise copy the payload to bytes."""
+    splices_large_payloads: bool = False
+    """Some of its publishers may take a large payload straight from the client's socket
+    (`BackendPublisher.splice_sink`); sessions of other backends never look for one."""
     releases_lent_payloads: bool = False
     """Its publishers are done with a lent payload when publish() returns (they copied
     what they send), so the session gives the buffer back to the client's decoder, which

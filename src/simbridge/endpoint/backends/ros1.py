@@ -98,6 +98,8 @@ class Ros1Backend(Backend):
         self._lost_watchers: list[Callable[[str], None]] = []
         self.lends_large_payloads = self._options.transport == "native"
         """The native path sends a large payload from the buffer it was received into."""
+        self.splices_large_payloads = self.lends_large_payloads
+        """The native path may splice one to a topic's only subscriber (`endpoint.splice`)."""
 
     @property
     def identity(self) -> NodeIdentity:
