@@ -1,10 +1,12 @@
 """Large messages spliced from a client's socket to a single native TCPROS subscriber,
 against a real roscore: every byte arrives in order whether the subscriber keeps up,
 lags, leaves mid-message or shares the topic with another client; a client that leaves
-mid-message cuts only that subscriber's connection; --no-splice copies as before."""
+mid-message cuts only that subscriber's connection; a subscriber behind and --no-splice
+get copies."""
 
 from __future__ import annotations
 
+import contextlib
 import socket
 import time
 
@@ -13,6 +15,7 @@ from tests.endpoint.rawclient import RawClient
 from tests.ros1support import RosMaster, require_ros, ros_string
 
 from simbridge.endpoint import EndpointOptions, EndpointThread
+from simbridge.endpoint.splice import unsent
 from simbridge.protocol import (
     Publish,
     encode_frame,
@@ -81,13 +84,15 @@ def _receive(
 def _stream(
     options: EndpointOptions, topic: str, messages: list[bytes]
 ) -> tuple[list[bytes], dict[str, int]]:
-    """`messages` from a client to one prompt subscriber: what it got, and the counters."""
+    """`messages` from a client to one subscriber that keeps up (each is sent once the one
+    before it arrived): what it got, and the counters."""
     with EndpointThread(options, Ros1Backend()) as ep:
         client = _publisher(ep.port, topic)
         sock, decoder = _subscribe(topic)
-        sender = send_in_background(client, [encode_frame(topic, m) for m in messages])
-        got = _receive(sock, decoder, len(messages))
-        sender.join(10)
+        got: list[bytes] = []
+        for message in messages:
+            client.send(encode_frame(topic, message))
+            got += _receive(sock, decoder, 1)
         counters: dict[str, int] = client.stats()["server"]["backend_counters"]
         sock.close()
         client.close()
@@ -110,6 +115,51 @@ def test_large_messages_reach_a_prompt_subscriber_whole_spliced_or_not(
         assert counters["ros1_spliced_messages"] >= len(messages) // 2, counters
     else:
         assert counters["ros1_spliced_messages"] == 0
+
+
+def test_a_subscriber_behind_the_stream_is_sent_copies(master: RosMaster) -> None:
+    """A subscriber reading slower than the client sends: once its socket holds more than
+    MAX_BACKLOG unread, messages are copied (spliced pages cost a reader behind more), and
+    every one arrives whole and in order. Splicing each regardless moved 9-11 of 12."""
+    topic = "/sb/splice/behind"
+    messages = _messages(12)
+    options = EndpointOptions(port=0, idle_timeout=0)
+    with EndpointThread(options, Ros1Backend()) as ep:
+        client = _publisher(ep.port, topic)
+        sock, decoder = _subscribe(topic)
+        sender = send_in_background(client, [encode_frame(topic, m) for m in messages])
+        got = _receive(sock, decoder, len(messages), pause=0.01)
+        sender.join(10)
+        counters = client.stats()["server"]["backend_counters"]
+        sock.close()
+        client.close()
+    assert got == messages
+    assert counters["ros1_spliced_messages"] < len(messages) // 2, counters
+
+
+def test_unsent_counts_what_the_peer_has_not_taken() -> None:
+    """`unsent` is the bytes a socket's peer has not acknowledged: those beyond a full
+    receive buffer while it does not read, none once it has read everything."""
+    with socket.create_server(("127.0.0.1", 0)) as server:
+        sender = socket.create_connection(server.getsockname())
+        receiver, _ = server.accept()
+        with sender, receiver:
+            receiver.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 64 * 1024)
+            sender.setblocking(False)
+            sent = 0
+            with contextlib.suppress(BlockingIOError):
+                while sent < 8 << 20:
+                    sent += sender.send(b"x" * 65536)
+            time.sleep(0.05)
+            waiting = unsent(sender.fileno())
+            assert 0 < waiting < sent
+            taken = 0
+            while taken < sent:
+                taken += len(receiver.recv(1 << 20))
+            deadline = time.monotonic() + 5
+            while unsent(sender.fileno()) and time.monotonic() < deadline:
+                time.sleep(0.01)
+            assert unsent(sender.fileno()) == 0
 
 
 def test_a_lagging_subscriber_gets_every_byte_when_copying_takes_over(master: RosMaster) -> None:

@@ -25,7 +25,7 @@ from collections.abc import Callable
 
 from simbridge.endpoint.backends.ros1_raw import RawMessageType
 from simbridge.endpoint.deferred import DeferredWrites, deferred_writes
-from simbridge.endpoint.splice import SINK_WAIT
+from simbridge.endpoint.splice import MAX_BACKLOG, SINK_WAIT, unsent
 from simbridge.endpoint.writev import SocketWriter
 from simbridge.protocol.tcpros import TcprosDecoder, TcprosError, encode_header
 
@@ -372,12 +372,14 @@ class _SubscriberConnection:
             self.close()
 
     def can_splice(self) -> bool:
-        """Whether a relay may take this connection now: subscribed, free, and with
-        nothing waiting for the subscriber (a relay never waits for it)."""
+        """Whether a relay may take this connection now: subscribed, free, with nothing
+        waiting for the subscriber (a relay never waits for it) and little in its socket
+        (a subscriber behind reads copies faster: `endpoint.splice.MAX_BACKLOG`)."""
         return (
             self._topic is not None
             and self._splice is None
             and not (self._paused or self._closing or self._held or self._writer.queued)
+            and unsent(self._fd) < MAX_BACKLOG
         )
 
     @property
