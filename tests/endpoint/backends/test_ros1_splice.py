@@ -99,6 +99,23 @@ def _stream(
     return got, counters
 
 
+def _stream_to_slow_reader(
+    topic: str, messages: list[bytes], pause: float, rcvbuf: int = 0
+) -> tuple[list[bytes], dict[str, int]]:
+    """`messages` sent at once by a client to one subscriber that sleeps `pause` after
+    each read: what it got, and the counters."""
+    with EndpointThread(EndpointOptions(port=0, idle_timeout=0), Ros1Backend()) as ep:
+        client = _publisher(ep.port, topic)
+        sock, decoder = _subscribe(topic, rcvbuf=rcvbuf)
+        sender = send_in_background(client, [encode_frame(topic, m) for m in messages])
+        got = _receive(sock, decoder, len(messages), pause=pause)
+        sender.join(10)
+        counters: dict[str, int] = client.stats()["server"]["backend_counters"]
+        sock.close()
+        client.close()
+    return got, counters
+
+
 @pytest.mark.parametrize("splice", [True, False])
 def test_large_messages_reach_a_prompt_subscriber_whole_spliced_or_not(
     master: RosMaster, splice: bool
@@ -121,18 +138,8 @@ def test_a_subscriber_behind_the_stream_is_sent_copies(master: RosMaster) -> Non
     """A subscriber reading slower than the client sends: once its socket holds more than
     MAX_BACKLOG unread, messages are copied (spliced pages cost a reader behind more), and
     every one arrives whole and in order. Splicing each regardless moved 9-11 of 12."""
-    topic = "/sb/splice/behind"
     messages = _messages(12)
-    options = EndpointOptions(port=0, idle_timeout=0)
-    with EndpointThread(options, Ros1Backend()) as ep:
-        client = _publisher(ep.port, topic)
-        sock, decoder = _subscribe(topic)
-        sender = send_in_background(client, [encode_frame(topic, m) for m in messages])
-        got = _receive(sock, decoder, len(messages), pause=0.01)
-        sender.join(10)
-        counters = client.stats()["server"]["backend_counters"]
-        sock.close()
-        client.close()
+    got, counters = _stream_to_slow_reader("/sb/splice/behind", messages, pause=0.01)
     assert got == messages
     assert counters["ros1_spliced_messages"] < len(messages) // 2, counters
 
@@ -166,18 +173,10 @@ def test_a_lagging_subscriber_gets_every_byte_when_copying_takes_over(master: Ro
     """A subscriber with a small receive buffer that reads slowly: a splice that finds
     its socket full hands the rest of the message to the connection's queue; nothing is
     lost, reordered or cut."""
-    topic = "/sb/splice/lagging"
     messages = _messages(8, size=2_500_000)  # more than a pipe holds: copying reads the rest
-    options = EndpointOptions(port=0, idle_timeout=0)
-    with EndpointThread(options, Ros1Backend()) as ep:
-        client = _publisher(ep.port, topic)
-        sock, decoder = _subscribe(topic, rcvbuf=64 * 1024)
-        sender = send_in_background(client, [encode_frame(topic, m) for m in messages])
-        got = _receive(sock, decoder, len(messages), pause=0.003)
-        sender.join(10)
-        counters = client.stats()["server"]["backend_counters"]
-        sock.close()
-        client.close()
+    got, counters = _stream_to_slow_reader(
+        "/sb/splice/lagging", messages, pause=0.003, rcvbuf=64 * 1024
+    )
     assert got == messages
     assert counters["ros1_dropped_to_ros"] == 0
 
