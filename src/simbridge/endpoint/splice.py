@@ -17,13 +17,13 @@ which queues, holds and pushes back as for any message.
 
 from __future__ import annotations
 
-import array
 import asyncio
 import contextlib
 import fcntl
 import logging
 import os
 import struct
+import termios
 from collections.abc import Callable
 from typing import Protocol
 
@@ -50,11 +50,10 @@ the connection's queue instead."""
 MAX_BACKLOG = 1 << 20
 """Bytes a subscriber's socket may hold that it has not taken (`unsent`) for a relay to
 take the socket. A subscriber that far behind is the slowest process of the stream, and a
-rospy subscriber spent 10-15% more CPU reading a spliced image than a copied one, so it
-is sent copies."""
+rospy subscriber spent a median 10% more CPU reading a spliced image than a copied one
+(14 of 17 pairs), so it is sent copies."""
 
 _F_SETPIPE_SZ = 1031
-_SIOCOUTQ = 0x5411
 _FLAGS = getattr(os, "SPLICE_F_MOVE", 1) | getattr(os, "SPLICE_F_NONBLOCK", 2)
 
 
@@ -64,10 +63,8 @@ def can_splice() -> bool:
 
 
 def unsent(fd: int) -> int:
-    """Bytes a TCP socket's peer has not yet acknowledged (SIOCOUTQ)."""
-    count = array.array("i", [0])
-    fcntl.ioctl(fd, _SIOCOUTQ, count, True)
-    return count[0]
+    """Bytes a TCP socket's peer has not yet acknowledged (SIOCOUTQ, which is TIOCOUTQ)."""
+    return int(struct.unpack("i", fcntl.ioctl(fd, termios.TIOCOUTQ, bytes(4)))[0])
 
 
 class SpliceSink(Protocol):
