@@ -55,6 +55,13 @@ _SERVER_CHECK = 1.0
 """How often a goal waiting for its result checks that its server is still there (s)."""
 _EARLY_FEEDBACK = 100
 """Feedback messages kept while a goal's acceptance is on its way (the oldest dropped)."""
+_CANCEL_RETRY = 0.5
+"""How long an abandoned goal waits for the server's answer to its cancel before asking
+again: a request written before the server's reader matched ours is lost, as is one
+written just before our node goes."""
+_CANCEL_TRIES = 10
+_CLOSE_WAIT = 2.0
+"""How long stopping waits for the servers of running goals to answer their cancels (s)."""
 
 
 class _StatusActionClient(ActionClient):  # type: ignore[misc]  # rclpy has no type hints
@@ -81,9 +88,11 @@ class Ros2Actions:
         self._clients: dict[tuple[str, str], tuple[Any, Any]] = {}
         """(action, type) -> (ActionClient, action class); touched on the event loop only."""
         self.goals: dict[bytes, _Ros2Goal] = {}
+        """Goals by UUID, for status reports; touched on the rclpy thread only."""
         self._answered: set[int] = set()
         """ActionClients (by id) whose server answered a probe since it was found."""
-        """Goals by UUID, for status reports; touched on the rclpy thread only."""
+        self.cancelling: set[asyncio.Task[None]] = set()
+        """Abandoned goals still asking their server to cancel (event loop)."""
 
     def on_rclpy(self, fn: Callable[[], _T]) -> asyncio.Future[_T]:
         """Run `fn` on the rclpy thread; its value (or exception) in an event loop future."""
@@ -250,17 +259,27 @@ class Ros2Actions:
             goal.status_seen(status)
 
     async def close(self) -> None:
-        """Cancel every goal still running (the endpoint is stopping) and destroy every
-        action client, before the node goes."""
-
-        def cancel_all() -> None:  # rclpy thread; rcl writes each request at once
-            for goal in list(self.goals.values()):
-                goal._r_abandon()
-
+        """Cancel every goal still running (the endpoint is stopping), wait up to
+        `_CLOSE_WAIT` for their servers to answer, and destroy every action client,
+        before the node goes."""
         try:
-            await asyncio.wait_for(self.on_rclpy(cancel_all), 2.0)
+            running = await asyncio.wait_for(self.on_rclpy(lambda: list(self.goals.values())), 2.0)
         except Exception as exc:  # the executor may be gone already
             _log.debug("cancelling goals at close: %s", exc)
+            running = []
+        for goal in running:
+            goal.abandon()
+        if self.cancelling:
+            _done, unanswered = await asyncio.wait(self.cancelling, timeout=_CLOSE_WAIT)
+            for task in unanswered:
+                task.cancel()
+            if unanswered:
+                _log.warning(
+                    "%d action server(s) did not answer a cancel within %g s; "
+                    "their goals may still run",
+                    len(unanswered),
+                    _CLOSE_WAIT,
+                )
         clients = [client for client, _cls in self._clients.values()]
         self._clients.clear()
         self._answered.clear()
@@ -295,6 +314,7 @@ class _Ros2Goal(BackendActionGoal):
         self._accepted: asyncio.Future[bool] = self._loop.create_future()
         self._result: asyncio.Future[tuple[int, bytes]] = self._loop.create_future()
         self._gone = False
+        self._cancel_answered: asyncio.Future[None] = self._loop.create_future()
         self._r_handle: Any = None
         self._r_uuid = b""
         self._r_abandoned = False
@@ -371,10 +391,36 @@ class _Ros2Goal(BackendActionGoal):
         if self._gone:
             return
         self._gone = True
-        try:
-            self._actions.on_rclpy(self._r_abandon)
-        except EndpointError:  # the backend is closed: the node and its goals are gone
-            return
+        task = self._loop.create_task(self._cancel_until_answered())
+        self._actions.cancelling.add(task)
+        task.add_done_callback(self._actions.cancelling.discard)
+
+    async def _cancel_until_answered(self) -> None:
+        """Ask the server to cancel until it answers or reports the goal canceling or
+        over (`_CANCEL_TRIES` at most); a refused goal needs no cancel. Before the server
+        accepts, there is nothing to ask: the acceptance sends the first request."""
+        asked = False
+        for _ in range(_CANCEL_TRIES):
+            try:
+                asked = await self._actions.on_rclpy(self._r_abandon) or asked
+            except Exception as exc:  # the backend is closed: the node and its goals are gone
+                _log.debug("cancelling an abandoned goal: %s", exc)
+                return
+            try:
+                await asyncio.wait_for(asyncio.shield(self._cancel_answered), _CANCEL_RETRY)
+                return
+            except TimeoutError:
+                pass
+            if self.ended or self._r_latest == STATUS_CANCELING or self._refused():
+                return
+        if asked:
+            _log.warning("the action server of %r did not answer a cancel", self._action)
+
+    def _refused(self) -> bool:
+        accepted = self._accepted
+        if not accepted.done():
+            return False
+        return accepted.cancelled() or accepted.exception() is not None or not accepted.result()
 
     def _deliver(self, fn: Callable[..., None], *args: Any) -> None:
         if not self._gone:
@@ -424,7 +470,7 @@ class _Ros2Goal(BackendActionGoal):
             self.status_seen(self._r_latest)
         self._r_ask_result()
         if self._r_abandoned:
-            handle.cancel_goal_async()
+            self._r_abandon()
 
     def _r_feedback(self, message: Any) -> None:
         if not self._r_answered:
@@ -458,7 +504,14 @@ class _Ros2Goal(BackendActionGoal):
         data = bytes(serialize_message(response.result))
         self._post(self._settle, self._result, (int(response.status), data), None)
 
-    def _r_abandon(self) -> None:
+    def _r_abandon(self) -> bool:
+        """Ask for a cancel (once accepted); whether a request went out."""
         self._r_abandoned = True
-        if self._r_handle is not None:
-            self._r_handle.cancel_goal_async()
+        if self._r_handle is None:
+            return False
+        self._r_handle.cancel_goal_async().add_done_callback(self._r_cancel_answer)
+        return True
+
+    def _r_cancel_answer(self, done: Any) -> None:
+        if done.exception() is None:
+            self._post(self._settle, self._cancel_answered, None, None)
