@@ -9,6 +9,7 @@ with test_msgs/action/Fibonacci registered from tests/assets, not from the endpo
 from __future__ import annotations
 
 import os
+import signal
 import threading
 import time
 from collections.abc import Iterator
@@ -353,6 +354,31 @@ def test_stopping_the_endpoint_cancels_running_goals() -> None:
             proc.stop()
             raw.close()
         assert srv.expect_json("canceled", timeout=20) == 60
+
+
+def test_stopping_waits_for_a_silent_server_only_so_long() -> None:
+    """A server that cannot answer its goal's cancel (stopped) holds the endpoint's exit up
+    by the close wait (2 s), not longer, and the endpoint says so."""
+    require_ros2()
+    action = unique_action()
+    with server(action, 0.2) as srv:
+        proc, port = start_endpoint("--idle-timeout", "0")
+        raw = RawClient(port)
+        try:
+            wait_ready(raw, action)
+            raw.send(ActionGoal(1, action, FIB, goal_cdr(60)).encode())
+            raw.expect(lambda e: command(e, ActionFeedback, 1), timeout=20)
+            os.killpg(srv.proc.pid, signal.SIGSTOP)
+            started = time.monotonic()
+            proc.stop(timeout=15)
+            took = time.monotonic() - started
+        finally:
+            os.killpg(srv.proc.pid, signal.SIGCONT)
+            proc.stop()
+            raw.close()
+    assert proc.proc.returncode == 0, tails(proc)
+    assert 1.5 <= took < 8, tails(proc)
+    assert any("did not answer a cancel within 2 s" in line for line in proc.output), tails(proc)
 
 
 def test_two_clients_share_an_action_and_keep_their_own_goals(
