@@ -12,6 +12,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from benchmarks.readme import machine_line, write_tables
+from benchmarks.repeats import REPEATS
 from benchmarks.table import format_table
 
 SUITES = {
@@ -42,12 +43,13 @@ TITLES = {
 }
 """README heading of each suite that returns a single table."""
 
-NOTES = """Notes:
+NOTES = f"""Notes:
 - **Machine and load:** the line above says where and under what load this run was taken;
   figures swing with load (other jobs on the same cores), so compare rows of one run.
-- **Best and median:** endpoint, ROS 1 and simulator rows give the best and the median of
-  three runs (ROS 1 and simulator runs in rounds that take each row in turn); `load_1min` is
-  the 1-minute load average when a row's first run started.
+- **Best and median:** rows give the best and the median of several runs: three for the
+  endpoint, {REPEATS} (`SIMBRIDGE_BENCH_REPEATS`) for ROS 1, ROS 2 and the simulator, in
+  rounds that take each row in turn; `load_1min` is the 1-minute load average when a row's
+  first run started.
 - **ROS 1 ceiling:** a rospy publisher feeding a rospy subscriber, measured with the same
   payloads in the same run.
 - **Attacks:** peak resident memory of an endpoint process under each attack, beside its
