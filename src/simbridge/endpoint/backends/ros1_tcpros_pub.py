@@ -98,7 +98,7 @@ class PublishedTopic:
         if self.latch or len(self.connections) != 1:
             return None
         connection = self.connections[0]
-        return connection if connection.can_splice() else None
+        return connection if connection.can_splice() and connection.keeping_up() else None
 
     def header(self, callerid: str) -> bytes:
         """The header this publisher answers a subscriber with."""
@@ -372,15 +372,18 @@ class _SubscriberConnection:
             self.close()
 
     def can_splice(self) -> bool:
-        """Whether a relay may take this connection now: subscribed, free, with nothing
-        waiting for the subscriber (a relay never waits for it) and little in its socket
-        (a subscriber behind reads copies faster: `endpoint.splice.MAX_BACKLOG`)."""
+        """Whether a relay may take this connection now: subscribed, free, and with
+        nothing waiting for the subscriber (a relay never waits for it)."""
         return (
             self._topic is not None
             and self._splice is None
             and not (self._paused or self._closing or self._held or self._writer.queued)
-            and unsent(self._fd) < MAX_BACKLOG
         )
+
+    def keeping_up(self) -> bool:
+        """Little in the socket the subscriber has not taken: one behind reads copies
+        faster (`endpoint.splice.MAX_BACKLOG`); asked once per large message."""
+        return unsent(self._fd) < MAX_BACKLOG
 
     @property
     def splice_wait(self) -> float:
