@@ -3,12 +3,13 @@ ran under (the machine may be shared, so a single run says little)."""
 
 from __future__ import annotations
 
+import math
 import os
 import statistics
 from collections.abc import Sequence
 from typing import Any, Literal
 
-__all__ = ["REPEATS", "best_and_median", "ceiling_summary", "load_average"]
+__all__ = ["REPEATS", "best_and_median", "ceiling_summary", "load_average", "median_interval"]
 
 REPEATS = max(int(os.environ.get("SIMBRIDGE_BENCH_REPEATS", "3")), 1)
 """Runs per figure (at least 3 for the README table; fewer for a quick look)."""
@@ -28,6 +29,24 @@ def best_and_median(values: Sequence[float], lower_is_better: bool = False) -> t
     return best, statistics.median(values)
 
 
+def median_interval(
+    values: Sequence[float], confidence: float = 0.95
+) -> tuple[float, float] | None:
+    """The narrowest pair of order statistics (k-th lowest, k-th highest) that holds the
+    true median with at least `confidence` whatever the distribution (binomial, so no
+    resampling and no randomness), or None when there are too few runs (under 6 at 95%)."""
+    xs = sorted(values)
+    n = len(xs)
+    found = None
+    for k in range(1, n // 2 + 1):
+        # the median lies below x(k) only when at most k-1 runs fell below it
+        coverage = 1 - 2 * sum(math.comb(n, i) for i in range(k)) / 2**n
+        if coverage < confidence:
+            break
+        found = (xs[k - 1], xs[n - k])
+    return found
+
+
 def ceiling_summary(
     rounds: Sequence[Sequence[dict[str, Any]]],
     k: int,
@@ -37,13 +56,15 @@ def ceiling_summary(
 ) -> dict[str, Any]:
     """Measurement `k` of a throughput benchmark over its rounds: best and median rate
     (`msg_per_s`), MB/s of the best or median rate for messages of `size` bytes, the share
-    of the same round's ceiling (measurement 0) and the worst `loss` seen."""
+    of the same round's ceiling (measurement 0) with a 95% interval of its median (from 6
+    rounds up) and the worst `loss` seen."""
     runs = [rnd[k] for rnd in rounds]
     best, median = best_and_median([r["msg_per_s"] for r in runs])
     shares = [
         r["msg_per_s"] / max(rnd[0]["msg_per_s"], 1e-9) for r, rnd in zip(runs, rounds, strict=True)
     ]
     share_best, share_median = best_and_median(shares)
+    interval = median_interval(shares)
     return {
         "direction": runs[0]["direction"],
         "payload": runs[0]["payload"],
@@ -54,5 +75,6 @@ def ceiling_summary(
         f"mb_per_s_{mb_of}": (best if mb_of == "best" else median) * size / 1e6,
         "of_ceiling_best": share_best,
         "of_ceiling_median": share_median,
+        "of_ceiling_95ci": f"{interval[0]:.3f}-{interval[1]:.3f}" if interval else "",
         "loss_worst": max(r["loss"] for r in runs),
     }

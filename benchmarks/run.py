@@ -52,6 +52,9 @@ NOTES = f"""Notes:
   first run started.
 - **ROS 1 ceiling:** a rospy publisher feeding a rospy subscriber, measured with the same
   payloads in the same run.
+- **95% interval:** `of_ceiling_95ci` holds the true median share of the ceiling with at
+  least 95% confidence whatever the rounds' spread (order statistics; from 6 rounds up), so
+  a median above or below a target by less than the interval's width is not yet a finding.
 - **Attacks:** peak resident memory of an endpoint process under each attack, beside its
   memory budget (`--max-memory-mb`)."""
 
