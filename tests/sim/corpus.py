@@ -49,6 +49,8 @@ def corpus_files() -> list[str]:
 
 
 def _joint_motion(joint: ET.Element, value: float) -> tuple[Rotation, np.ndarray]:
+    if joint.get("type") not in ("revolute", "continuous", "prismatic"):
+        return Rotation.identity(), np.zeros(3)  # fixed joints may carry an axis of 0 0 0
     axis_elem = joint.find("axis")
     axis = np.array(
         [
@@ -59,9 +61,7 @@ def _joint_motion(joint: ET.Element, value: float) -> tuple[Rotation, np.ndarray
     axis = axis / np.linalg.norm(axis)
     if joint.get("type") in ("revolute", "continuous"):
         return Rotation.from_rotvec(axis * value), np.zeros(3)
-    if joint.get("type") == "prismatic":
-        return Rotation.identity(), axis * value
-    return Rotation.identity(), np.zeros(3)
+    return Rotation.identity(), axis * value
 
 
 def reference_fk(path: Path, values: dict[str, float]) -> dict[str, tuple[np.ndarray, np.ndarray]]:
