@@ -38,10 +38,10 @@ def median_interval(
     xs = sorted(values)
     n = len(xs)
     found = None
+    below = 0  # ways for at most k-1 runs to fall below the median (it then lies below x(k))
     for k in range(1, n // 2 + 1):
-        # the median lies below x(k) only when at most k-1 runs fell below it
-        coverage = 1 - 2 * sum(math.comb(n, i) for i in range(k)) / 2**n
-        if coverage < confidence:
+        below += math.comb(n, k - 1)
+        if 1 - 2 * below / 2**n < confidence:
             break
         found = (xs[k - 1], xs[n - k])
     return found
@@ -57,14 +57,14 @@ def ceiling_summary(
     """Measurement `k` of a throughput benchmark over its rounds: best and median rate
     (`msg_per_s`), MB/s of the best or median rate for messages of `size` bytes, the share
     of the same round's ceiling (measurement 0) with a 95% interval of its median (from 6
-    rounds up) and the worst `loss` seen."""
+    rounds up; none for the ceiling itself) and the worst `loss` seen."""
     runs = [rnd[k] for rnd in rounds]
     best, median = best_and_median([r["msg_per_s"] for r in runs])
     shares = [
         r["msg_per_s"] / max(rnd[0]["msg_per_s"], 1e-9) for r, rnd in zip(runs, rounds, strict=True)
     ]
     share_best, share_median = best_and_median(shares)
-    interval = median_interval(shares)
+    interval = median_interval(shares) if k else None
     return {
         "direction": runs[0]["direction"],
         "payload": runs[0]["payload"],

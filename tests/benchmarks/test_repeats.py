@@ -62,3 +62,4 @@ def test_the_row_gives_the_interval_from_six_rounds() -> None:
     rounds = [[_run("ceiling", 1000.0, 0), _run("x", 900.0 + 10 * i, 0)] for i in range(9)]
     assert ceiling_summary(rounds, 1, 0.5, size=48)["of_ceiling_95ci"] == "0.910-0.970"
     assert ceiling_summary(rounds[:5], 1, 0.5, size=48)["of_ceiling_95ci"] == ""
+    assert ceiling_summary(rounds, 0, 0.5, size=48)["of_ceiling_95ci"] == ""  # the ceiling
