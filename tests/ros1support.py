@@ -29,7 +29,7 @@ import pytest
 
 from simbridge.connector import ConnectorOptions
 from simbridge.endpoint.backends.drained_process import DrainedProcess
-from simbridge.endpoint.backends.ros1_master import RosCore, free_port, terminate
+from simbridge.endpoint.backends.ros1_master import RosCore, terminate
 
 if TYPE_CHECKING:  # rospy is imported only once require_ros() let the tests run
     from simbridge.endpoint.backends.ros1 import Ros1Backend, Ros1Options
@@ -42,7 +42,6 @@ __all__ = [
     "DrainedProcess",
     "EndpointProcess",
     "RosMaster",
-    "free_port",
     "require_ros",
     "ros_string",
     "shared_master",

@@ -7,6 +7,7 @@ whose planner fixture runs this command.
 from __future__ import annotations
 
 import json
+import re
 import signal
 import socket
 import subprocess
@@ -23,7 +24,7 @@ import yaml
 from simbridge.apps.pick_and_place import PLANNER_SERVICE, PickAndPlaceTask
 from simbridge.errors import EndpointError
 from simbridge.planning import Pose
-from tests.ros1support import RosMaster, free_port, require_ros, terminate
+from tests.ros1support import RosMaster, require_ros, terminate
 
 pytestmark = [pytest.mark.timeout(420)]
 
@@ -106,9 +107,8 @@ def test_planner_replaced_by_same_name_exits_non_zero(master: RosMaster) -> None
 
 def test_local_planner_answers_simbridge_service_call() -> None:
     """`--backend local`: an endpoint with the planner on its bus; no ROS needed."""
-    port = free_port()
     planner = subprocess.Popen(
-        [*PLANNER, "--backend", "local", "--port", str(port)],
+        [*PLANNER, "--backend", "local", "--port", "0"],  # the OS chooses; read back
         stdout=subprocess.PIPE,
         stderr=subprocess.DEVNULL,
         stdin=subprocess.DEVNULL,
@@ -119,7 +119,10 @@ def test_local_planner_answers_simbridge_service_call() -> None:
         assert planner.stdout is not None
         line = planner.stdout.readline()  # (logs go to stderr)
         assert f"serving {PLANNER_SERVICE} [niryo_moveit/MoverService]" in line, line
-        assert f"127.0.0.1:{port}" in line
+        found = re.search(r"127\.0\.0\.1:(\d+)", line)
+        assert found is not None, line
+        port = int(found.group(1))
+        assert port != 0
         task = PickAndPlaceTask()
 
         def pose(p: Pose) -> dict[str, Any]:

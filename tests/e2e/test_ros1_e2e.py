@@ -24,7 +24,6 @@ from tests.ros1support import (
     SYSTEM_PYTHON,
     EndpointProcess,
     RosMaster,
-    free_port,
     require_ros,
     ros_string,
     terminate,
@@ -238,10 +237,9 @@ def test_endpoint_events_reach_rosout(master: RosMaster, connector: Connector) -
 
 def test_drop_in_private_params_choose_the_address(master: RosMaster) -> None:
     """Like ros_tcp_endpoint under roslaunch: `_tcp_ip:=` / `_tcp_port:=` set where it listens."""
-    port = free_port()
     command = [sys.executable, "-m", "simbridge.cli", "endpoint", "--backend", "ros1"]
-    process = subprocess.Popen(
-        [*command, "--node-name", "/dropin_endpoint", "_tcp_ip:=127.0.0.1", f"_tcp_port:={port}"],
+    process = subprocess.Popen(  # port 0: the OS chooses (not the default 10000); read back
+        [*command, "--node-name", "/dropin_endpoint", "_tcp_ip:=127.0.0.1", "_tcp_port:=0"],
         env=master.env,
         stdout=subprocess.PIPE,
         stderr=subprocess.STDOUT,
@@ -257,7 +255,10 @@ def test_drop_in_private_params_choose_the_address(master: RosMaster) -> None:
             line = process.stdout.readline()
             if not line:
                 break
-        assert f"listening on 127.0.0.1:{port}" in line
+        found = re.search(r"listening on 127\.0\.0\.1:(\d+)", line)
+        assert found is not None, line
+        port = int(found.group(1))
+        assert port not in (0, 10000)  # the param was read, the default not taken
         with Connector("127.0.0.1", port, FAST).connect(wait=10) as conn:
             assert isinstance(conn.topic_list(), dict)
     finally:

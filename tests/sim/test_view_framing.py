@@ -85,7 +85,8 @@ def test_the_initial_camera_frames_the_robot(scene: Path, robot: str, objects: l
     assert np.all(low - 1e-9 <= target)
     assert np.all(target <= high + 1e-9)
     distance = float(np.linalg.norm(eye - target))
-    assert MIN_DISTANCE <= distance < 1.5
+    # the code clamps to MIN_DISTANCE: the norm of the offset may land a last bit below it
+    assert distance == pytest.approx(MIN_DISTANCE) or MIN_DISTANCE < distance < 1.5
     assert eye[2] > target[2], "looking down at it"
     # floor, walls and table are not what is framed
     scenery = {"floor", "table", "wall_north", "wall_south", "wall_east", "wall_west"}

@@ -94,8 +94,9 @@ class FrameWriter:
         self._busy = False
         self._direct_at = 0.0
         """When `write_batch` last wrote from a publishing thread (for the keepalive)."""
-        self._published_at = 0.0
-        """When `write_one` last queued or wrote a message (to tell bursts apart)."""
+        self._published_at: float | None = None
+        """When `write_one` last queued or wrote a message (to tell bursts apart); None
+        before the first, which always stands alone."""
         self._thread = threading.Thread(
             target=self._run, name="simbridge-connector-writer", daemon=True
         )
@@ -179,8 +180,8 @@ class FrameWriter:
         published at least `_BURST_GAP` after the previous one, nothing queued before it
         and the writer thread idle. Returns True when the topic dropped a message."""
         now = time.monotonic()
-        alone = now - self._published_at >= _BURST_GAP
-        self._published_at = now
+        previous, self._published_at = self._published_at, now
+        alone = previous is None or now - previous >= _BURST_GAP
         if alone and len(payload) <= _DIRECT_LIMIT:
             return bool(self._fifo.put_many_or_send([(key, payload, key.bound)], self._send_now))
         return self._fifo.put(key, payload, key.bound, len(payload))

@@ -1,7 +1,6 @@
-"""RosCore's port: `free_port` only says a port was free a moment ago, so a roscore whose
-chosen port another process took first (here: another master, the worst case, since it
-answers on the URI) moves to a new free port and answers from its own process tree; a
-port that was asked for is never changed."""
+"""RosCore's port: without one asked for, the master binds a port the OS chooses and the
+port is read back (nothing picks a port first that another process could take); a port
+that was asked for is kept, and a taken one fails clearly."""
 
 from __future__ import annotations
 
@@ -22,20 +21,45 @@ def _master_pid(uri: str) -> int:
     return int(reply[2])
 
 
-def test_a_chosen_port_taken_by_another_master_is_replaced() -> None:
+def _tree(pid: int) -> set[int]:
+    """`pid` and every process below it."""
+    return {pid, *(child for child, _ in _descendants(pid))}
+
+
+def _param(uri: str, name: str) -> Any:
+    reply: Any = xmlrpc.client.ServerProxy(uri).getParam("/test", name)
+    code, _, value = reply
+    assert code == 1, f"{name} is not set"
+    return value
+
+
+def test_two_masters_get_ports_from_the_os_and_answer_from_their_own_trees() -> None:
     require_ros()
-    with RosMaster() as first:
-        second = RosMaster()
-        second.port, second.uri = first.port, first.uri  # the race, forced: it was taken
-        try:
-            second.start()
-            assert second.port != first.port
-            assert second._process is not None
-            ours = {pid for pid, _ in _descendants(second._process.pid)}
-            assert _master_pid(second.uri) in ours
-            assert _master_pid(first.uri) not in ours
-        finally:
-            second.stop()
+    with RosMaster() as first, RosMaster() as second:
+        assert first.port != 0
+        assert second.port != 0
+        assert first.port != second.port
+        assert first.uri == f"http://127.0.0.1:{first.port}/"
+        for core in (first, second):
+            assert core._process is not None
+            assert _master_pid(core.uri) in _tree(core._process.pid)
+        # what roscore.xml sets, and a run id (rospy's log folders use it)
+        assert _param(first.uri, "/rosdistro")
+        assert _param(first.uri, "/rosversion")
+        assert _param(first.uri, "/run_id") != _param(second.uri, "/run_id")
+        done = first.run(["rostopic", "list"])
+        assert "/rosout" in done.stdout.split(), done.stdout + done.stderr
+
+
+def test_a_killed_master_comes_back_on_the_same_port() -> None:
+    require_ros()
+    with RosMaster() as core:
+        port = core.port
+        core.kill()
+        core.start()
+        assert core.port == port
+        assert core._process is not None
+        assert _master_pid(core.uri) in _tree(core._process.pid)
 
 
 def test_a_port_asked_for_is_kept_and_a_taken_one_fails_clearly() -> None:

@@ -1,4 +1,4 @@
-"""A private ROS 1 master (roscore) on a free port, and clean process shutdown.
+"""A private ROS 1 master (roscore) on a port the OS chooses, and clean process shutdown.
 
 Used by the demos (when no master answers at ROS_MASTER_URI) and by the test suite.
 Every roscore runs in its own session with a private ROS_HOME; stopping it kills its
@@ -13,6 +13,7 @@ import shutil
 import signal
 import socket
 import subprocess
+import sys
 import tempfile
 import time
 import urllib.parse
@@ -24,28 +25,9 @@ from typing import Any
 from simbridge.endpoint.backends.drained_process import DrainedProcess
 from simbridge.errors import EndpointError
 
-__all__ = ["RosCore", "free_port", "master_answers", "terminate", "unique_node_name"]
+__all__ = ["RosCore", "master_answers", "terminate", "unique_node_name"]
 
 _CALLER = "/simbridge"
-
-
-def free_port() -> int:
-    """A TCP port on 127.0.0.1 that was free a moment ago."""
-    with socket.socket() as sock:
-        sock.bind(("127.0.0.1", 0))
-        port: int = sock.getsockname()[1]
-        return port
-
-
-def _port_taken(port: int) -> bool:
-    """True when something holds `port` on 127.0.0.1 (it cannot be bound now)."""
-    with socket.socket() as sock:
-        sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-        try:
-            sock.bind(("127.0.0.1", port))
-        except OSError:
-            return True
-        return False
 
 
 def unique_node_name(base: str) -> str:
@@ -113,14 +95,17 @@ def terminate(process: subprocess.Popen[bytes] | subprocess.Popen[str], grace: f
 
 
 class RosCore:
-    """A roscore on a free port with a private ROS_HOME; use as a context manager."""
+    """A roscore with a private ROS_HOME; use as a context manager.
+
+    Without a port, the master binds one the OS chooses (`ros1_core_launch`) and `port` and
+    `uri` are read back once it serves: no port is picked first that another process could
+    take. With a port (or after a first start, so `kill` and `start` keep the URI), the
+    real `roscore -p PORT` runs.
+    """
 
     def __init__(self, port: int | None = None) -> None:
-        self.port = port or free_port()
-        self._port_chosen = not port
-        """The port came from `free_port`: if another process takes it before roscore
-        binds it, `start` may choose another."""
-        self.uri = f"http://127.0.0.1:{self.port}/"
+        self.port = port or 0
+        self.uri = f"http://127.0.0.1:{self.port}/" if port else ""
         self.home = Path(tempfile.mkdtemp(prefix="simbridge-roshome-"))
         self._process: subprocess.Popen[bytes] | None = None
 
@@ -139,50 +124,72 @@ class RosCore:
         return env
 
     def start(self, timeout: float = 30) -> RosCore:
-        """Start roscore and wait until its own master and /rosout answer.
-
-        `free_port` only says a port was free a moment ago: another process may bind it
-        before roscore does (then roscore exits, or, when that process is a master,
-        another test's master answers on the URI). A port taken that way is replaced by
-        a new free one, at most three times, unless the port was asked for.
-        """
-        if shutil.which("roscore") is None:
+        """Start the master and wait until it and /rosout answer."""
+        if shutil.which("roscore") is None or shutil.which("rosmaster") is None:
             raise EndpointError("roscore is not installed; install ros-core (make sysdeps)")
         deadline = time.monotonic() + timeout
-        for _ in range(3):
-            if self._launch(deadline):
-                self._port_chosen = False  # a restart (after `kill`) keeps this URI
-                return self
-            if not (self._port_chosen and _port_taken(self.port)):
-                break
-            self.stop_process()
-            self.port = free_port()
-            self.uri = f"http://127.0.0.1:{self.port}/"
+        if self._launch(deadline):
+            return self
         output = (self.home / "roscore.out").read_text(errors="replace")
+        where = f"on port {self.port}" if self.port else "on a port of the OS's choice"
         self.stop()
-        raise EndpointError(f"roscore on port {self.port} did not come up:\n{output[-2000:]}")
+        raise EndpointError(f"roscore {where} did not come up:\n{output[-2000:]}")
+
+    def _command(self) -> list[str]:
+        """`roscore -p PORT` for a known port, else the launcher that lets the OS choose."""
+        if self.port:
+            return ["roscore", "-p", str(self.port)]
+        rosmaster = shutil.which("rosmaster") or "rosmaster"
+        first = Path(rosmaster).read_text(errors="replace").partition("\n")[0]
+        python = first[2:].strip() if first.startswith("#!") else sys.executable
+        return [
+            *python.split(),
+            str(Path(__file__).with_name("ros1_core_launch.py")),
+            str(self._uri_file),
+        ]
+
+    @property
+    def _uri_file(self) -> Path:
+        return self.home / "master.uri"
+
+    def _read_uri(self) -> bool:
+        """Take the URI the launcher wrote, once it is there."""
+        if self.uri:
+            return True
+        try:
+            uri = self._uri_file.read_text().strip()
+        except FileNotFoundError:
+            return False
+        port = urllib.parse.urlparse(uri).port
+        if port is None:
+            return False
+        self.port, self.uri = port, uri
+        return True
 
     def _launch(self, deadline: float) -> bool:
-        """Run roscore; True once its own master (a process of its tree) and /rosout answer,
-        False when it exits or `deadline` passes first."""
+        """Run the master; True once its own master (a process of its tree) and /rosout
+        answer, False when it exits or `deadline` passes first."""
+        (self.home / "log").mkdir(exist_ok=True)  # rosout writes its log there
         with (self.home / "roscore.out").open("wb") as log:
             process = self._process = subprocess.Popen(
-                ["roscore", "-p", str(self.port)],
+                self._command(),
                 env=self.env,
                 stdout=log,
                 stderr=subprocess.STDOUT,
                 stdin=subprocess.DEVNULL,
                 start_new_session=True,
             )
-        master = xmlrpc.client.ServerProxy(self.uri)
         ours = False
         while time.monotonic() < deadline and process.poll() is None:
+            if not self._read_uri():
+                time.sleep(0.05)
+                continue
+            master = xmlrpc.client.ServerProxy(self.uri)
             with contextlib.suppress(OSError, xmlrpc.client.Error):
                 if not ours:
                     reply: Any = master.getPid(_CALLER)
-                    ours = reply[0] == 1 and reply[2] in {
-                        pid for pid, _ in _descendants(process.pid)
-                    }
+                    tree = {process.pid, *(pid for pid, _ in _descendants(process.pid))}
+                    ours = reply[0] == 1 and reply[2] in tree
                 if ours:
                     reply = master.getSystemState(_CALLER)
                     code, _, state = reply

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import asyncio
 import logging
+import math
 import threading
 import time
 from collections.abc import Callable
@@ -473,7 +474,7 @@ class Ros2Publisher(_Entity, BackendPublisher):
         loop: asyncio.AbstractEventLoop,
     ) -> None:
         self._subscribers = SubscriberWatch(loop, self.subscriber_count, lambda: self.closed)
-        self._last_error_log = 0.0
+        self._last_error_log = -math.inf  # the first failure is always logged
         try:
             self._publisher = backend.node.create_publisher(
                 cls,
