@@ -18,7 +18,7 @@ $(STAMP): pyproject.toml constraints.txt | sysdeps
 	$(BIN)/pip install -q --upgrade pip
 	@# constraints.txt pins the versions the suite was last run with (regenerate with
 	@# `make constraints` after an intentional upgrade).
-	$(BIN)/pip install -q -c constraints.txt -e '.[dev,view]'
+	$(BIN)/pip install -q -c constraints.txt -e '.[dev,view,ray]'
 	@# rospy and the ROS message modules live in Debian's dist-packages; append
 	@# that directory (after the venv's own packages) so the venv can import them.
 	@$(BIN)/python -c "import site, pathlib; pathlib.Path(site.getsitepackages()[0], 'zz_debian_dist_packages.pth').write_text('/usr/lib/python3/dist-packages\n')"

@@ -15,9 +15,22 @@ SRC = Path(simbridge.__file__).parent
 
 # Each layer may import itself and the layers listed after it (errors, assets and tcp
 # anywhere: tcp is the socket options both the connector and the endpoint set).
-LAYERS = ["cli", "apps", "gym", "planning", "sim", "connector", "endpoint", "protocol", "messages"]
+LAYERS = [
+    "cli",
+    "cluster",
+    "apps",
+    "gym",
+    "planning",
+    "sim",
+    "connector",
+    "endpoint",
+    "protocol",
+    "messages",
+]
 ALLOWED: dict[str, set[str]] = {
     "cli": set(LAYERS),
+    # Ray runs beside apps and gym and drives them (only it and cli know Ray exists).
+    "cluster": {"cluster", "gym", "planning", "sim", "connector", "messages"},
     "apps": {"apps", "planning", "sim", "connector", "endpoint", "protocol", "messages"},
     # Learning envs sit beside apps: scenes from sim (apps' scene files by path only), the
     # connector for the policy node on the ROS side.

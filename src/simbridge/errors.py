@@ -4,6 +4,7 @@ from __future__ import annotations
 
 __all__ = [
     "AppError",
+    "ClusterError",
     "ConnectorError",
     "EndpointError",
     "GymError",
@@ -67,3 +68,7 @@ class AppError(SimbridgeError):
 
 class GymError(SimbridgeError):
     """A learning environment (simbridge.gym) was configured or used wrongly."""
+
+
+class ClusterError(SimbridgeError):
+    """Work on a Ray cluster (simbridge.cluster) could not start or failed there."""

@@ -1,4 +1,5 @@
-"""The `simbridge` command line: endpoint, topic/service tools, messages, URDF, sim, demos.
+"""The `simbridge` command line: endpoint, topic/service tools, messages, URDF, sim, demos,
+training.
 
 One module per group of subcommands; their implementations import lazily so
 `simbridge msg md5` stays quick.
@@ -13,13 +14,13 @@ from collections.abc import Sequence
 
 from simbridge.errors import SimbridgeError
 
-from . import demo, endpoint, graph, msg, planner, record, rviz, sim
+from . import demo, endpoint, graph, msg, planner, record, rviz, sim, train
 
 __all__ = ["build_parser", "main"]
 
 log = logging.getLogger("simbridge")
 
-_GROUPS = (endpoint, graph, msg, sim, demo, planner, record, rviz)
+_GROUPS = (endpoint, graph, msg, sim, demo, planner, record, rviz, train)
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -3,6 +3,12 @@
 Light enough to prove an environment learns on two CPU cores in minutes, without a
 deep-learning framework. Episodes run in lockstep on a vector env (one world per
 perturbation: `2 * directions` worlds), so the physics of a whole iteration is batched.
+
+As in the paper's implementation, a perturbation direction is an offset into a shared
+table of Gaussian samples: whoever holds the table rebuilds a direction from one integer,
+so rollouts can run elsewhere (`simbridge.cluster` runs them on Ray actors) while the
+learner ships only offsets and seeds. The learner (`learn_ars`) talks to its rollouts
+through `Rollouts`; `VectorRollouts` runs them on one vector env.
 """
 
 from __future__ import annotations
@@ -10,7 +16,8 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from pathlib import Path
+from typing import Any, Protocol
 
 import numpy as np
 from gymnasium import spaces
@@ -19,7 +26,20 @@ from numpy.typing import NDArray
 
 from simbridge.errors import GymError
 
-__all__ = ["ARSConfig", "ARSResult", "CurvePoint", "LinearPolicy", "run_episodes", "train_ars"]
+__all__ = [
+    "ARSConfig",
+    "ARSResult",
+    "CurvePoint",
+    "Episodes",
+    "LinearPolicy",
+    "Rollouts",
+    "VectorRollouts",
+    "learn_ars",
+    "noise_table",
+    "run_episodes",
+    "table_deltas",
+    "train_ars",
+]
 
 FloatArray = NDArray[np.float64]
 
@@ -41,6 +61,23 @@ class ARSConfig:
     seed: int = 0
     keys: tuple[str, ...] | None = None
     """Observation entries the policy sees (None: every 1-D entry)."""
+    noise_table_size: int = 1 << 20
+    """Gaussian samples in the noise table (8 MiB); a direction is a slice of it."""
+
+
+def noise_table(config: ARSConfig) -> FloatArray:
+    """The table of standard normal samples that directions are slices of (from the seed)."""
+    if config.noise_table_size < 1:
+        raise GymError(f"noise_table_size must be >= 1, got {config.noise_table_size}")
+    return np.random.default_rng([config.seed, 1]).standard_normal(config.noise_table_size)
+
+
+def table_deltas(table: FloatArray, offsets: Sequence[int], shape: tuple[int, ...]) -> FloatArray:
+    """The directions at `offsets`: (len(offsets), *shape), each a contiguous slice."""
+    size = int(np.prod(shape))
+    if not offsets:
+        return np.zeros((0, *shape))
+    return np.stack([table[o : o + size] for o in offsets]).reshape(len(offsets), *shape)
 
 
 @dataclass
@@ -117,6 +154,36 @@ class LinearPolicy:
         self.var = (self.var * self.count + var * n + delta**2 * self.count * n / total) / total
         self.count = total
 
+    def save(self, path: str | Path) -> None:
+        """Write the policy to an .npz file (`LinearPolicy.load` reads it back)."""
+        np.savez(
+            path,
+            keys=np.array(self.keys, dtype=np.str_),
+            weights=self.weights,
+            low=self.low,
+            high=self.high,
+            mean=self.mean,
+            var=self.var,
+            count=np.float64(self.count),
+        )
+
+    @classmethod
+    def load(cls, path: str | Path) -> LinearPolicy:
+        """A policy `save` wrote."""
+        try:
+            with np.load(path) as data:
+                return cls(
+                    tuple(str(k) for k in data["keys"]),
+                    data["weights"],
+                    data["low"],
+                    data["high"],
+                    data["mean"],
+                    data["var"],
+                    float(data["count"]),
+                )
+        except (OSError, KeyError, ValueError) as exc:
+            raise GymError(f"{path}: not a policy written by LinearPolicy.save ({exc})") from exc
+
 
 @dataclass(frozen=True)
 class CurvePoint:
@@ -142,6 +209,51 @@ class ARSResult:
         return self.curve[-1].success_rate if self.curve else 0.0
 
 
+@dataclass
+class Episodes:
+    """One episode per world, run in lockstep: what the learner reads from a batch."""
+
+    returns: FloatArray
+    successes: NDArray[np.bool_]
+    steps: int
+    """Env steps taken by worlds whose episode was still running."""
+    live: NDArray[np.bool_] | None = None
+    """(steps, worlds): world w was still running at step t (when features were kept)."""
+    features: FloatArray | None = None
+    """The features the live worlds saw, step after step, world after world in a step."""
+
+    @classmethod
+    def join(cls, parts: Sequence[tuple[Episodes, Sequence[int]]], worlds: int) -> Episodes:
+        """Episodes of disjoint sets of worlds (each part with the worlds it ran, in its
+        order) as if one vector of `worlds` had run them all: same returns, same features
+        in the same order."""
+        returns, successes = np.zeros(worlds), np.zeros(worlds, np.bool_)
+        covered = np.zeros(worlds, np.int64)
+        for part, columns in parts:
+            returns[list(columns)] = part.returns
+            successes[list(columns)] = part.successes
+            covered[list(columns)] += 1
+        if not (covered == 1).all():
+            raise GymError(f"parts cover worlds {covered.tolist()} times, not once each")
+        steps = sum(part.steps for part, _ in parts)
+        kept = [(p.live, p.features, c) for p, c in parts if p.live is not None]
+        if not kept:
+            return cls(returns, successes, steps)
+        if len(kept) != len(parts):
+            raise GymError("some parts kept their features and some did not")
+        live = np.zeros((max(len(mask) for mask, _, _ in kept), worlds), np.bool_)
+        for mask, _, columns in kept:
+            live[: len(mask), list(columns)] = mask
+        rank = np.cumsum(live.ravel()).reshape(live.shape) - 1  # (t, w)'s row in features
+        features: FloatArray | None = None
+        for mask, seen, columns in kept:
+            assert seen is not None  # kept together with live
+            if features is None:
+                features = np.empty((int(live.sum()), seen.shape[1]))
+            features[rank[: len(mask), list(columns)][mask]] = seen
+        return cls(returns, successes, steps, live, features)
+
+
 def run_episodes(
     vec: VectorEnv[Any, Any, Any],
     policy: LinearPolicy,
@@ -149,28 +261,96 @@ def run_episodes(
     seeds: Sequence[int],
     max_steps: int,
     *,
-    record: list[FloatArray] | None = None,
-) -> tuple[FloatArray, NDArray[np.bool_], int]:
-    """One episode per world in lockstep, world i acting with `weights[i]`; returns
-    (returns, successes, env steps taken). Features seen are appended to `record`."""
+    keep_features: bool = False,
+) -> Episodes:
+    """One episode per world in lockstep, world i acting with `weights[i]`, seeded
+    `seeds[i]`; with `keep_features` the features the running worlds saw are kept."""
     n = vec.num_envs
     obs, _ = vec.reset(seed=list(seeds))  # type: ignore[arg-type]  # every vector env takes a list
     done = np.zeros(n, np.bool_)
     returns, successes, steps = np.zeros(n), np.zeros(n, np.bool_), 0
+    live: list[NDArray[np.bool_]] = []
+    seen: list[FloatArray] = []
     for _ in range(max_steps):
         x = policy.features(obs)
-        if record is not None:
-            record.append(x[~done])
+        if keep_features:
+            live.append(~done)
+            seen.append(x[~done])
         actions = policy.scale(np.einsum("nao,no->na", weights, policy.normalize(x)))
         obs, reward, terminated, truncated, info = vec.step(actions)
-        live = ~done
-        steps += int(live.sum())
-        returns += np.where(live, reward, 0.0)
-        successes |= live & np.asarray(info.get("is_success", np.zeros(n, np.bool_)), np.bool_)
+        running = ~done
+        steps += int(running.sum())
+        returns += np.where(running, reward, 0.0)
+        successes |= running & np.asarray(info.get("is_success", np.zeros(n, np.bool_)), np.bool_)
         done |= terminated | truncated
         if done.all():
             break
-    return returns, successes, steps
+    if not keep_features:
+        return Episodes(returns, successes, steps)
+    width = len(policy.mean)
+    return Episodes(
+        returns,
+        successes,
+        steps,
+        np.array(live, np.bool_).reshape(len(live), n),
+        np.concatenate(seen) if seen else np.zeros((0, width)),
+    )
+
+
+class Rollouts(Protocol):
+    """Where the learner's episodes run: one vector env here, or workers elsewhere."""
+
+    def perturbed(
+        self, policy: LinearPolicy, noise: float, offsets: Sequence[int], seeds: Sequence[int]
+    ) -> Episodes:
+        """For each direction i (`offsets[i]` into the noise table), an episode with the
+        weights plus `noise` times it (world i) and one with minus (world n + i), both
+        seeded `seeds[i]`; features kept."""
+        ...
+
+    def evaluate(self, policy: LinearPolicy, seeds: Sequence[int]) -> Episodes:
+        """One episode of `policy` per seed, in the order given."""
+        ...
+
+
+class VectorRollouts:
+    """Rollouts on one vector env: perturbed pairs need exactly two worlds per direction,
+    evaluations run in chunks of the vector's size."""
+
+    def __init__(self, vec: VectorEnv[Any, Any, Any], max_steps: int, table: FloatArray) -> None:
+        self.vec, self.max_steps, self.table = vec, max_steps, table
+
+    def perturbed(
+        self, policy: LinearPolicy, noise: float, offsets: Sequence[int], seeds: Sequence[int]
+    ) -> Episodes:
+        """See `Rollouts.perturbed`."""
+        if self.vec.num_envs != 2 * len(offsets) or len(seeds) != len(offsets):
+            raise GymError(
+                f"{len(offsets)} directions and {len(seeds)} seeds on a vector of "
+                f"{self.vec.num_envs} envs: need two envs and one seed per direction"
+            )
+        deltas = table_deltas(self.table, offsets, policy.weights.shape)
+        weights = np.concatenate([policy.weights + noise * deltas, policy.weights - noise * deltas])
+        seeds = [int(s) for s in seeds]
+        return run_episodes(
+            self.vec, policy, weights, seeds * 2, self.max_steps, keep_features=True
+        )
+
+    def evaluate(self, policy: LinearPolicy, seeds: Sequence[int]) -> Episodes:
+        """See `Rollouts.evaluate`."""
+        n = self.vec.num_envs
+        weights = np.broadcast_to(policy.weights, (n, *policy.weights.shape))
+        returns, successes, steps = [], [], 0
+        for first in range(0, len(seeds), n):
+            chunk = [int(s) for s in seeds[first : first + n]]
+            padded = chunk + [chunk[-1]] * (n - len(chunk))
+            part = run_episodes(self.vec, policy, weights, padded, self.max_steps)
+            returns.append(part.returns[: len(chunk)])
+            successes.append(part.successes[: len(chunk)])
+            steps += part.steps
+        if not returns:
+            return Episodes(np.zeros(0), np.zeros(0, np.bool_), 0)
+        return Episodes(np.concatenate(returns), np.concatenate(successes), steps)
 
 
 def train_ars(
@@ -187,32 +367,46 @@ def train_ars(
             f"ARS with {cfg.directions} directions needs a vector of {2 * cfg.directions} "
             f"envs, got {vec.num_envs}"
         )
-    if not 0 < cfg.top <= cfg.directions:
-        raise GymError(f"ARS top must be in 1..{cfg.directions}, got {cfg.top}")
     obs_space, act_space = vec.single_observation_space, vec.single_action_space
     assert isinstance(obs_space, spaces.Dict)
     assert isinstance(act_space, spaces.Box)
     policy = LinearPolicy.zeros(obs_space, act_space, cfg.keys)
+    table = noise_table(cfg)
+    return learn_ars(VectorRollouts(vec, max_steps, table), policy, table, cfg, progress)
+
+
+def learn_ars(
+    rollouts: Rollouts,
+    policy: LinearPolicy,
+    table: FloatArray,
+    config: ARSConfig,
+    progress: Callable[[CurvePoint], None] | None = None,
+) -> ARSResult:
+    """The ARS loop on any `Rollouts` (whose noise table is `table`), from `policy`: the
+    same config, table and rollouts' episodes give the same result wherever they ran."""
+    cfg = config
+    if cfg.directions < 1:
+        raise GymError(f"ARS directions must be >= 1, got {cfg.directions}")
+    if not 0 < cfg.top <= cfg.directions:
+        raise GymError(f"ARS top must be in 1..{cfg.directions}, got {cfg.top}")
+    size = policy.weights.size
+    if len(table) < size:
+        raise GymError(
+            f"noise table of {len(table)} samples is smaller than the policy's {size} weights"
+        )
     rng = np.random.default_rng(cfg.seed)
     result = ARSResult(policy)
     eval_seeds = [1_000_000 + i for i in range(cfg.eval_episodes)]
     start, total_steps = time.perf_counter(), 0
 
     def evaluate(iteration: int) -> CurvePoint:
-        rets, wins = [], []
-        for first in range(0, len(eval_seeds), vec.num_envs):
-            chunk = eval_seeds[first : first + vec.num_envs]
-            seeds = chunk + [chunk[-1]] * (vec.num_envs - len(chunk))
-            weights = np.broadcast_to(policy.weights, (vec.num_envs, *policy.weights.shape))
-            r, s, _ = run_episodes(vec, policy, weights, seeds, max_steps)
-            rets.extend(r[: len(chunk)].tolist())
-            wins.extend(s[: len(chunk)].tolist())
+        episodes = rollouts.evaluate(policy, eval_seeds)
         point = CurvePoint(
             iteration,
             total_steps,
             time.perf_counter() - start,
-            float(np.mean(rets)),
-            float(np.mean(wins)),
+            float(np.mean(episodes.returns)),
+            float(np.mean(episodes.successes)),
         )
         result.curve.append(point)
         if progress is not None:
@@ -221,20 +415,19 @@ def train_ars(
 
     evaluate(0)
     for iteration in range(1, cfg.iterations + 1):
-        deltas = rng.standard_normal((cfg.directions, *policy.weights.shape))
-        weights = np.concatenate(
-            [policy.weights + cfg.noise * deltas, policy.weights - cfg.noise * deltas]
-        )
-        seeds = rng.integers(0, 2**31 - 1, cfg.directions).tolist() * 2
-        seen: list[FloatArray] = []
-        returns, _, steps = run_episodes(vec, policy, weights, seeds, max_steps, record=seen)
-        total_steps += steps
-        plus, minus = returns[: cfg.directions], returns[cfg.directions :]
+        offsets = rng.integers(0, len(table) - size + 1, cfg.directions).tolist()
+        seeds = rng.integers(0, 2**31 - 1, cfg.directions).tolist()
+        episodes = rollouts.perturbed(policy, cfg.noise, offsets, seeds)
+        total_steps += episodes.steps
+        plus, minus = episodes.returns[: cfg.directions], episodes.returns[cfg.directions :]
         best = np.argsort(-np.maximum(plus, minus))[: cfg.top]
         spread = float(np.concatenate([plus[best], minus[best]]).std()) or 1.0
-        step = np.einsum("k,kao->ao", plus[best] - minus[best], deltas[best])
+        deltas = table_deltas(table, [offsets[i] for i in best], policy.weights.shape)
+        step = np.einsum("k,kao->ao", plus[best] - minus[best], deltas)
         policy.weights = policy.weights + cfg.step_size / (cfg.top * spread) * step
-        policy.update_statistics(np.concatenate(seen))
+        if episodes.features is None:
+            raise GymError("the rollouts kept no features for the policy's statistics")
+        policy.update_statistics(episodes.features)
         out_of_time = (
             cfg.time_budget_s is not None and time.perf_counter() - start > cfg.time_budget_s
         )

@@ -1,0 +1,239 @@
+"""ARS with its rollouts on Ray actors: one actor per worker, each with its own vector env.
+
+The learner (`simbridge.gym.ars.learn_ars`) runs in the driver. Each iteration it ships
+the policy once (`ray.put`) and each worker a few direction offsets and seeds; the
+workers rebuild the directions from the noise table, which went to the object store once,
+run their share of the episode pairs on their own `SceneVectorEnv`, and send back returns
+and the features their worlds saw. `Episodes.join` puts those in the order one vector
+would have produced, so the result is the local learner's for the same config and seed
+(bit for bit on one machine; see docs/ray.md).
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from simbridge.cluster.runtime import connect, node_id, ray_module
+from simbridge.errors import ClusterError
+from simbridge.gym.ars import (
+    ARSConfig,
+    ARSResult,
+    CurvePoint,
+    Episodes,
+    LinearPolicy,
+    VectorRollouts,
+    learn_ars,
+    noise_table,
+)
+
+__all__ = [
+    "START_TIMEOUT_S",
+    "RayRollouts",
+    "RayTraining",
+    "RolloutWorker",
+    "make_vector",
+    "shares",
+    "train_ars_on_ray",
+]
+
+START_TIMEOUT_S = 180.0
+"""How long the workers may take to start (a worker needs a free CPU in the cluster)."""
+
+
+def make_vector(
+    env_id: str, num_envs: int, max_steps: int, env_kwargs: Mapping[str, Any], threads: int = 0
+) -> gym.vector.VectorEnv[Any, Any, Any]:
+    """The vector env ARS runs on, here or in a worker: `num_envs` worlds of `env_id`
+    (a simbridge id: a `SceneVectorEnv`; importing simbridge.gym, as this module does,
+    registers them), episodes cut at `max_steps`."""
+    return gym.make_vec(
+        env_id, num_envs=num_envs, max_episode_steps=max_steps, threads=threads, **env_kwargs
+    )
+
+
+def shares(total: int, parts: int) -> list[int]:
+    """`total` split into `parts` near-equal contiguous counts, larger ones first."""
+    return [total // parts + (1 if i < total % parts else 0) for i in range(parts)]
+
+
+class RolloutWorker:
+    """What one Ray actor holds: a vector env of two worlds per direction it runs (one
+    physics thread: the actor has one CPU), the noise table, and where it runs.
+
+    `table` is a one-element list holding the noise table's object ref: the actor reads
+    the object store's copy itself (a read-only view, no copy on the driver's node)."""
+
+    def __init__(
+        self,
+        env_id: str,
+        directions: int,
+        max_steps: int,
+        table: list[Any],
+        env_kwargs: Mapping[str, Any],
+    ) -> None:
+        vec = make_vector(env_id, 2 * directions, max_steps, env_kwargs, threads=1)
+        self.rollouts = VectorRollouts(vec, max_steps, ray_module().get(table[0]))
+        self.node = node_id()
+
+    def spaces(self) -> tuple[spaces.Space[Any], spaces.Space[Any], str]:
+        """The single env's observation and action spaces, and this worker's node id."""
+        vec = self.rollouts.vec
+        return vec.single_observation_space, vec.single_action_space, self.node
+
+    def perturbed(
+        self, policy: LinearPolicy, noise: float, offsets: Sequence[int], seeds: Sequence[int]
+    ) -> tuple[Episodes, str]:
+        """`VectorRollouts.perturbed` on this worker, and the node it ran on."""
+        return self.rollouts.perturbed(policy, noise, offsets, seeds), node_id()
+
+    def evaluate(self, policy: LinearPolicy, seeds: Sequence[int]) -> tuple[Episodes, str]:
+        """`VectorRollouts.evaluate` on this worker, and the node it ran on."""
+        return self.rollouts.evaluate(policy, seeds), node_id()
+
+
+class RayRollouts:
+    """`Rollouts` on Ray actors: worker k runs directions `shares[k]` of each iteration
+    and a proportional share of the evaluation seeds; counts episodes per node."""
+
+    def __init__(self, ray: Any, workers: Sequence[Any], directions: Sequence[int]) -> None:
+        self._ray, self._workers, self._directions = ray, list(workers), list(directions)
+        self.episodes_per_node: Counter[str] = Counter()
+
+    def _gather(self, calls: Sequence[tuple[Any, Sequence[int]]], worlds: int) -> Episodes:
+        try:
+            results = self._ray.get([ref for ref, _ in calls])
+        except self._ray.exceptions.RayError as exc:
+            raise ClusterError(f"a rollout worker failed: {exc}") from exc
+        parts = []
+        for (episodes, node), (_, columns) in zip(results, calls, strict=True):
+            self.episodes_per_node[node] += len(episodes.returns)
+            parts.append((episodes, columns))
+        return Episodes.join(parts, worlds)
+
+    def perturbed(
+        self, policy: LinearPolicy, noise: float, offsets: Sequence[int], seeds: Sequence[int]
+    ) -> Episodes:
+        """See `Rollouts.perturbed`: worker k's pairs are worlds first..last and
+        n + first..n + last of the one-vector layout."""
+        n = len(offsets)
+        if n != sum(self._directions):
+            raise ClusterError(f"workers hold {sum(self._directions)} directions, got {n}")
+        shared = self._ray.put(policy)
+        calls, first = [], 0
+        for worker, count in zip(self._workers, self._directions, strict=True):
+            part = slice(first, first + count)
+            ref = worker.perturbed.remote(shared, noise, offsets[part], seeds[part])
+            columns = [*range(first, first + count), *range(n + first, n + first + count)]
+            calls.append((ref, columns))
+            first += count
+        return self._gather(calls, 2 * n)
+
+    def evaluate(self, policy: LinearPolicy, seeds: Sequence[int]) -> Episodes:
+        """See `Rollouts.evaluate`: contiguous runs of seeds, in proportion to each
+        worker's worlds."""
+        total = sum(self._directions)
+        bounds = [0, *(round(len(seeds) * c / total) for c in np.cumsum(self._directions))]
+        shared = self._ray.put(policy)
+        calls = [
+            (worker.evaluate.remote(shared, seeds[lo:hi]), range(lo, hi))
+            for worker, lo, hi in zip(self._workers, bounds, bounds[1:], strict=False)
+            if hi > lo
+        ]
+        return self._gather(calls, len(seeds))
+
+
+@dataclass
+class RayTraining:
+    """An ARS run on a cluster: the result, and where its work ran."""
+
+    result: ARSResult
+    worker_nodes: list[str]
+    """The node id each worker (actor) ran on."""
+    episodes_per_node: dict[str, int] = field(default_factory=dict)
+    """Episodes each node ran (reported by the workers with each batch)."""
+    cluster_cpus: float = 0.0
+
+
+def _start_workers(  # noqa: PLR0917
+    ray: Any,
+    env_id: str,
+    split: list[int],
+    max_steps: int,
+    table_ref: Any,
+    env_kwargs: Mapping[str, Any],
+) -> tuple[list[Any], list[Any]]:
+    """The actors, spread over the nodes, and what each answered once started. A worker
+    that dies fails the run (ClusterError); the same command and seed run again give the
+    same result."""
+    worker_class = ray.remote(num_cpus=1)(RolloutWorker)
+    workers = [
+        worker_class.options(scheduling_strategy="SPREAD").remote(
+            env_id, count, max_steps, [table_ref], dict(env_kwargs)
+        )
+        for count in split
+    ]
+    pending = [worker.spaces.remote() for worker in workers]
+    ready, _ = ray.wait(pending, num_returns=len(pending), timeout=START_TIMEOUT_S)
+    if len(ready) < len(pending):
+        for worker in workers:
+            ray.kill(worker)
+        cpus = ray.cluster_resources().get("CPU", 0)
+        raise ClusterError(
+            f"{len(ready)} of {len(workers)} ARS workers started in {START_TIMEOUT_S:.0f} s; "
+            f"each needs a CPU and the cluster has {cpus:g}: ask for fewer (--workers)"
+        )
+    try:
+        answers = ray.get(pending)
+    except ray.exceptions.RayError as exc:
+        raise ClusterError(f"an ARS worker failed to start: {exc}") from exc
+    return workers, answers
+
+
+def train_ars_on_ray(
+    env_id: str,
+    max_steps: int,
+    config: ARSConfig | None = None,
+    *,
+    address: str = "auto",
+    workers: int | None = None,
+    env_kwargs: Mapping[str, Any] | None = None,
+    progress: Callable[[CurvePoint], None] | None = None,
+) -> RayTraining:
+    """Train as `train_ars` on `gym.make_vec(env_id, 2 * directions, ...)` would, with
+    the rollouts on `workers` Ray actors (default: one per CPU of the cluster, at most one
+    per direction) of the cluster at `address`."""
+    cfg = config or ARSConfig()
+    if cfg.directions < 1:
+        raise ClusterError(f"ARS directions must be >= 1, got {cfg.directions}")
+    with connect(address) as ray:
+        cpus = float(ray.cluster_resources().get("CPU", 0))
+        count = workers if workers is not None else max(1, int(cpus))
+        if count < 1:
+            raise ClusterError(f"--workers must be >= 1, got {count}")
+        split = [n for n in shares(cfg.directions, count) if n > 0]
+        table = noise_table(cfg)
+        table_ref = ray.put(table)  # once: every worker reads the object store's copy
+        actors, answers = _start_workers(ray, env_id, split, max_steps, table_ref, env_kwargs or {})
+        try:
+            obs_space, act_space, _ = answers[0]
+            assert isinstance(obs_space, spaces.Dict)
+            assert isinstance(act_space, spaces.Box)
+            policy = LinearPolicy.zeros(obs_space, act_space, cfg.keys)
+            rollouts = RayRollouts(ray, actors, split)
+            result = learn_ars(rollouts, policy, table, cfg, progress)
+        finally:
+            for actor in actors:
+                ray.kill(actor)
+        return RayTraining(
+            result,
+            [node for _, _, node in answers],
+            dict(rollouts.episodes_per_node),
+            cpus,
+        )

@@ -1,0 +1,63 @@
+"""Connecting to Ray: the errors a user meets, and the local paths that need no Ray."""
+
+from __future__ import annotations
+
+import socket
+import subprocess
+import sys
+import time
+
+import pytest
+
+from simbridge.cluster import connect, shares
+from simbridge.errors import ClusterError
+from tests.raysupport import LOOPBACK, ray_environment, require_ray
+
+BLOCK_RAY = "import sys; sys.modules['ray'] = None\n"
+
+
+def test_a_dead_address_is_a_clear_error_at_once() -> None:
+    require_ray()
+    with socket.socket() as unused:  # a port nobody listens on: bound, never listening
+        unused.bind((LOOPBACK, 0))
+        port = unused.getsockname()[1]
+        start = time.monotonic()
+        expected = f"no Ray cluster answers at {LOOPBACK}:{port}"
+        with pytest.raises(ClusterError, match=expected), connect(f"{LOOPBACK}:{port}"):
+            pass
+    assert time.monotonic() - start < 30  # ray.init alone retries for minutes
+
+
+def test_auto_without_a_cluster_says_how_to_start_one() -> None:
+    require_ray()
+    with (
+        ray_environment(),  # a private RAY_TMPDIR: no cluster recorded there
+        pytest.raises(ClusterError, match="ray start --head"),
+        connect("auto"),
+    ):
+        pass
+
+
+def test_without_ray_the_local_paths_work_and_ray_asks_for_the_extra() -> None:
+    script = BLOCK_RAY + (
+        "from simbridge.cli import main\n"
+        "import simbridge.cluster, simbridge.gym\n"
+        "args = ['train', 'simbridge/Reach-v0', '--directions=1', '--iterations=1',\n"
+        "        '--eval-every=1', '--eval-episodes=2', '--max-steps=5']\n"
+        "assert main(args) == 0\n"
+        "assert main([*args, '--ray=auto']) == 2\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, timeout=120, check=False
+    )
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert "trained simbridge/Reach-v0: success" in done.stdout
+    assert "Ray is not installed" in done.stderr
+    assert "pip install 'simbridge[ray]'" in done.stderr
+
+
+def test_shares_split_directions_over_workers() -> None:
+    assert shares(8, 2) == [4, 4]
+    assert shares(3, 2) == [2, 1]
+    assert shares(2, 3) == [1, 1, 0]
+    assert sum(shares(17, 5)) == 17
