@@ -11,7 +11,8 @@ import pytest
 from simbridge.errors import UrdfError
 from simbridge.sim.urdf import UrdfWarning, load_urdf, robot_to_mjcf
 
-# The Unity Robotics Hub's niryo_one.urdf defines hand_tool_joint twice (same child).
+# A joint defined twice with the same parent and child: a true duplicate (a joint name
+# reused for another child is another joint: tests/sim/test_urdf_reused_joint_name.py).
 DUPLICATE_JOINT = """<robot name="dup">
   <link name="hand"><inertial><mass value="1"/>
     <inertia ixx="0.01" iyy="0.01" izz="0.01"/></inertial></link>
@@ -71,6 +72,58 @@ def test_strict_mode_refuses_duplicates(tmp_path: Path) -> None:
     path = _write(tmp_path, DUPLICATE_JOINT)
     with pytest.raises(UrdfError, match=rf"^{path}:9: joint 'hand_tool_joint' is defined twice"):
         load_urdf(path, strict=True)
+
+
+def _chain(*joints: tuple[str, str, str]) -> str:
+    """A robot whose joints are (name, parent, child), one per line from line 3."""
+    names = sorted({link for _, parent, child in joints for link in (parent, child)})
+    lines = [
+        f'  <joint name="{name}" type="fixed"><parent link="{parent}"/><child link="{child}"/>'
+        "</joint>"
+        for name, parent, child in joints
+    ]
+    return (
+        "\n".join(
+            ['<robot name="r">', "  " + "".join(f'<link name="{n}"/>' for n in names), *lines]
+        )
+        + "\n</robot>\n"
+    )
+
+
+def test_reused_joint_name_takes_the_first_free_suffix(tmp_path: Path) -> None:
+    path = _write(tmp_path, _chain(("j", "a", "b"), ("j_2", "b", "c"), ("j", "c", "d")))
+    robot, messages = _load(path)
+    assert messages == [
+        f"{path}:5: joint 'j' is defined twice for different links "
+        "(line 3: a -> b; this one: c -> d); keeping both, this one as 'j_3'"
+    ]
+    assert [(j.name, j.child) for j in robot.joints.values()] == [  # type: ignore[attr-defined]
+        ("j", "b"),
+        ("j_2", "c"),
+        ("j_3", "d"),
+    ]
+
+
+def test_repeat_of_a_renamed_joint_is_a_duplicate(tmp_path: Path) -> None:
+    path = _write(tmp_path, _chain(("j", "a", "b"), ("j", "b", "c"), ("j", "b", "c")))
+    robot, messages = _load(path)
+    assert len(messages) == 2  # the rename, then the repeat
+    assert messages[1] == (
+        f"{path}:5: joint 'j' (kept as 'j_2') is defined twice; "
+        "keeping the first definition (line 4)"
+    )
+    assert sorted(robot.joints) == ["j", "j_2"]  # type: ignore[attr-defined]
+
+
+def test_same_name_and_child_from_another_parent_keeps_the_first(tmp_path: Path) -> None:
+    # A link has one parent: the second joint to `c` cannot be kept beside the first.
+    path = _write(tmp_path, _chain(("j", "a", "b"), ("k", "b", "c"), ("k", "a", "c")))
+    robot, messages = _load(path)
+    assert messages == [
+        f"{path}:5: joint 'k' (a -> c; the first: b -> c) is defined twice; "
+        "keeping the first definition (line 4)"
+    ]
+    assert robot.joints["k"].parent == "b"  # type: ignore[attr-defined]
 
 
 def test_material_defined_in_an_earlier_visual_is_found(tmp_path: Path) -> None:

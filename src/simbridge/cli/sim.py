@@ -129,7 +129,8 @@ def _load_options(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--strict",
         action="store_true",
-        help="refuse tolerated defects (duplicate definitions, out-of-range initial positions)",
+        help="refuse tolerated defects (duplicate definitions, reused joint names, "
+        "out-of-range initial positions)",
     )
 
 

@@ -3,6 +3,11 @@
 Conventions real files use but the URDF spec frowns on (a joint defined twice, a mimic
 of a joint that does not exist, a material named before it is defined) load with a
 warning naming the file, line and element; `strict=True` turns them into errors.
+
+A joint is known by its child link, as Unity's URDF importer builds the tree: a second
+joint that reuses a name for another child (Unity's niryo_one.urdf names both
+hand_link -> tool_link and tool_link -> gripper_base `hand_tool_joint`) is kept under a
+unique name; one that repeats the name and the child is a duplicate and the first counts.
 """
 
 from __future__ import annotations
@@ -328,6 +333,42 @@ def _cycle(parent_of: dict[str, str], joints: dict[str, Joint], start: str) -> l
     return seen[seen.index(link) :]
 
 
+def _duplicate(parser: _Parser, elem: ET.Element, what: str, first_line: int | None) -> None:
+    """A repeated definition (a link's name, a joint's name and child): the first counts."""
+    where = f" (line {first_line})" if first_line is not None else ""
+    parser.lenient(elem, f"{what} is defined twice; keeping the first definition{where}")
+
+
+def _joint_repeat(joint: Joint, first: Joint) -> str:
+    """How a joint repeating `first`'s name and child link is named in the warning: the
+    ends when the parents differ, the name it is kept under when that is another."""
+    what = f"joint '{joint.name}'"
+    if joint.parent != first.parent:
+        what += f" ({joint.parent} -> {joint.child}; the first: {first.parent} -> {first.child})"
+    if first.name != joint.name:
+        what += f" (kept as '{first.name}')"
+    return what
+
+
+def _unique_name(name: str, taken: set[str]) -> str:
+    """`name_2`, `name_3`...: the first that no joint of the file is called."""
+    number = 2
+    while f"{name}_{number}" in taken:
+        number += 1
+    return f"{name}_{number}"
+
+
+def _reused_name(joint: Joint, unique: str, first: tuple[Joint, int | None]) -> str:
+    """The warning for a joint that takes an earlier joint's name for another child link."""
+    earlier, line = first
+    where = f"line {line}" if line is not None else "the first"
+    return (
+        f"joint '{joint.name}' is defined twice for different links ({where}: "
+        f"{earlier.parent} -> {earlier.child}; this one: {joint.parent} -> {joint.child}); "
+        f"keeping both, this one as '{unique}'"
+    )
+
+
 def parse_urdf(
     text: str,
     *,
@@ -359,34 +400,36 @@ def parse_urdf(
             parser.lenient(elem, f"material '{mat.name}' is defined twice; keeping the first")
         else:
             parser.materials[mat.name] = mat
-    first_line: dict[str, int | None] = {}
-
-    def duplicate(kind: str, name: str, elem: ET.Element) -> None:
-        first = first_line[f"{kind} {name}"]
-        where = f" (line {first})" if first is not None else ""
-        parser.lenient(
-            elem, f"{kind} '{name}' is defined twice; keeping the first definition{where}"
-        )
-
+    link_lines: dict[str, int | None] = {}
     links: dict[str, Link] = {}
     for elem in root.findall("link"):
         link = parser.link(elem)
         if link.name in links:
-            duplicate("link", link.name, elem)
+            _duplicate(parser, elem, f"link '{link.name}'", link_lines[link.name])
             continue
-        first_line[f"link {link.name}"] = tree.line(elem)
+        link_lines[link.name] = tree.line(elem)
         links[link.name] = link
     if not links:
         raise UrdfError(f"{tree.at(root)}robot '{robot_name}' has no <link>")
     joints: dict[str, Joint] = {}
     parent_of: dict[str, str] = {}
     joint_elems: dict[str, ET.Element] = {}
+    declared = {elem.get("name", "") for elem in root.findall("joint")}
+    # Definitions seen so far under each name in the file: child link -> (joint, line).
+    seen: dict[str, dict[str, tuple[Joint, int | None]]] = {}
     for elem in root.findall("joint"):
         joint = parser.joint(elem)
-        if joint.name in joints:
-            duplicate("joint", joint.name, elem)
+        same_name = seen.setdefault(joint.name, {})
+        if joint.child in same_name:
+            first, line = same_name[joint.child]
+            _duplicate(parser, elem, _joint_repeat(joint, first), line)
             continue
-        first_line[f"joint {joint.name}"] = tree.line(elem)
+        if same_name:
+            unique = _unique_name(joint.name, declared)
+            parser.lenient(elem, _reused_name(joint, unique, next(iter(same_name.values()))))
+            declared.add(unique)
+            joint = replace(joint, name=unique)
+        same_name[joint.child] = (joint, tree.line(elem))
         for role, link_name in (("parent", joint.parent), ("child", joint.child)):
             if link_name not in links:
                 raise parser.fail(
