@@ -28,6 +28,7 @@ SUITES = {
     "urdf": "benchmarks.bench_urdf",
     "view": "benchmarks.bench_view",
     "line": "benchmarks.bench_line",
+    "ray": "benchmarks.bench_ray",
 }
 
 TITLES = {

@@ -35,9 +35,9 @@ __all__ = [
     "LOOPBACK",
     "OBJECT_STORE_BYTES",
     "RAY_BIN",
+    "RayProcesses",
     "local_cluster",
     "ray_environment",
-    "ray_start_cluster",
     "require_ray",
 ]
 
@@ -105,14 +105,35 @@ def local_cluster(nodes: int = 2) -> Iterator[Any]:
             cluster.shutdown()
 
 
-class _Processes:
-    """`ray start --block` processes, each in a session of its own, stopped as groups."""
+class RayProcesses:
+    """`ray start --block` processes, each in a session of its own, stopped as groups
+    (`ray stop` would stop every Ray process of this user on the machine)."""
 
     def __init__(self, env: dict[str, str], folder: Path) -> None:
         self.env, self.folder = env, folder
         self.running: list[subprocess.Popen[bytes]] = []
 
+    def start_head(self, *args: str) -> str:
+        """`ray start --head ARGS` (give it `--port=0`); its address, once it has one."""
+        head = self.start("head", "--head", *args)
+        recorded = self.folder / "ray" / "ray_current_cluster"  # under RAY_TMPDIR
+        self.wait_for("head", head, lambda: recorded.exists() and bool(recorded.read_text()))
+        return recorded.read_text().strip()
+
+    def start_node(self, *args: str) -> None:
+        """`ray start ARGS` (with the head's `--address=`), once the node runs."""
+        name = f"node{len(self.running)}"
+        node = self.start(name, *args)
+        self.wait_for(name, node, lambda: "Ray runtime started" in self.log(name))
+
+    def __enter__(self) -> RayProcesses:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
+
     def start(self, name: str, *args: str) -> subprocess.Popen[bytes]:
+        """`ray start --block ARGS`, its output in FOLDER/NAME.log."""
         with (self.folder / f"{name}.log").open("wb") as log:
             process = subprocess.Popen(
                 [str(RAY_BIN), "start", "--block", *args],
@@ -125,6 +146,7 @@ class _Processes:
         return process
 
     def log(self, name: str) -> str:
+        """What process NAME printed so far."""
         return (self.folder / f"{name}.log").read_text(errors="replace")
 
     def wait_for(
@@ -138,6 +160,7 @@ class _Processes:
             time.sleep(0.1)
 
     def stop(self) -> None:
+        """SIGTERM to every group, SIGKILL to what is left after 30 s (idempotent)."""
         for process in reversed(self.running):
             if process.poll() is None:
                 os.killpg(process.pid, signal.SIGTERM)
@@ -149,34 +172,4 @@ class _Processes:
                 process.wait()
             with contextlib.suppress(ProcessLookupError):  # what it left in its session
                 os.killpg(process.pid, signal.SIGKILL)
-
-
-@contextmanager
-def ray_start_cluster() -> Iterator[tuple[str, dict[str, str]]]:
-    """A two-node cluster the way a user starts one: `ray start --head --port=0`, then
-    `ray start --address=HEAD` for the second node. Yields the head's address and the
-    environment a driver subprocess needs (its RAY_TMPDIR makes `--ray auto` find it)."""
-    require_ray()
-    common = [
-        f"--node-ip-address={LOOPBACK}",
-        "--num-cpus=1",
-        f"--object-store-memory={OBJECT_STORE_BYTES}",
-        "--disable-usage-stats",
-    ]
-    with ray_environment() as env:
-        folder = Path(env["RAY_TMPDIR"])
-        processes = _Processes(env, folder)
-        try:
-            head = processes.start(
-                "head", "--head", "--port=0", "--include-dashboard=false", *common
-            )
-            address_file = folder / "ray" / "ray_current_cluster"
-            processes.wait_for(
-                "head", head, lambda: address_file.exists() and bool(address_file.read_text())
-            )
-            address = address_file.read_text().strip()
-            node = processes.start("node", f"--address={address}", *common)
-            processes.wait_for("node", node, lambda: "Ray runtime started" in processes.log("node"))
-            yield address, env
-        finally:
-            processes.stop()
+        self.running.clear()

@@ -13,7 +13,7 @@ import pytest
 from tests.ros2support import require_ros2
 
 ROOT = Path(__file__).resolve().parents[2]
-SCRIPTS = ("bench_ros1", "bench_ros2", "bench_sim", "bench_attacks")
+SCRIPTS = ("bench_ros1", "bench_ros2", "bench_sim", "bench_attacks", "bench_ray")
 
 
 def _run(args: list[str], cwd: Path) -> subprocess.CompletedProcess[str]:

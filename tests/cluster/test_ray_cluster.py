@@ -55,3 +55,14 @@ def test_ars_on_two_nodes_learns_what_the_local_learner_learns(cluster: Any) -> 
     np.testing.assert_array_equal(run.result.policy.mean, local.policy.mean)
     np.testing.assert_array_equal(run.result.policy.var, local.policy.var)
     assert np.any(run.result.policy.weights != 0)
+
+
+def test_docs_python_example_runs_on_the_cluster(cluster: Any) -> None:
+    from tests.cluster.test_ray_docs import example
+
+    namespace: dict[str, Any] = {}
+    exec(compile(example("python", "python"), "docs/ray.md", "exec"), namespace)
+    run = namespace["run"]
+    assert set(run.worker_nodes) == _alive_nodes()
+    assert [point.iteration for point in run.result.curve] == [0, 5]
+    assert sum(run.episodes_per_node.values()) == 5 * 16 + 2 * 32

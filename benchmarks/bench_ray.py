@@ -1,0 +1,228 @@
+"""Ray scaling on this machine: ARS rollouts (env steps/s) on 1 worker, 2 workers on one
+node and 2 nodes of 1 CPU each, beside the same rollouts without Ray, and Ray's overhead.
+
+Each layout is a fresh local cluster (`ray.cluster_utils.Cluster` on 127.0.0.2, private
+RAY_TMPDIR, 100 MB object store a node); the learner's side is `RayRollouts.perturbed`,
+one ARS iteration of Reach-v0 (8 directions, 16 episodes of 50 steps) at a time, the
+rate the best of `ROUNDS` rounds of at least `ROUND_S`. "no Ray" rows run the same
+iterations on one `SceneVectorEnv` in this process (1 and 2 physics threads).
+Overhead, per layout: `task_ms` the round trip of an empty one-CPU task (median of 200,
+one at a time), `pipelined_task_ms` the time per task with 200 in flight, `actor_call_ms`
+the round trip of a small call to an idle worker, and the start of the cluster and of
+its workers (a worker imports simbridge and builds its vector env).
+"""
+
+from __future__ import annotations
+
+import importlib
+import os
+import shutil
+import statistics
+import sys
+import tempfile
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # also as a bare script
+
+import numpy as np
+
+from simbridge.cluster import RayRollouts, RolloutWorker, make_vector
+from simbridge.gym import ARSConfig, LinearPolicy
+from simbridge.gym.ars import Episodes, VectorRollouts, noise_table
+
+__all__ = ["LOOPBACK", "local_cluster", "run"]
+
+ENV_ID = "simbridge/Reach-v0"
+MAX_STEPS = 50
+CONFIG = ARSConfig(directions=8)
+ROUND_S = 3.0
+ROUNDS = 3
+LOOPBACK = "127.0.0.2"  # Ray rewrites 127.0.0.1 to the routed IP (docs/ray.md)
+OBJECT_STORE_BYTES = 100 * 1000 * 1000
+TIMES = {
+    "cluster_start_s": 1,
+    "workers_start_s": 1,
+    "task_ms": 2,
+    "pipelined_task_ms": 2,
+    "actor_call_ms": 2,
+}
+"""Overhead columns and their decimals."""
+
+
+@contextmanager
+def local_cluster(cpus_per_node: list[int]) -> Iterator[Any]:
+    """A private cluster, one node per entry (its CPUs), this process its driver."""
+    ray = importlib.import_module("ray")
+    cluster_utils = importlib.import_module("ray.cluster_utils")
+    folder = tempfile.mkdtemp(prefix="sbray", dir="/tmp")
+    saved = {k: os.environ.get(k) for k in ("RAY_TMPDIR", "RAY_USAGE_STATS_ENABLED")}
+    os.environ.update(RAY_TMPDIR=folder, RAY_USAGE_STATS_ENABLED="0")
+    args = {"object_store_memory": OBJECT_STORE_BYTES, "node_ip_address": LOOPBACK}
+    cluster = None
+    try:
+        cluster = cluster_utils.Cluster(
+            initialize_head=True,
+            head_node_args={**args, "num_cpus": cpus_per_node[0], "include_dashboard": False},
+        )
+        for cpus in cpus_per_node[1:]:
+            cluster.add_node(**args, num_cpus=cpus)
+        ray.init(address=cluster.address, logging_level="WARNING")
+        cluster.wait_for_nodes()
+        yield ray
+    finally:
+        ray.shutdown()
+        if cluster is not None:
+            cluster.shutdown()
+        for key, value in saved.items():
+            if value is None:
+                os.environ.pop(key, None)
+            else:
+                os.environ[key] = value
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+def _rate(iteration: Callable[[], Episodes]) -> float:
+    """Env steps per second of `iteration`, best of ROUNDS rounds of at least ROUND_S."""
+    iteration()  # warm
+    best = 0.0
+    for _ in range(ROUNDS):
+        start, steps = time.perf_counter(), 0
+        while time.perf_counter() - start < ROUND_S:
+            steps += iteration().steps
+        best = max(best, steps / (time.perf_counter() - start))
+    return best
+
+
+def _iteration(rollouts: Any, policy: LinearPolicy, size: int) -> Callable[[], Episodes]:
+    """One ARS iteration's episodes: fresh directions and seeds each call."""
+    rng = np.random.default_rng(0)
+
+    def one() -> Episodes:
+        offsets = rng.integers(0, CONFIG.noise_table_size - size, CONFIG.directions).tolist()
+        seeds = rng.integers(0, 2**31 - 1, CONFIG.directions).tolist()
+        episodes: Episodes = rollouts.perturbed(policy, CONFIG.noise, offsets, seeds)
+        return episodes
+
+    return one
+
+
+def _policy(vec: Any) -> LinearPolicy:
+    return LinearPolicy.zeros(vec.single_observation_space, vec.single_action_space)
+
+
+def local_rows() -> list[dict[str, Any]]:
+    """The rollouts in this process, no Ray."""
+    rows = []
+    table = noise_table(CONFIG)
+    for threads in (1, 2):
+        vec = make_vector(ENV_ID, 2 * CONFIG.directions, MAX_STEPS, {}, threads=threads)
+        policy = _policy(vec)
+        rollouts = VectorRollouts(vec, MAX_STEPS, table)
+        rate = _rate(_iteration(rollouts, policy, policy.weights.size))
+        vec.close()
+        rows.append({"layout": f"no Ray, one vector env, {threads} thread(s)", "rate": rate})
+    return rows
+
+
+def _task_overhead(ray: Any) -> tuple[float, float]:
+    """An empty one-CPU task: median round trip one at a time (of 200), and the time per
+    task when 200 are in flight at once, both in ms."""
+    noop = ray.remote(num_cpus=1)(lambda: None)
+    ray.get([noop.remote() for _ in range(4)])  # workers started
+    alone = []
+    for _ in range(200):
+        start = time.perf_counter()
+        ray.get(noop.remote())
+        alone.append(time.perf_counter() - start)
+    start = time.perf_counter()
+    ray.get([noop.remote() for _ in range(200)])
+    return statistics.median(alone) * 1e3, (time.perf_counter() - start) / 200 * 1e3
+
+
+def _call_overhead(ray: Any, actor: Any) -> float:
+    """Median round trip (ms, of 200) of a call with a small answer to an idle actor."""
+    times = []
+    for _ in range(200):
+        start = time.perf_counter()
+        ray.get(actor.spaces.remote())
+        times.append(time.perf_counter() - start)
+    return statistics.median(times) * 1e3
+
+
+def ray_rows() -> list[dict[str, Any]]:
+    """The rollouts on Ray actors, one cluster per layout."""
+    layouts = {
+        "Ray, 1 worker (1 node, 1 CPU)": [1],
+        "Ray, 2 workers on one node (2 CPUs)": [2],
+        "Ray, 2 workers on 2 nodes (1 CPU each)": [1, 1],
+    }
+    rows = []
+    for name, nodes in layouts.items():
+        start = time.perf_counter()
+        with local_cluster(nodes) as ray:
+            cluster_s = time.perf_counter() - start
+            task_ms, pipelined_ms = _task_overhead(ray)
+            workers = sum(nodes)
+            table_ref = ray.put(noise_table(CONFIG))
+            split = [CONFIG.directions // workers] * workers
+            actor = ray.remote(num_cpus=1)(RolloutWorker)
+            start = time.perf_counter()
+            actors = [
+                actor.options(scheduling_strategy="SPREAD").remote(
+                    ENV_ID, count, MAX_STEPS, [table_ref], {}
+                )
+                for count in split
+            ]
+            answers = ray.get([a.spaces.remote() for a in actors])
+            workers_s = time.perf_counter() - start
+            obs, act, _ = answers[0]
+            policy = LinearPolicy.zeros(obs, act)
+            rollouts = RayRollouts(ray, actors, split)
+            rate = _rate(_iteration(rollouts, policy, policy.weights.size))
+            call_ms = _call_overhead(ray, actors[0])
+            nodes_used = len({node for _, _, node in answers})
+        rows.append(
+            {
+                "layout": name,
+                "rate": rate,
+                "nodes_used": nodes_used,
+                "cluster_start_s": cluster_s,
+                "workers_start_s": workers_s,
+                "task_ms": task_ms,
+                "pipelined_task_ms": pipelined_ms,
+                "actor_call_ms": call_ms,
+            }
+        )
+    return rows
+
+
+def run() -> dict[str, list[dict[str, Any]]]:
+    """The scaling table."""
+    rows = local_rows() + ray_rows()
+    base = next(r["rate"] for r in rows if r["layout"].startswith("Ray, 1 worker"))
+    table = []
+    for r in rows:
+        row = {
+            "layout": r["layout"],
+            "env_steps_per_s": round(r["rate"]),
+            "x_1_worker": round(r["rate"] / base, 2),
+            "nodes": r.get("nodes_used", ""),
+        }
+        for key, digits in TIMES.items():
+            row[key] = round(r[key], digits) if key in r else ""
+        table.append(row)
+    return {"ARS rollouts of Reach-v0 on Ray (8 directions, 50-step episodes)": table}
+
+
+if __name__ == "__main__":
+    from benchmarks.table import format_table
+    from benchmarks.usage import exit_on_help
+
+    exit_on_help(__doc__, "  --markdown  a Markdown table")
+    for title, rows in run().items():
+        print(f"\n{title}\n")
+        print(format_table(rows, markdown="--markdown" in sys.argv))
