@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import difflib
+from collections.abc import Iterable
+
 __all__ = [
     "AppError",
     "ClusterError",
@@ -16,6 +19,7 @@ __all__ = [
     "SimbridgeError",
     "UnknownMessageTypeError",
     "UrdfError",
+    "did_you_mean",
 ]
 
 
@@ -72,3 +76,13 @@ class GymError(SimbridgeError):
 
 class ClusterError(SimbridgeError):
     """Work on a Ray cluster (simbridge.cluster) could not start or failed there."""
+
+
+def did_you_mean(word: str, choices: Iterable[str]) -> str:
+    """The hint every unknown key, option, type or name error ends with: "; did you mean
+    'x'?" naming the choice closest to a mistyped `word`, or "" when none is close."""
+    names = [str(choice) for choice in choices]
+    close = difflib.get_close_matches(word, names, n=1, cutoff=0.6)
+    if not close:
+        close = [name for name in names if name.lower() == word.lower()][:1]
+    return f"; did you mean '{close[0]}'?" if close else ""

@@ -156,7 +156,7 @@ def test_scene_key_parses_with_defaults_and_names_mistakes() -> None:
         "left_wheel_joint", "right_wheel_joint", limits=DiffDriveLimits(max_linear_velocity=0.4)
     )
     assert parse_scene({}, DIFFBOT.parent).ros.diff_drive is None
-    with pytest.raises(SimError, match=r"ros\.diff_drive: unknown key\(s\) speed"):
+    with pytest.raises(SimError, match=r"ros\.diff_drive: unknown key 'speed'"):
         _scene(speed=1)
     with pytest.raises(SimError, match=r"ros\.diff_drive: missing key 'right'"):
         parse_scene({"ros": {"diff_drive": {"left": "a"}}}, DIFFBOT.parent)

@@ -79,7 +79,7 @@ def test_loader_defaults_names_and_prefixes_from_the_ros_block(tmp_path: Path) -
 def test_bad_namespace_is_named(tmp_path: Path) -> None:
     with pytest.raises(SimError, match=r"robots\[1\]\.ros\.namespace.*'/arm-2'"):
         load_scene(two_arm_scene(tmp_path, namespace="/arm-2"))
-    with pytest.raises(SimError, match=r"robots\[1\]\.ros: unknown key\(s\) bogus"):
+    with pytest.raises(SimError, match=r"robots\[1\]\.ros: unknown key 'bogus'"):
         load_scene(two_arm_scene(tmp_path, bogus=1))
 
 

@@ -121,7 +121,7 @@ def test_two_prefixed_robots(tmp_path: Path) -> None:
 @pytest.mark.parametrize(
     ("scene", "message"),
     [
-        ({"robot": []}, r"unknown key\(s\) robot"),
+        ({"robot": []}, r"top level: unknown key 'robot'; did you mean 'robots'\?"),
         ({"physics": {"timestep": -1}}, r"physics.timestep: must be > 0"),
         ({"physics": {"integrator": "magic"}}, "unknown integrator 'magic'"),
         ({"objects": [{"name": "x", "type": "cone"}]}, r"objects\[0\].type: unknown shape 'cone'"),
@@ -140,7 +140,7 @@ def test_two_prefixed_robots(tmp_path: Path) -> None:
                     {"name": "x", "type": "sphere", "size": 1},
                 ]
             },
-            "duplicate name",
+            r"objects\[1\].name: the name 'x' is already taken by objects\[0\]",
         ),
         ({"robots": [{"name": "a"}]}, "missing key 'urdf'"),
         (

@@ -7,7 +7,7 @@ import warnings
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, replace
 
-from simbridge.errors import SimError
+from simbridge.errors import SimError, did_you_mean
 from simbridge.sim.control.drive import DriveMode, DriveSpec
 from simbridge.sim.control.drive_bank import add_drive_actuator
 from simbridge.sim.scene.efforts import SCALE_MARGIN, effort_limits, gravity_torques
@@ -281,4 +281,25 @@ def build_scene(scene: Scene, meshes: MeshCache | None = None) -> BuiltScene:
     names = [r.name for r in robots]
     if len(set(names)) != len(names):
         raise SimError(f"scene robots: duplicate robot names {names} (set 'name' on each)")
+    _check_sensor_bodies(scene, doc)
     return BuiltScene(scene, doc, robots)
+
+
+def _check_sensor_bodies(scene: Scene, doc: MjcfDocument) -> None:
+    """Every sensor's mount body is a body of the model (a link or an object) or the world:
+    caught when the scene is built, with or without an endpoint, at the entry's line."""
+    bodies = doc.body_names()
+    for i, entry in enumerate(scene.sensors):
+        body = entry.get("body")
+        if not isinstance(body, str) or body in ("", "world") or body in bodies:
+            continue
+        message = (
+            f"no body '{body}' in the scene{did_you_mean(body, bodies)} "
+            f"(bodies: {', '.join(bodies)}, world)"
+        )
+        where = scene.locations.get(f"sensors[{i}].body")
+        raise (
+            where.error(message)
+            if where is not None
+            else SimError(f"sensor {entry.get('name')!r}: {message}")
+        )

@@ -8,12 +8,11 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any, TypeVar
 
-import yaml
-
-from simbridge.errors import SimError
+from simbridge.errors import SimError, did_you_mean
 from simbridge.sim.control.diff_drive import DiffDriveConfig, DiffDriveLimits
 from simbridge.sim.control.drive import DriveMode, DriveSpec
 from simbridge.sim.scene.efforts import EFFORT_POLICIES
+from simbridge.sim.scene.located import LineList, LineMap, Where, plain, read_yaml
 from simbridge.sim.scene.model import (
     INTEGRATORS,
     CommandTopics,
@@ -31,43 +30,52 @@ from simbridge.sim.scene.model import (
     Scene,
     TrajectoryControllerSpec,
 )
+from simbridge.sim.sensors.config import OptionError
+from simbridge.sim.sensors.suite import SENSOR_CONFIGS, sensor_config
 from simbridge.sim.urdf.loader import is_xacro
 from simbridge.sim.urdf.transforms import Vec3
 
 __all__ = ["SHAPES", "load_scene", "parse_scene", "with_overrides"]
 
 SHAPES = ("box", "sphere", "cylinder", "plane", "mesh")
+LIGHTS = ("spot", "directional")
 T = TypeVar("T")
 
 
 class _Section:
-    """A mapping from the YAML with its location, so errors say e.g. `robots[0].base.xyz`."""
+    """A mapping from the YAML with its location, so errors say e.g.
+    `scene.yaml:7: robots[0].base: ...`."""
 
-    def __init__(self, data: object, where: str) -> None:
+    def __init__(self, data: object, where: Where) -> None:
         if data is None:
             data = {}
         if not isinstance(data, Mapping):
-            raise SimError(f"scene {where}: expected a mapping, got {type(data).__name__}")
+            raise where.error(f"expected a mapping of keys, got {_kind(data)}")
         self.data: Mapping[str, Any] = data
         self.where = where
 
+    def line(self, name: str) -> int | None:
+        """The line of key `name` in the file, if the data came from one."""
+        return self.data.key_lines.get(name) if isinstance(self.data, LineMap) else None
+
     def done(self, known: tuple[str, ...]) -> None:
-        unknown = [k for k in self.data if k not in known]
-        if unknown:
-            raise SimError(
-                f"scene {self.where}: unknown key(s) {', '.join(map(str, unknown))} "
-                f"(valid: {', '.join(known)})"
-            )
+        """Every key of the mapping must be one of `known`."""
+        for key in self.data:
+            if key not in known:
+                raise self.where.at(self.line(key)).error(
+                    f"unknown key '{key}'{did_you_mean(str(key), known)} "
+                    f"(valid: {', '.join(known)})"
+                )
 
-    def key(self, name: str) -> str:
-        return f"{self.where}.{name}" if self.where else name
+    def key(self, name: str) -> Where:
+        return self.where.child(f".{name}" if self.where else name, self.line(name))
 
-    def get(self, name: str, conv: Callable[[Any, str], T], default: T) -> T:
+    def get(self, name: str, conv: Callable[[Any, Where], T], default: T) -> T:
         if name not in self.data or self.data[name] is None:
             return default
         return conv(self.data[name], self.key(name))
 
-    def optional(self, name: str, conv: Callable[[Any, str], T]) -> T | None:
+    def optional(self, name: str, conv: Callable[[Any, Where], T]) -> T | None:
         if name not in self.data or self.data[name] is None:
             return None
         return conv(self.data[name], self.key(name))
@@ -77,68 +85,85 @@ class _Section:
 
     def items(self, name: str) -> list[_Section]:
         value = self.data.get(name) or []
+        where = self.key(name)
         if not isinstance(value, list):
-            raise SimError(f"scene {self.key(name)}: expected a list")
-        return [_Section(v, f"{self.key(name)}[{i}]") for i, v in enumerate(value)]
+            raise where.error(f"expected a list of entries, got {_kind(value)}")
+        lines = value.item_lines if isinstance(value, LineList) else [None] * len(value)
+        return [
+            _Section(v, where.child(f"[{i}]", line))
+            for i, (v, line) in enumerate(zip(value, lines, strict=True))
+        ]
 
 
-def _number(value: Any, where: str) -> float:
+def _kind(value: object) -> str:
+    """How a YAML value reads in an error: a mapping, a list, or the value itself."""
+    if isinstance(value, Mapping):
+        return "a mapping"
+    if isinstance(value, list):
+        return "a list"
+    return repr(value)
+
+
+def _number(value: Any, where: Where) -> float:
     if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
-        raise SimError(f"scene {where}: expected a finite number, got {value!r}")
+        raise where.error(f"expected a finite number, got {_kind(value)}")
     return float(value)
 
 
-def _positive(value: Any, where: str) -> float:
+def _positive(value: Any, where: Where) -> float:
     number = _number(value, where)
     if number <= 0:
-        raise SimError(f"scene {where}: must be > 0, got {number}")
+        raise where.error(f"must be > 0, got {number}")
     return number
 
 
-def _non_negative(value: Any, where: str) -> float:
+def _non_negative(value: Any, where: Where) -> float:
     number = _number(value, where)
     if number < 0:
-        raise SimError(f"scene {where}: must be >= 0, got {number}")
+        raise where.error(f"must be >= 0, got {number}")
     return number
 
 
-def _bool(value: Any, where: str) -> bool:
+def _bool(value: Any, where: Where) -> bool:
     if not isinstance(value, bool):
-        raise SimError(f"scene {where}: expected true or false, got {value!r}")
+        raise where.error(f"expected true or false, got {_kind(value)}")
     return value
 
 
-def _str(value: Any, where: str) -> str:
+def _str(value: Any, where: Where) -> str:
     if not isinstance(value, str) or not value:
-        raise SimError(f"scene {where}: expected a non-empty string, got {value!r}")
+        raise where.error(f"expected a non-empty string, got {_kind(value)}")
     return value
 
 
-def _choice(valid: tuple[str, ...]) -> Callable[[Any, str], str]:
-    def conv(value: Any, where: str) -> str:
+def _choice(valid: tuple[str, ...]) -> Callable[[Any, Where], str]:
+    def conv(value: Any, where: Where) -> str:
         if value not in valid:
-            raise SimError(f"scene {where}: expected one of {', '.join(valid)}, got {value!r}")
+            raise where.error(
+                f"expected one of {', '.join(valid)}, got {value!r}"
+                f"{did_you_mean(str(value), valid)}"
+            )
         return str(value)
 
     return conv
 
 
-def _topic(value: Any, where: str) -> str | None:
+def _topic(value: Any, where: Where) -> str | None:
     if value is False:
         return None
     return _str(value, where)
 
 
-def _vector(count: int) -> Callable[[Any, str], tuple[float, ...]]:
-    def conv(value: Any, where: str) -> tuple[float, ...]:
+def _vector(count: int) -> Callable[[Any, Where], tuple[float, ...]]:
+    def conv(value: Any, where: Where) -> tuple[float, ...]:
         if not isinstance(value, list | tuple) or len(value) != count:
-            raise SimError(f"scene {where}: expected a list of {count} numbers, got {value!r}")
-        return tuple(_number(v, f"{where}[{i}]") for i, v in enumerate(value))
+            raise where.error(f"expected a list of {count} numbers, got {value!r}")
+        return tuple(_number(v, where.child(f"[{i}]")) for i, v in enumerate(value))
 
     return conv
 
 
-def _vec3(value: Any, where: str) -> Vec3:
+def _vec3(value: Any, where: Where) -> Vec3:
     x, y, z = _vector(3)(value, where)
     return (x, y, z)
 
@@ -152,7 +177,7 @@ def _pose(section: _Section) -> Pose:
 
 
 def _drive(section: _Section, base: DriveSpec) -> DriveSpec:
-    mode = section.get("mode", lambda v, w: DriveMode.parse(_str(v, w)), base.mode)
+    mode = section.get("mode", _drive_mode, base.mode)
     limit = base.force_limit
     if "force_limit" in section.data:
         raw = section.data["force_limit"]
@@ -161,9 +186,9 @@ def _drive(section: _Section, base: DriveSpec) -> DriveSpec:
         elif raw is None:
             limit = None
         elif isinstance(raw, str):
-            raise SimError(
-                f"scene {section.key('force_limit')}: expected a number > 0, 'unlimited' or "
-                f"null (the effort_limits policy), got {raw!r}"
+            raise section.key("force_limit").error(
+                "expected a number > 0, 'unlimited' or null (the effort_limits policy), "
+                f"got {raw!r}"
             )
         else:
             limit = _positive(raw, section.key("force_limit"))
@@ -175,13 +200,20 @@ def _drive(section: _Section, base: DriveSpec) -> DriveSpec:
             limit,
         )
     except SimError as exc:
-        raise SimError(f"scene {section.where}: {exc}") from None
+        raise section.where.error(str(exc)) from None
     section.done(("mode", "stiffness", "damping", "force_limit"))
     return spec
 
 
-def _path(base_dir: Path) -> Callable[[Any, str], Path]:
-    def conv(value: Any, where: str) -> Path:
+def _drive_mode(value: Any, where: Where) -> DriveMode:
+    try:
+        return DriveMode.parse(_str(value, where))
+    except SimError as exc:
+        raise where.error(str(exc)) from None
+
+
+def _path(base_dir: Path) -> Callable[[Any, Where], Path]:
+    def conv(value: Any, where: Where) -> Path:
         path = Path(_str(value, where)).expanduser()
         return path if path.is_absolute() else base_dir / path
 
@@ -190,7 +222,7 @@ def _path(base_dir: Path) -> Callable[[Any, str], Path]:
 
 def _robot(section: _Section, base_dir: Path) -> RobotSpec:
     if "urdf" not in section.data:
-        raise SimError(f"scene {section.where}: missing key 'urdf' (the robot's URDF/xacro file)")
+        raise section.where.error("missing key 'urdf' (the robot's URDF or xacro file)")
     drives = section.sub("drives")
     default = _drive(drives.sub("default"), DriveSpec())
     joints_section = drives.sub("joints")
@@ -217,7 +249,7 @@ def _robot(section: _Section, base_dir: Path) -> RobotSpec:
         self_collision=section.get("self_collision", _bool, False),
         xacro_args={str(k): str(v) for k, v in xacro_args.data.items()},
         search_paths=tuple(
-            _path(base_dir)(p, f"{section.key('search_paths')}[{i}]")
+            _path(base_dir)(p, section.key("search_paths").child(f"[{i}]"))
             for i, p in enumerate(section.data.get("search_paths") or [])
         ),
         initial_positions={
@@ -250,12 +282,12 @@ def _robot(section: _Section, base_dir: Path) -> RobotSpec:
     return spec
 
 
-def _namespace(value: Any, where: str) -> str:
+def _namespace(value: Any, where: Where) -> str:
     text = _str(value, where)
     parts = [p for p in text.split("/") if p]
     if any(not p.replace("_", "a").isalnum() or p[0].isdigit() for p in parts):
-        raise SimError(
-            f"scene {where}: {text!r} is not a ROS namespace (names of letters, digits and _, "
+        raise where.error(
+            f"{text!r} is not a ROS namespace (names of letters, digits and _, "
             "not starting with a digit, separated by /, e.g. /arm_left)"
         )
     return "/" + "/".join(parts) if parts else "/"
@@ -272,7 +304,7 @@ CONTROLLER_TYPES = ("joint_trajectory_controller", "gripper_action_controller", 
 def _gripper(name: str, entry: _Section) -> GripperControllerSpec:
     base = GripperControllerSpec("", "")
     if "joint" not in entry.data:
-        raise SimError(f"scene {entry.where}: missing key 'joint' (the gripper's driven joint)")
+        raise entry.where.error("missing key 'joint' (the gripper's driven joint)")
     spec = GripperControllerSpec(
         name=name,
         joint=entry.get("joint", _str, ""),
@@ -304,16 +336,16 @@ def _controllers(section: _Section) -> tuple[ControllerSpec, ...]:
         entry = section.sub(str(name))
         kind = entry.get("type", _str, "")
         if kind not in CONTROLLER_TYPES:
-            raise SimError(
-                f"scene {entry.key('type')}: expected one of {', '.join(CONTROLLER_TYPES)}, "
-                f"got {kind!r}"
+            raise entry.key("type").error(
+                f"expected one of {', '.join(CONTROLLER_TYPES)}, got {kind!r}"
+                f"{did_you_mean(kind, CONTROLLER_TYPES)}"
             )
         if kind == "gripper_action_controller":
             found.append(_gripper(str(name), entry))
             continue
         joints = entry.data.get("joints")
         if not isinstance(joints, list) or not joints:
-            raise SimError(f"scene {entry.key('joints')}: expected a list of joint names")
+            raise entry.key("joints").error("expected a list of joint names")
         if kind in GROUP_TYPES:
             found.append(GroupControllerSpec(str(name), GROUP_TYPES[kind], tuple(map(str, joints))))
             entry.done(("type", "joints"))
@@ -393,11 +425,11 @@ def _robot_ros(section: _Section) -> RobotRos:
 def _object(section: _Section, base_dir: Path) -> ObjectSpec:
     name = section.get("name", _str, "")
     if not name:
-        raise SimError(f"scene {section.where}: missing key 'name'")
+        raise section.where.error("missing key 'name' (unique among the scene's objects)")
     shape = section.get("type", _str, "")
     if shape not in SHAPES:
-        raise SimError(
-            f"scene {section.key('type')}: unknown shape '{shape}' (valid: {', '.join(SHAPES)})"
+        raise section.key("type").error(
+            f"unknown shape '{shape}'{did_you_mean(shape, SHAPES)} (valid: {', '.join(SHAPES)})"
         )
     sizes = {"box": 3, "sphere": 1, "cylinder": 2, "plane": 2}
     size: tuple[float, ...] = ()
@@ -405,15 +437,13 @@ def _object(section: _Section, base_dir: Path) -> ObjectSpec:
         default = (0.0, 0.0) if shape == "plane" else None
         raw = section.data.get("size", default)
         if raw is None:
-            raise SimError(
-                f"scene {section.key('size')}: missing ({sizes[shape]} numbers for a {shape})"
-            )
+            raise section.key("size").error(f"missing ({sizes[shape]} numbers for a {shape})")
         if isinstance(raw, int | float) and sizes[shape] == 1:
             raw = [raw]
         size = _vector(sizes[shape])(raw, section.key("size"))
         check = _non_negative if shape == "plane" else _positive
         for i, v in enumerate(size):
-            check(v, f"{section.key('size')}[{i}]")
+            check(v, section.key("size").child(f"[{i}]"))
     friction_raw = section.data.get("friction", 1.0)
     if isinstance(friction_raw, int | float):
         friction_raw = [friction_raw, 0.005, 0.0001]
@@ -422,7 +452,7 @@ def _object(section: _Section, base_dir: Path) -> ObjectSpec:
     r, g, b, a = section.get("rgba", _vector(4), grey)
     dynamic = section.get("dynamic", _bool, False)
     if dynamic and shape == "plane":
-        raise SimError(f"scene {section.where}: a plane cannot be dynamic")
+        raise section.key("dynamic").error("a plane cannot be dynamic")
     spec = ObjectSpec(
         name=name,
         shape=shape,
@@ -436,7 +466,7 @@ def _object(section: _Section, base_dir: Path) -> ObjectSpec:
         mesh_scale=section.get("scale", _vec3, (1.0, 1.0, 1.0)),
     )
     if shape == "mesh" and spec.mesh is None:
-        raise SimError(f"scene {section.where}: a mesh object needs key 'mesh' (a file)")
+        raise section.where.error("a mesh object needs key 'mesh' (a file)")
     section.done(
         ("name", "type", "size", "pose", "dynamic", "mass", "friction", "rgba", "mesh", "scale")
     )
@@ -445,9 +475,9 @@ def _object(section: _Section, base_dir: Path) -> ObjectSpec:
 
 def _light(section: _Section) -> LightSpec:
     kind = section.get("type", _str, "spot")
-    if kind not in ("spot", "directional"):
-        raise SimError(
-            f"scene {section.key('type')}: unknown light '{kind}' (valid: spot, directional)"
+    if kind not in LIGHTS:
+        raise section.key("type").error(
+            f"unknown light '{kind}'{did_you_mean(kind, LIGHTS)} (valid: {', '.join(LIGHTS)})"
         )
     spec = LightSpec(
         name=section.get("name", _str, ""),
@@ -464,14 +494,14 @@ def _light(section: _Section) -> LightSpec:
 def _physics(section: _Section) -> PhysicsSettings:
     integrator = section.get("integrator", _str, "implicitfast")
     if integrator not in INTEGRATORS:
-        raise SimError(
-            f"scene {section.key('integrator')}: unknown integrator '{integrator}' "
+        raise section.key("integrator").error(
+            f"unknown integrator '{integrator}'{did_you_mean(integrator, INTEGRATORS)} "
             f"(valid: {', '.join(INTEGRATORS)})"
         )
     iterations = section.get("solver_iterations", _positive, 100.0)
     seed = section.get("seed", _non_negative, 0.0)
     if iterations != int(iterations) or seed != int(seed):
-        raise SimError(f"scene {section.where}: solver_iterations and seed must be integers")
+        raise section.where.error("solver_iterations and seed must be integers")
     settings = PhysicsSettings(
         timestep=section.get("timestep", _positive, 0.002),
         gravity=section.get("gravity", _vec3, (0.0, 0.0, -9.81)),
@@ -491,25 +521,29 @@ def _diff_drive(section: _Section) -> DiffDriveConfig | None:
         return None
     for key in ("left", "right"):
         if key not in section.data:
-            raise SimError(f"scene {section.where}: missing key '{key}' (a wheel joint)")
+            raise section.where.error(f"missing key '{key}' (a wheel joint)")
     base, limits = DiffDriveConfig("left", "right"), DiffDriveLimits()
     names = tuple(
         f"max_{q}_{d}" for d in ("velocity", "acceleration") for q in ("linear", "angular")
     )
+    values = {n: section.get(n, _positive, getattr(limits, n)) for n in names}
+    left, right = section.get("left", _str, ""), section.get("right", _str, "")
+    topic = section.get("topic", _str, base.topic)
+    radius = section.optional("wheel_radius", _positive)
+    separation = section.optional("wheel_separation", _positive)
+    timeout = section.get("cmd_timeout", _positive, base.cmd_timeout)
     try:
         config = DiffDriveConfig(
-            left_joint=section.get("left", _str, ""),
-            right_joint=section.get("right", _str, ""),
-            topic=section.get("topic", _str, base.topic),
-            wheel_radius=section.optional("wheel_radius", _positive),
-            wheel_separation=section.optional("wheel_separation", _positive),
-            limits=DiffDriveLimits(
-                **{n: section.get(n, _positive, getattr(limits, n)) for n in names}
-            ),
-            cmd_timeout=section.get("cmd_timeout", _positive, base.cmd_timeout),
+            left_joint=left,
+            right_joint=right,
+            topic=topic,
+            wheel_radius=radius,
+            wheel_separation=separation,
+            limits=DiffDriveLimits(**values),
+            cmd_timeout=timeout,
         )
     except SimError as exc:
-        raise SimError(f"scene {section.where}: {exc}") from None
+        raise section.where.error(str(exc)) from None
     section.done(
         ("left", "right", "topic", "wheel_radius", "wheel_separation", "cmd_timeout", *names)
     )
@@ -558,43 +592,67 @@ def _ros(section: _Section) -> RosSettings:
     return settings
 
 
-def _sensor(section: _Section) -> dict[str, Any]:
-    if not isinstance(section.data.get("type"), str):
-        raise SimError(f"scene {section.where}: a sensor needs a 'type' (e.g. lidar_2d, camera)")
-    return dict(section.data)
+def _sensor(section: _Section, locations: dict[str, Where]) -> dict[str, Any]:
+    """Check one `sensors:` entry (type, options, their types) and return it as a plain
+    dict; the mount body is checked when the scene is built, at the line noted here."""
+    kind, name = section.data.get("type"), section.data.get("name")
+    if not isinstance(kind, str):
+        raise section.where.error(f"a sensor needs a 'type' (one of {', '.join(SENSOR_CONFIGS)})")
+    if kind not in SENSOR_CONFIGS:
+        raise section.key("type").error(
+            f"unknown sensor type '{kind}'{did_you_mean(kind, SENSOR_CONFIGS)} "
+            f"(valid: {', '.join(SENSOR_CONFIGS)})"
+        )
+    entry = section.where.child(f" ({kind} {name!r})" if isinstance(name, str) else f" ({kind})")
+    config: dict[str, Any] = plain(dict(section.data))
+    try:
+        sensor_config(config)
+    except OptionError as exc:
+        raise entry.at(section.line(exc.key) if exc.key else None).error(exc.detail) from None
+    except SimError as exc:
+        raise entry.error(str(exc)) from None
+    locations[f"{section.where}.body"] = entry.child(".body", section.line("body"))
+    return config
 
 
 def parse_scene(data: object, base_dir: Path, source: Path | None = None) -> Scene:
-    """Build a `Scene` from parsed YAML `data`; relative paths are taken from `base_dir`."""
-    root = _Section(data, "")
+    """Build a `Scene` from parsed YAML `data`; relative paths are taken from `base_dir`.
+    Errors name the entry, and the file and line when `data` came from `load_scene`."""
+    root = _Section(data, Where("", str(source) if source is not None else None, None))
+    locations: dict[str, Where] = {}
+    root.done(("physics", "robots", "objects", "lights", "ros", "sensors", "strict"))
     scene = Scene(
         physics=_physics(root.sub("physics")),
         robots=tuple(_robot(s, base_dir) for s in root.items("robots")),
         objects=tuple(_object(s, base_dir) for s in root.items("objects")),
         lights=tuple(_light(s) for s in root.items("lights")),
         ros=_ros(root.sub("ros")),
-        sensors=tuple(_sensor(s) for s in root.items("sensors")),
+        sensors=tuple(_sensor(s, locations) for s in root.items("sensors")),
         source=source,
         strict=root.get("strict", _bool, False),
+        locations=locations,
     )
-    root.done(("physics", "robots", "objects", "lights", "ros", "sensors", "strict"))
-    names = [o.name for o in scene.objects]
-    duplicates = sorted({n for n in names if names.count(n) > 1})
-    if duplicates:
-        raise SimError(f"scene objects: duplicate name(s) {', '.join(duplicates)}")
+    _unique(root, "objects", [o.name for o in scene.objects])
+    _unique(root, "sensors", [str(s.get("name")) for s in scene.sensors])
     return scene
+
+
+def _unique(root: _Section, section: str, names: list[str]) -> None:
+    """Two entries of `section` may not share a name: the second one is reported."""
+    entries = root.items(section)
+    for i, name in enumerate(names):
+        if name in names[:i]:
+            raise (
+                entries[i]
+                .key("name")
+                .error(f"the name '{name}' is already taken by {section}[{names.index(name)}]")
+            )
 
 
 def load_scene(path: str | Path) -> Scene:
     """Read the scene YAML file at `path`."""
     file = Path(path)
-    try:
-        data = yaml.safe_load(file.read_text())
-    except OSError as exc:
-        raise SimError(f"scene file '{file}' cannot be read: {exc.strerror}") from None
-    except yaml.YAMLError as exc:
-        raise SimError(f"scene file '{file}' is not valid YAML: {exc}") from None
-    return parse_scene(data, file.resolve().parent, file)
+    return parse_scene(read_yaml(file), file.resolve().parent, file)
 
 
 def _is_xacro_file(path: Path) -> bool:

@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from simbridge.sim.control.diff_drive import DiffDriveConfig
 from simbridge.sim.control.drive import DriveSpec
+from simbridge.sim.scene.located import Where
 from simbridge.sim.urdf.transforms import Transform, Vec3
 
 __all__ = [
@@ -240,3 +242,6 @@ class Scene:
     strict: bool = False
     """Refuse what is otherwise tolerated with a warning (duplicate URDF definitions,
     out-of-range initial positions...)."""
+    locations: Mapping[str, Where] = field(default_factory=dict, compare=False)
+    """Entries checked only when the scene is built (`sensors[1].body`: a sensor's mount
+    body) -> where they stand in the file, for the error."""

@@ -23,7 +23,7 @@ from simbridge.sim.sensors.base import Sensor
 from simbridge.sim.sensors.binding import SteppedWorld, attach_sensors
 from simbridge.sim.sensors.camera import Camera, CameraConfig
 from simbridge.sim.sensors.camera_model import PinholeModel, optical_pose
-from simbridge.sim.sensors.config import SensorConfig
+from simbridge.sim.sensors.config import OptionError, SensorConfig
 from simbridge.sim.sensors.depth_camera import DepthCamera, DepthCameraConfig
 from simbridge.sim.sensors.frames import Mount, MountedFrame, Pose
 from simbridge.sim.sensors.gl_backend import configure_gl
@@ -35,9 +35,16 @@ from simbridge.sim.sensors.offscreen import OffscreenRenderer
 from simbridge.sim.sensors.raycast import RayCaster, RayHits
 from simbridge.sim.sensors.rosmsg import Publication
 from simbridge.sim.sensors.schedule import RateSchedule
-from simbridge.sim.sensors.suite import SENSOR_TYPES, SensorSuite, build_sensor
+from simbridge.sim.sensors.suite import (
+    SENSOR_CONFIGS,
+    SENSOR_TYPES,
+    SensorSuite,
+    build_sensor,
+    sensor_config,
+)
 
 __all__ = [
+    "SENSOR_CONFIGS",
     "SENSOR_TYPES",
     "Camera",
     "CameraConfig",
@@ -57,6 +64,7 @@ __all__ = [
     "OdometryConfig",
     "OdometryReading",
     "OffscreenRenderer",
+    "OptionError",
     "PinholeModel",
     "PointScan",
     "Pose",
@@ -72,4 +80,5 @@ __all__ = [
     "build_sensor",
     "configure_gl",
     "optical_pose",
+    "sensor_config",
 ]

@@ -8,12 +8,37 @@ from collections.abc import Mapping
 from dataclasses import MISSING, dataclass, fields
 from typing import Any, Self
 
-from simbridge.errors import SimError
+from simbridge.errors import SimError, did_you_mean
 from simbridge.sim.sensors.frames import Mount
 
-__all__ = ["SensorConfig"]
+__all__ = ["OptionError", "SensorConfig"]
 
 Vec3 = tuple[float, float, float]
+
+
+class OptionError(SimError):
+    """A bad option in a sensor's configuration: `key` is the option at fault (None: the
+    entry as a whole), `detail` what is wrong, so a scene file can add where it stands."""
+
+    def __init__(self, owner: str, key: str | None, detail: str) -> None:
+        super().__init__(f"{owner}: {detail}")
+        self.key = key
+        self.detail = detail
+
+
+def _describe(hint: Any) -> str:
+    """A field's type as a scene file's author reads it."""
+    origin = typing.get_origin(hint)
+    if origin in (types.UnionType, typing.Union):
+        inner = [_describe(option) for option in typing.get_args(hint) if option is not type(None)]
+        return " or ".join([*inner, "null"])
+    if origin is tuple:
+        args = typing.get_args(hint)
+        if len(args) == 2 and args[1] is Ellipsis:
+            return f"a list of {_describe(args[0]).removeprefix('a ').removeprefix('an ')}s"
+        return f"a list of {len(args)} {_describe(args[0]).removeprefix('a ')}s"
+    names = {bool: "true or false", int: "an integer", float: "a number", str: "a string"}
+    return names.get(hint, str(hint))
 
 
 def _coerce(owner: str, key: str, hint: Any, value: Any) -> Any:
@@ -28,19 +53,21 @@ def _coerce(owner: str, key: str, hint: Any, value: Any) -> Any:
     try:
         if origin is tuple:
             args = typing.get_args(hint)
+            if isinstance(value, str | bytes):
+                raise TypeError(value)
             items = list(value)
             if len(args) == 2 and args[1] is Ellipsis:
                 return tuple(_coerce(owner, key, args[0], item) for item in items)
             if len(items) != len(args):
-                raise SimError(
-                    f"{owner}.{key} needs {len(args)} values, got {len(items)}: {value!r}"
+                raise OptionError(
+                    owner, key, f"{key}: needs {len(args)} values, got {len(items)}: {value!r}"
                 )
             return tuple(
                 _coerce(owner, key, arg, item) for arg, item in zip(args, items, strict=True)
             )
         if hint is bool:
             if not isinstance(value, bool):
-                raise SimError(f"{owner}.{key} must be true or false, got {value!r}")
+                raise TypeError(value)
             return value
         if hint in (int, float):
             if isinstance(value, bool):
@@ -54,8 +81,8 @@ def _coerce(owner: str, key: str, hint: Any, value: Any) -> Any:
                 raise TypeError(value)
             return value
     except (TypeError, ValueError) as exc:
-        raise SimError(f"{owner}.{key} must be {hint}, got {value!r}") from exc
-    raise SimError(f"{owner}.{key}: unsupported option type {hint}")
+        raise OptionError(owner, key, f"{key}: must be {_describe(hint)}, got {value!r}") from exc
+    raise OptionError(owner, key, f"{key}: unsupported option type {hint}")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -93,20 +120,29 @@ class SensorConfig:
         """
         hints = typing.get_type_hints(cls)
         known = {f.name: f for f in fields(cls)}
-        unknown = sorted(set(data) - set(known) - {"type"})
-        if unknown:
-            raise SimError(
-                f"{cls.__name__}: unknown option(s) {unknown}; valid options: {sorted(known)}"
-            )
+        owner = cls.__name__
+        for key in data:
+            if key not in known and key != "type":
+                raise OptionError(
+                    owner,
+                    str(key),
+                    f"unknown option '{key}'{did_you_mean(str(key), known)} "
+                    f"(valid: {', '.join(sorted(known))})",
+                )
         missing = [
             name
             for name, f in known.items()
             if f.default is MISSING and f.default_factory is MISSING and name not in data
         ]
         if missing:
-            raise SimError(f"{cls.__name__}: missing required option(s) {missing}")
+            raise OptionError(
+                owner,
+                None,
+                f"missing required option{'s' if len(missing) > 1 else ''} "
+                f"{', '.join(map(repr, missing))}",
+            )
         values = {
-            key: _coerce(cls.__name__, key, hints[key], value)
+            key: _coerce(owner, key, hints[key], value)
             for key, value in data.items()
             if key != "type"
         }

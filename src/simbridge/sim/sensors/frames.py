@@ -9,7 +9,7 @@ import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
-from simbridge.errors import SimError
+from simbridge.errors import SimError, did_you_mean
 
 __all__ = ["Mount", "MountedFrame", "Pose", "quat_wxyz_from_matrix", "rotation_from_rpy"]
 
@@ -85,7 +85,10 @@ class Mount:
         body_id = int(mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, self.body))
         if body_id < 0:
             names = [model.body(i).name for i in range(model.nbody)]
-            raise SimError(f"sensor mount body {self.body!r} is not in the model; bodies: {names}")
+            raise SimError(
+                f"sensor mount body {self.body!r} is not in the model"
+                f"{did_you_mean(self.body, names)} (bodies: {', '.join(names[1:])}, world)"
+            )
         return MountedFrame(body_id, self.offset())
 
 

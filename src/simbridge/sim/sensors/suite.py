@@ -7,9 +7,10 @@ from typing import Any
 
 import mujoco
 
-from simbridge.errors import SimError
+from simbridge.errors import SimError, did_you_mean
 from simbridge.sim.sensors.base import Sensor
 from simbridge.sim.sensors.camera import Camera, CameraConfig
+from simbridge.sim.sensors.config import SensorConfig
 from simbridge.sim.sensors.depth_camera import DepthCamera, DepthCameraConfig
 from simbridge.sim.sensors.imu import Imu, ImuConfig
 from simbridge.sim.sensors.lidar2d import Lidar2D, Lidar2DConfig
@@ -17,7 +18,7 @@ from simbridge.sim.sensors.lidar3d import Lidar3D, Lidar3DConfig
 from simbridge.sim.sensors.odometry import Odometry, OdometryConfig
 from simbridge.sim.sensors.rosmsg import Publication, transform_stamped
 
-__all__ = ["SENSOR_TYPES", "SensorSuite", "build_sensor"]
+__all__ = ["SENSOR_CONFIGS", "SENSOR_TYPES", "SensorSuite", "build_sensor", "sensor_config"]
 
 
 def _lidar2d(model: mujoco.MjModel, cfg: Mapping[str, Any]) -> Sensor:
@@ -54,15 +55,35 @@ SENSOR_TYPES: dict[str, Callable[[mujoco.MjModel, Mapping[str, Any]], Sensor]] =
 }
 
 
+SENSOR_CONFIGS: dict[str, type[SensorConfig]] = {
+    "lidar_2d": Lidar2DConfig,
+    "lidar_3d": Lidar3DConfig,
+    "camera": CameraConfig,
+    "depth_camera": DepthCameraConfig,
+    "imu": ImuConfig,
+    "odometry": OdometryConfig,
+}
+
+
+def _kind(config: Mapping[str, Any]) -> str:
+    kind = config.get("type")
+    if not isinstance(kind, str) or kind not in SENSOR_CONFIGS:
+        raise SimError(
+            f"sensor {config.get('name', '?')!r}: unknown type {kind!r}"
+            f"{did_you_mean(str(kind), SENSOR_CONFIGS)} (valid: {', '.join(SENSOR_CONFIGS)})"
+        )
+    return kind
+
+
+def sensor_config(config: Mapping[str, Any]) -> SensorConfig:
+    """Check a scene-file sensor entry without a model (its type, options and their types)
+    and return its options: a scene checks every entry so when it loads."""
+    return SENSOR_CONFIGS[_kind(config)].from_config(config)
+
+
 def build_sensor(model: mujoco.MjModel, config: Mapping[str, Any]) -> Sensor:
     """Create one sensor from a scene-file mapping whose `type` is a key of SENSOR_TYPES."""
-    kind = config.get("type")
-    if kind not in SENSOR_TYPES:
-        raise SimError(
-            f"sensor {config.get('name', '?')!r}: type {kind!r} is not one of "
-            f"{sorted(SENSOR_TYPES)}"
-        )
-    return SENSOR_TYPES[kind](model, config)
+    return SENSOR_TYPES[_kind(config)](model, config)
 
 
 class SensorSuite:
