@@ -51,7 +51,7 @@ def test_registrations_and_messages_arrive_in_order(endpoint: FakeEndpoint, make
     conn = make_connector(endpoint.port).connect()
     pub = conn.register_publisher("/chatter", "std_msgs/String", queue_size=5, latch=True)
     conn.subscribe("/in", "std_msgs/Int32", lambda _m: None, raw=True)
-    conn.register_ros_service("/add", "rospy_tutorials/AddTwoInts")
+    conn.register_ros_service("/add", "rospy_tutorials/AddTwoInts", raw=True)
     conn.implement_service("/sim_reset", "std_srvs/Empty", lambda _r: b"", raw=True)
     for i in range(3):
         pub.publish(bytes([i]))

@@ -57,6 +57,30 @@ class PayloadCodec:
                     self._registry = registry_for(self.protocol)
         return self._registry
 
+    def check_type(self, type_name: str, what: str, service: bool = False) -> None:
+        """ConnectorError, naming the closest known type, when `type_name` is no message (or
+        service) type of the registry given or of either generation's shared registry; a
+        connector checks every type it registers, so a typo fails where it is written."""
+        from simbridge.messages import registry_for  # noqa: PLC0415 - lazy
+
+        def knows(registry: MessageRegistry) -> bool:
+            return registry.has_service(type_name) if service else registry.has(type_name)
+
+        current = self.registry
+        if knows(current):
+            return
+        if self._given is None and knows(
+            registry_for("ROS2" if self.protocol == "ROS1" else "ROS1")
+        ):
+            return
+        try:
+            current.service(type_name) if service else current.resolve(type_name)
+        except MessageError as exc:
+            raise ConnectorError(
+                f"{what}: {exc} (pass raw=True to handle payload bytes of a type only the "
+                "ROS side knows)"
+            ) from None
+
     def _codec(self, type_name: str) -> Codec:
         codec = self._codecs.get(type_name)
         if codec is None:

@@ -172,6 +172,8 @@ class Connector(ConnectorEngine):
         queue_size: int = 10,
         latch: bool = False,
         report_subscribers: bool = False,
+        *,
+        raw: bool = False,
     ) -> Publisher:
         """Advertise `topic`; returns the Publisher.
 
@@ -179,9 +181,13 @@ class Connector(ConnectorEngine):
         extension keeps `Publisher.subscriber_count` up to date (lazy sensors publish
         only while someone listens). Registering again replaces the registration;
         earlier Publisher objects of the topic keep working and share its queue.
+        A `msg_type` the registry does not know raises ConnectorError at once, unless
+        `raw` says only payload bytes will be published (a type only ROS knows).
         """
         _check_name(topic, "topic")
         _check_name(msg_type, "message type")
+        if not raw:
+            self._codec.check_type(msg_type, f"publisher {topic}")
         if queue_size < 0:
             raise ConnectorError(f"queue_size must be >= 0, got {queue_size}")
         with self._lock:
@@ -261,11 +267,14 @@ class Connector(ConnectorEngine):
         """Call `callback` (on a connector worker, one callback at a time) with every
         message on `topic`.
 
-        `raw=True` passes the payload bytes instead of a decoded message. Several
-        callbacks may share a topic if they agree on its type.
+        `raw=True` passes the payload bytes instead of a decoded message (then `msg_type`
+        may be a type the registry does not know; otherwise that raises ConnectorError).
+        Several callbacks may share a topic if they agree on its type.
         """
         _check_name(topic, "topic")
         _check_name(msg_type, "message type")
+        if not raw:
+            self._codec.check_type(msg_type, f"subscriber {topic}")
         bound = self.options.subscribe_queue_size if queue_size is None else queue_size
         if bound < 1:
             raise ConnectorError(f"queue_size must be >= 1, got {bound}")
@@ -392,10 +401,14 @@ class Connector(ConnectorEngine):
 
     # ----------------------------------------------------------------- services
 
-    def register_ros_service(self, service: str, srv_type: str) -> None:
-        """Declare that this connector calls the ROS service `service` of type `srv_type`."""
+    def register_ros_service(self, service: str, srv_type: str, raw: bool = False) -> None:
+        """Declare that this connector calls the ROS service `service` of type `srv_type`
+        (ConnectorError if the registry does not know it, unless `raw`: only calls with
+        request bytes, `call_service(..., raw=True)`, will be made)."""
         _check_name(service, "service")
         _check_name(srv_type, "service type")
+        if not raw:
+            self._codec.check_type(srv_type, f"service {service}", service=True)
         with self._lock:
             self._ros_services[service] = srv_type
             self._send_command(RosService(service, srv_type))
@@ -460,10 +473,13 @@ class Connector(ConnectorEngine):
         """Serve `service` to ROS: `handler(request) -> response` runs on a connector worker
         (one callback or handler at a time).
 
-        With `raw=True` the handler gets the request bytes; it may return bytes or a message.
+        With `raw=True` the handler gets the request bytes; it may return bytes or a message
+        (and `srv_type` may be a type the registry does not know; otherwise ConnectorError).
         """
         _check_name(service, "service")
         _check_name(srv_type, "service type")
+        if not raw:
+            self._codec.check_type(srv_type, f"service {service}", service=True)
         with self._lock:
             self._unity_services[service] = ServiceImpl(service, srv_type, handler, raw)
             self._send_command(UnityService(service, srv_type))
