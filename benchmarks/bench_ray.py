@@ -3,13 +3,18 @@ node and 2 nodes of 1 CPU each, beside the same rollouts without Ray, and Ray's 
 
 Each layout is a fresh local cluster (`ray.cluster_utils.Cluster` on 127.0.0.2, private
 RAY_TMPDIR, 100 MB object store a node); the learner's side is `RayRollouts.perturbed`,
-one ARS iteration of Reach-v0 (8 directions, 16 episodes of 50 steps) at a time, the
-rate the best of `ROUNDS` rounds of at least `ROUND_S`. "no Ray" rows run the same
-iterations on one `SceneVectorEnv` in this process (1 and 2 physics threads).
-Overhead, per layout: `task_ms` the round trip of an empty one-CPU task (median of 200,
-one at a time), `pipelined_task_ms` the time per task with 200 in flight, `actor_call_ms`
-the round trip of a small call to an idle worker, and the start of the cluster and of
-its workers (a worker imports simbridge and builds its vector env).
+one ARS iteration of Reach-v0 at a time, 8 directions (16 episodes of 50 steps) per
+worker: a vector step costs about the same for 8 worlds as for 16 (Python per step, not
+physics per world, dominates Reach-v0), so workers pay off by running more directions,
+not by splitting a few. The rate is the best of `ROUNDS` rounds of at least `ROUND_S`.
+"no Ray" rows run 8 and 16 directions on one `SceneVectorEnv` in this process (1 and 2
+physics threads).
+`iteration_ms`: the median wall time of one iteration's episodes; `overhead_ms`: of that,
+what the slowest worker did not spend computing (Ray's calls, the policy out and the
+features back, the join). `task_ms`: the round trip of an empty one-CPU task (median of
+200, one at a time); `pipelined_task_ms`: the time per task with 200 in flight; and the
+start of the cluster and of its workers (a worker imports simbridge and builds its
+vector env).
 """
 
 from __future__ import annotations
@@ -38,17 +43,20 @@ __all__ = ["LOOPBACK", "local_cluster", "run"]
 
 ENV_ID = "simbridge/Reach-v0"
 MAX_STEPS = 50
-CONFIG = ARSConfig(directions=8)
+CONFIG = ARSConfig()
+PER_WORKER = 8
+"""Directions (two worlds each) per worker: two workers run twice the directions."""
 ROUND_S = 3.0
 ROUNDS = 3
 LOOPBACK = "127.0.0.2"  # Ray rewrites 127.0.0.1 to the routed IP (docs/ray.md)
 OBJECT_STORE_BYTES = 100 * 1000 * 1000
 TIMES = {
-    "cluster_start_s": 1,
-    "workers_start_s": 1,
+    "iteration_ms": 1,
+    "overhead_ms": 1,
     "task_ms": 2,
     "pipelined_task_ms": 2,
-    "actor_call_ms": 2,
+    "cluster_start_s": 1,
+    "workers_start_s": 1,
 }
 """Overhead columns and their decimals."""
 
@@ -97,13 +105,14 @@ def _rate(iteration: Callable[[], Episodes]) -> float:
     return best
 
 
-def _iteration(rollouts: Any, policy: LinearPolicy, size: int) -> Callable[[], Episodes]:
+def _iteration(rollouts: Any, policy: LinearPolicy, directions: int) -> Callable[[], Episodes]:
     """One ARS iteration's episodes: fresh directions and seeds each call."""
     rng = np.random.default_rng(0)
+    last = CONFIG.noise_table_size - policy.weights.size
 
     def one() -> Episodes:
-        offsets = rng.integers(0, CONFIG.noise_table_size - size, CONFIG.directions).tolist()
-        seeds = rng.integers(0, 2**31 - 1, CONFIG.directions).tolist()
+        offsets = rng.integers(0, last, directions).tolist()
+        seeds = rng.integers(0, 2**31 - 1, directions).tolist()
         episodes: Episodes = rollouts.perturbed(policy, CONFIG.noise, offsets, seeds)
         return episodes
 
@@ -119,12 +128,20 @@ def local_rows() -> list[dict[str, Any]]:
     rows = []
     table = noise_table(CONFIG)
     for threads in (1, 2):
-        vec = make_vector(ENV_ID, 2 * CONFIG.directions, MAX_STEPS, {}, threads=threads)
+        directions = PER_WORKER * threads
+        vec = make_vector(ENV_ID, 2 * directions, MAX_STEPS, {}, threads=threads)
         policy = _policy(vec)
         rollouts = VectorRollouts(vec, MAX_STEPS, table)
-        rate = _rate(_iteration(rollouts, policy, policy.weights.size))
+        rate = _rate(_iteration(rollouts, policy, directions))
         vec.close()
-        rows.append({"layout": f"no Ray, one vector env, {threads} thread(s)", "rate": rate})
+        rows.append(
+            {
+                "layout": f"no Ray, one vector of {2 * directions}, {threads} thread(s)",
+                "directions": directions,
+                "rate": rate,
+                "iteration_ms": 2 * directions * MAX_STEPS / rate * 1e3,
+            }
+        )
     return rows
 
 
@@ -143,16 +160,6 @@ def _task_overhead(ray: Any) -> tuple[float, float]:
     return statistics.median(alone) * 1e3, (time.perf_counter() - start) / 200 * 1e3
 
 
-def _call_overhead(ray: Any, actor: Any) -> float:
-    """Median round trip (ms, of 200) of a call with a small answer to an idle actor."""
-    times = []
-    for _ in range(200):
-        start = time.perf_counter()
-        ray.get(actor.spaces.remote())
-        times.append(time.perf_counter() - start)
-    return statistics.median(times) * 1e3
-
-
 def ray_rows() -> list[dict[str, Any]]:
     """The rollouts on Ray actors, one cluster per layout."""
     layouts = {
@@ -168,7 +175,7 @@ def ray_rows() -> list[dict[str, Any]]:
             task_ms, pipelined_ms = _task_overhead(ray)
             workers = sum(nodes)
             table_ref = ray.put(noise_table(CONFIG))
-            split = [CONFIG.directions // workers] * workers
+            split = [PER_WORKER] * workers
             actor = ray.remote(num_cpus=1)(RolloutWorker)
             start = time.perf_counter()
             actors = [
@@ -182,19 +189,22 @@ def ray_rows() -> list[dict[str, Any]]:
             obs, act, _ = answers[0]
             policy = LinearPolicy.zeros(obs, act)
             rollouts = RayRollouts(ray, actors, split)
-            rate = _rate(_iteration(rollouts, policy, policy.weights.size))
-            call_ms = _call_overhead(ray, actors[0])
+            rate = _rate(_iteration(rollouts, policy, sum(split)))
+            walls = [wall for wall, _ in rollouts.batches]
+            spare = [wall - max(r.busy_s for r in reports) for wall, reports in rollouts.batches]
             nodes_used = len({node for _, _, node in answers})
         rows.append(
             {
                 "layout": name,
+                "directions": sum(split),
                 "rate": rate,
                 "nodes_used": nodes_used,
                 "cluster_start_s": cluster_s,
                 "workers_start_s": workers_s,
                 "task_ms": task_ms,
                 "pipelined_task_ms": pipelined_ms,
-                "actor_call_ms": call_ms,
+                "iteration_ms": statistics.median(walls) * 1e3,
+                "overhead_ms": statistics.median(spare) * 1e3,
             }
         )
     return rows
@@ -208,6 +218,7 @@ def run() -> dict[str, list[dict[str, Any]]]:
     for r in rows:
         row = {
             "layout": r["layout"],
+            "directions": r["directions"],
             "env_steps_per_s": round(r["rate"]),
             "x_1_worker": round(r["rate"] / base, 2),
             "nodes": r.get("nodes_used", ""),
@@ -215,7 +226,7 @@ def run() -> dict[str, list[dict[str, Any]]]:
         for key, digits in TIMES.items():
             row[key] = round(r[key], digits) if key in r else ""
         table.append(row)
-    return {"ARS rollouts of Reach-v0 on Ray (8 directions, 50-step episodes)": table}
+    return {"ARS rollouts of Reach-v0 on Ray (8 directions a worker, 50-step episodes)": table}
 
 
 if __name__ == "__main__":

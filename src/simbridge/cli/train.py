@@ -90,10 +90,16 @@ def run_train(args: argparse.Namespace) -> int:
             "ray": args.ray,
             "worker_nodes": run.worker_nodes,
             "episodes_per_node": run.episodes_per_node,
+            "busy_s_per_node": run.busy_s_per_node,
+            "batches_s": run.batches_s,
+            "overhead_s": run.overhead_s,
             "cluster_cpus": run.cluster_cpus,
         }
         nodes = len(set(run.worker_nodes))
-        placed = f" on {len(run.worker_nodes)} Ray workers, {nodes} node(s)"
+        placed = (
+            f" on {len(run.worker_nodes)} Ray workers, {nodes} node(s) (Ray's overhead "
+            f"{run.overhead_s:.1f} s of {run.batches_s:.1f} s waiting for episodes)"
+        )
     else:
         from simbridge.cluster import make_vector
         from simbridge.gym import train_ars

@@ -11,6 +11,7 @@ would have produced, so the result is the local learner's for the same config an
 
 from __future__ import annotations
 
+import time
 from collections import Counter
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -38,6 +39,7 @@ __all__ = [
     "RayRollouts",
     "RayTraining",
     "RolloutWorker",
+    "WorkReport",
     "make_vector",
     "shares",
     "train_ars_on_ray",
@@ -61,6 +63,14 @@ def make_vector(
 def shares(total: int, parts: int) -> list[int]:
     """`total` split into `parts` near-equal contiguous counts, larger ones first."""
     return [total // parts + (1 if i < total % parts else 0) for i in range(parts)]
+
+
+@dataclass(frozen=True)
+class WorkReport:
+    """Where a worker's call ran and for how long it computed (s)."""
+
+    node: str
+    busy_s: float
 
 
 class RolloutWorker:
@@ -89,31 +99,40 @@ class RolloutWorker:
 
     def perturbed(
         self, policy: LinearPolicy, noise: float, offsets: Sequence[int], seeds: Sequence[int]
-    ) -> tuple[Episodes, str]:
-        """`VectorRollouts.perturbed` on this worker, and the node it ran on."""
-        return self.rollouts.perturbed(policy, noise, offsets, seeds), node_id()
+    ) -> tuple[Episodes, WorkReport]:
+        """`VectorRollouts.perturbed` on this worker, and where and how long it ran."""
+        start = time.perf_counter()
+        episodes = self.rollouts.perturbed(policy, noise, offsets, seeds)
+        return episodes, WorkReport(node_id(), time.perf_counter() - start)
 
-    def evaluate(self, policy: LinearPolicy, seeds: Sequence[int]) -> tuple[Episodes, str]:
-        """`VectorRollouts.evaluate` on this worker, and the node it ran on."""
-        return self.rollouts.evaluate(policy, seeds), node_id()
+    def evaluate(self, policy: LinearPolicy, seeds: Sequence[int]) -> tuple[Episodes, WorkReport]:
+        """`VectorRollouts.evaluate` on this worker, and where and how long it ran."""
+        start = time.perf_counter()
+        episodes = self.rollouts.evaluate(policy, seeds)
+        return episodes, WorkReport(node_id(), time.perf_counter() - start)
 
 
 class RayRollouts:
     """`Rollouts` on Ray actors: worker k runs directions `shares[k]` of each iteration
-    and a proportional share of the evaluation seeds; counts episodes per node."""
+    and a proportional share of the evaluation seeds. Counts the episodes each node ran,
+    and keeps each batch's wall time and its workers' busy times (`batches`)."""
 
     def __init__(self, ray: Any, workers: Sequence[Any], directions: Sequence[int]) -> None:
         self._ray, self._workers, self._directions = ray, list(workers), list(directions)
         self.episodes_per_node: Counter[str] = Counter()
+        self.batches: list[tuple[float, list[WorkReport]]] = []
 
-    def _gather(self, calls: Sequence[tuple[Any, Sequence[int]]], worlds: int) -> Episodes:
+    def _gather(
+        self, start: float, calls: Sequence[tuple[Any, Sequence[int]]], worlds: int
+    ) -> Episodes:
         try:
             results = self._ray.get([ref for ref, _ in calls])
         except self._ray.exceptions.RayError as exc:
             raise ClusterError(f"a rollout worker failed: {exc}") from exc
+        self.batches.append((time.perf_counter() - start, [report for _, report in results]))
         parts = []
-        for (episodes, node), (_, columns) in zip(results, calls, strict=True):
-            self.episodes_per_node[node] += len(episodes.returns)
+        for (episodes, report), (_, columns) in zip(results, calls, strict=True):
+            self.episodes_per_node[report.node] += len(episodes.returns)
             parts.append((episodes, columns))
         return Episodes.join(parts, worlds)
 
@@ -125,6 +144,7 @@ class RayRollouts:
         n = len(offsets)
         if n != sum(self._directions):
             raise ClusterError(f"workers hold {sum(self._directions)} directions, got {n}")
+        start = time.perf_counter()
         shared = self._ray.put(policy)
         calls, first = [], 0
         for worker, count in zip(self._workers, self._directions, strict=True):
@@ -133,20 +153,21 @@ class RayRollouts:
             columns = [*range(first, first + count), *range(n + first, n + first + count)]
             calls.append((ref, columns))
             first += count
-        return self._gather(calls, 2 * n)
+        return self._gather(start, calls, 2 * n)
 
     def evaluate(self, policy: LinearPolicy, seeds: Sequence[int]) -> Episodes:
         """See `Rollouts.evaluate`: contiguous runs of seeds, in proportion to each
         worker's worlds."""
         total = sum(self._directions)
         bounds = [0, *(round(len(seeds) * c / total) for c in np.cumsum(self._directions))]
+        start = time.perf_counter()
         shared = self._ray.put(policy)
         calls = [
             (worker.evaluate.remote(shared, seeds[lo:hi]), range(lo, hi))
             for worker, lo, hi in zip(self._workers, bounds, bounds[1:], strict=False)
             if hi > lo
         ]
-        return self._gather(calls, len(seeds))
+        return self._gather(start, calls, len(seeds))
 
 
 @dataclass
@@ -158,7 +179,33 @@ class RayTraining:
     """The node id each worker (actor) ran on."""
     episodes_per_node: dict[str, int] = field(default_factory=dict)
     """Episodes each node ran (reported by the workers with each batch)."""
+    busy_s_per_node: dict[str, float] = field(default_factory=dict)
+    """Seconds the workers of each node spent running episodes."""
+    batches_s: float = 0.0
+    """Seconds the learner waited for batches of episodes, in all."""
+    overhead_s: float = 0.0
+    """Of `batches_s`, what the slowest worker of each batch did not spend computing:
+    Ray's calls, moving policy and features, joining."""
     cluster_cpus: float = 0.0
+
+    @classmethod
+    def of(
+        cls, result: ARSResult, worker_nodes: list[str], rollouts: RayRollouts, cpus: float
+    ) -> RayTraining:
+        """The record of a finished run on `rollouts`."""
+        busy: dict[str, float] = {}
+        for _, reports in rollouts.batches:
+            for report in reports:
+                busy[report.node] = busy.get(report.node, 0.0) + report.busy_s
+        return cls(
+            result,
+            worker_nodes,
+            dict(rollouts.episodes_per_node),
+            busy,
+            sum(wall for wall, _ in rollouts.batches),
+            sum(wall - max(r.busy_s for r in reports) for wall, reports in rollouts.batches),
+            cpus,
+        )
 
 
 def _start_workers(  # noqa: PLR0917
@@ -231,9 +278,4 @@ def train_ars_on_ray(
         finally:
             for actor in actors:
                 ray.kill(actor)
-        return RayTraining(
-            result,
-            [node for _, _, node in answers],
-            dict(rollouts.episodes_per_node),
-            cpus,
-        )
+        return RayTraining.of(result, [node for _, _, node in answers], rollouts, cpus)
