@@ -13,7 +13,7 @@ from .common import reexec_in_ros2_venv
 
 if TYPE_CHECKING:
     from simbridge.endpoint import EndpointOptions
-    from simbridge.endpoint.busypoll import BusyPollSelector
+    from simbridge.endpoint.speed.busypoll import BusyPollSelector
 
 __all__ = ["add_parser"]
 
@@ -43,7 +43,7 @@ def endpoint_options(
 
 def busy_poll_selector(args: argparse.Namespace) -> BusyPollSelector | None:
     """The endpoint loop's selector for `--busy-poll-us`, or None (asyncio's own) when off."""
-    from simbridge.endpoint.busypoll import BusyPollSelector
+    from simbridge.endpoint.speed.busypoll import BusyPollSelector
 
     limit_us = args.busy_poll_us
     if limit_us is None:  # on where it was measured to pay: rospy nodes answer in ~0.1 ms

@@ -59,7 +59,7 @@ class EndpointOptions:
     splice: bool = True
     """Move a large message bound for a single native ROS 1 subscriber from the client's
     socket to the subscriber's in the kernel (Linux splice), without copying it through
-    the endpoint (`endpoint.splice`; --no-splice turns it off)."""
+    the endpoint (`endpoint.speed.splice`; --no-splice turns it off)."""
     evict_after: float = 2.0
     """When the endpoint is full, a client connected this long that has sent no complete
     request (only keepalives or a partial frame) makes room for a new one."""

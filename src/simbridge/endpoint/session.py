@@ -22,9 +22,9 @@ from simbridge.endpoint.backends.base import (
 from simbridge.endpoint.deferred import deferred_writes
 from simbridge.endpoint.pushback import ReadGate, ReadPushback, pushback_limit
 from simbridge.endpoint.session_actions import SessionActions
-from simbridge.endpoint.splice import SpliceRelay, can_splice
+from simbridge.endpoint.speed.splice import SpliceRelay, can_splice
+from simbridge.endpoint.speed.writev import WRITE_ALONE, write_chunks
 from simbridge.endpoint.stats import SessionStats
-from simbridge.endpoint.writev import WRITE_ALONE, write_chunks
 from simbridge.errors import EndpointError, ServiceError, SimbridgeError
 from simbridge.protocol import (
     EXTENSIONS,
@@ -264,7 +264,7 @@ class ClientSession(asyncio.BufferedProtocol):
 
     def _splice_next(self) -> None:
         """When a large message is next on the socket and its topic's only subscriber can
-        take it, move it there by splice while reading is paused (`endpoint.splice`)."""
+        take it, move it there by splice while reading is paused (`endpoint.speed.splice`)."""
         waiting = self.proto.waiting_message()
         if waiting is None or self._closing or self._relay is not None or self._fd < 0:
             return

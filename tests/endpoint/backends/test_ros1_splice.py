@@ -15,7 +15,7 @@ from tests.endpoint.rawclient import RawClient
 from tests.ros1support import RosMaster, require_ros, ros_string
 
 from simbridge.endpoint import EndpointOptions, EndpointThread
-from simbridge.endpoint.splice import unsent
+from simbridge.endpoint.speed.splice import unsent
 from simbridge.protocol import (
     Publish,
     encode_frame,
@@ -333,7 +333,7 @@ def test_without_a_pipe_large_messages_are_copied_as_usual(
 ) -> None:
     """A relay that cannot get a pipe (out of descriptors) gives the connection back at
     once: every message arrives whole, none counted as spliced, and the client is read on."""
-    from simbridge.endpoint import splice
+    from simbridge.endpoint.speed import splice
 
     def no_pipe() -> tuple[int, int]:
         raise OSError(24, "Too many open files")

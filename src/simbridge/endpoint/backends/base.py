@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any, Literal
 from simbridge.errors import EndpointError
 
 if TYPE_CHECKING:
-    from simbridge.endpoint.splice import SpliceSink
+    from simbridge.endpoint.speed.splice import SpliceSink
     from simbridge.endpoint.typecheck import TypeCheck
 
 __all__ = [
@@ -77,7 +77,7 @@ class BackendPublisher(abc.ABC):
 
     def splice_sink(self) -> SpliceSink | None:
         """Where the next large message may be spliced straight from the client's socket
-        (`endpoint.splice`), or None: it is published as usual (the default)."""
+        (`endpoint.speed.splice`), or None: it is published as usual (the default)."""
         return None
 
     def watch_backlog(self, behind: Callable[[], None], caught_up: Callable[[], None]) -> bool:

@@ -99,7 +99,7 @@ class Ros1Backend(Backend):
         self.lends_large_payloads = self._options.transport == "native"
         """The native path sends a large payload from the buffer it was received into."""
         self.splices_large_payloads = self.lends_large_payloads
-        """The native path may splice one to a topic's only subscriber (`endpoint.splice`)."""
+        """The native path may splice one to a topic's only subscriber (`endpoint.speed.splice`)."""
 
     @property
     def identity(self) -> NodeIdentity:

@@ -30,7 +30,7 @@ from simbridge.endpoint.backends.ros1_tcpros_hook import (
 )
 from simbridge.endpoint.backends.ros1_tcpros_pub import PublishedTopic, TopicServer
 from simbridge.endpoint.backends.ros1_tcpros_sub import Sink, SubscribedTopic
-from simbridge.endpoint.splice import SpliceSink
+from simbridge.endpoint.speed.splice import SpliceSink
 from simbridge.errors import EndpointError
 
 __all__ = ["NativeData"]

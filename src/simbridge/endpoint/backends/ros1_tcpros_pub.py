@@ -25,8 +25,8 @@ from collections.abc import Callable
 
 from simbridge.endpoint.backends.ros1_raw import RawMessageType
 from simbridge.endpoint.deferred import DeferredWrites, deferred_writes
-from simbridge.endpoint.splice import MAX_BACKLOG, SINK_WAIT, unsent
-from simbridge.endpoint.writev import SocketWriter
+from simbridge.endpoint.speed.splice import MAX_BACKLOG, SINK_WAIT, unsent
+from simbridge.endpoint.speed.writev import SocketWriter
 from simbridge.protocol.tcpros import TcprosDecoder, TcprosError, encode_header
 
 __all__ = ["PublishedTopic", "TopicServer", "connection_ids"]
@@ -92,7 +92,7 @@ class PublishedTopic:
             connection.send(prefix, payload)
 
     def splice_sink(self) -> _SubscriberConnection | None:
-        """The connection a large message may be spliced to (`endpoint.splice`): the
+        """The connection a large message may be spliced to (`endpoint.speed.splice`): the
         topic's only subscriber, keeping up, on a topic that does not latch (a latched
         message is kept, so it must be in memory)."""
         if self.latch or len(self.connections) != 1:
@@ -174,7 +174,7 @@ class TopicServer:
         self.pushbacks = 0
         """Times a topic that may not drop had a subscriber fall behind (see `fell_behind`)."""
         self.spliced = 0
-        """Large messages moved to a subscriber by splice (`endpoint.splice`)."""
+        """Large messages moved to a subscriber by splice (`endpoint.speed.splice`)."""
         self._listener: socket.socket | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
         self._writes: DeferredWrites | None = None

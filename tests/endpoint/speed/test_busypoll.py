@@ -13,7 +13,7 @@ from collections.abc import Iterator
 
 import pytest
 
-from simbridge.endpoint.busypoll import MAX_BUSY_POLL_US, BusyPollSelector
+from simbridge.endpoint.speed.busypoll import MAX_BUSY_POLL_US, BusyPollSelector
 from simbridge.errors import EndpointError
 
 LIMIT_US = 50_000

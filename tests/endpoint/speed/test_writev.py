@@ -12,7 +12,7 @@ from typing import Any
 
 import pytest
 
-from simbridge.endpoint.writev import SocketWriter, write_chunks
+from simbridge.endpoint.speed.writev import SocketWriter, write_chunks
 
 MB = 1 << 20
 
