@@ -17,7 +17,7 @@ import pytest
 from simbridge.sim.scene import parse_scene
 from simbridge.sim.urdf import urdf_check
 from simbridge.sim.world import World
-from tests.sim.corpus import CORPUS, MOBILE, SHARE, corpus_files, reference_fk
+from tests.sim.corpus import CORPUS, MOBILE, corpus_files, reference_fk
 
 FILES = corpus_files()
 HOLD_TOLERANCE = 0.01  # rad (or m) on every driven joint
@@ -54,8 +54,7 @@ def _world(path: Path, rel: str) -> tuple[World, bool]:
         "physics": {"timestep": 0.002, "realtime_factor": 0},
         "robots": [
             {
-                "urdf": str(path),
-                "search_paths": [str(SHARE)],
+                "urdf": str(path),  # no search_paths: packages above the file are found
                 "fixed_base": not mobile,
                 "effort_limits": "scale",
                 # stiff enough that a 100 kg humanoid's weight bends no joint by 0.01 rad;
@@ -163,7 +162,7 @@ def test_corpus_robot(rel: str) -> None:
     path = CORPUS / rel
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the report lists them; errors raise
-        urdf_check(path, search_paths=[SHARE])
+        urdf_check(path)  # no search path needed: the package folder is above the file
     world, mobile = _world(path, rel)
     _check_fk(world, path, rel)
     worst = _hold(world, rel, mobile)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import pytest
@@ -171,7 +172,11 @@ def test_missing_file_and_missing_mesh(tmp_path: Path) -> None:
             )
         )
     )
-    with pytest.raises(UrdfError, match=r"mesh 'package://nopkg/m\.stl' was not found"):
+    searched = re.escape(f"searched {tmp_path} and every folder above it")
+    how = re.escape("add the folder that holds it with --search-path DIR, `search_paths: [DIR]`")
+    with pytest.raises(
+        UrdfError, match=rf"mesh 'package://nopkg/m\.stl' was not found: .*{searched}.*{how}"
+    ):
         robot_to_mjcf(load_urdf(path))  # ... a missing collision mesh is an error
     with pytest.raises(UrdfError, match=r"package 'nopkg'.*strict mode"):
         load_urdf(path, strict=True)

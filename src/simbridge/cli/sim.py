@@ -94,6 +94,7 @@ def run_urdf(args: argparse.Namespace) -> int:
 def run_sim(args: argparse.Namespace) -> int:
     from pathlib import Path
 
+    from simbridge.errors import ConnectorError
     from simbridge.sim.record import RecordOptions
     from simbridge.sim.ros import run_scene
     from simbridge.sim.scene import load_scene, with_overrides
@@ -101,16 +102,25 @@ def run_sim(args: argparse.Namespace) -> int:
 
     scene = with_overrides(load_scene(args.scene), _xacro_args(args), strict=args.strict)
     endpoint = f"{args.endpoint[0]}:{args.endpoint[1]}" if args.endpoint else None
+    record = RecordOptions(Path(args.record), args.record_buffer) if args.record else None
+    view = ViewOptions(args.view_host, args.view_port, args.view_rate) if args.view else None
     with _plain_warnings(), _sigterm_interrupts():
-        stats = run_scene(
-            scene,
-            endpoint=endpoint,
-            duration=args.duration,
-            realtime_factor=args.realtime,
-            viewer=args.viewer,
-            record=RecordOptions(Path(args.record), args.record_buffer) if args.record else None,
-            view=ViewOptions(args.view_host, args.view_port, args.view_rate) if args.view else None,
-        )
+        try:
+            stats = run_scene(
+                scene,
+                endpoint=endpoint,
+                duration=args.duration,
+                realtime_factor=args.realtime,
+                viewer=args.viewer,
+                record=record,
+                view=view,
+                connect_timeout=None if args.wait_for_endpoint else args.connect_timeout,
+            )
+        except ConnectorError as exc:
+            raise ConnectorError(
+                f"{exc}: start one first (`simbridge endpoint`), or pass --wait-for-endpoint "
+                "to simulate at once and keep trying"
+            ) from None
     print(
         f"simulated {stats.sim_time:.3f} s in {stats.wall_time:.3f} s wall "
         f"({stats.steps} steps, {stats.realtime_factor:.2f}x real time)"
@@ -170,6 +180,19 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         default=None,
         metavar="HOST:PORT",
         help="serve the scene's ROS interfaces through this endpoint",
+    )
+    sim.add_argument(
+        "--connect-timeout",
+        type=float,
+        default=10.0,
+        metavar="SECONDS",
+        help="with --endpoint: fail (exit 2) when no endpoint answers within SECONDS (default 10)",
+    )
+    sim.add_argument(
+        "--wait-for-endpoint",
+        action="store_true",
+        help="with --endpoint: start simulating at once and keep trying to connect until "
+        "an endpoint answers, instead of failing after --connect-timeout",
     )
     sim.add_argument("--duration", type=float, default=None, help="sim seconds (default: forever)")
     sim.add_argument(

@@ -203,13 +203,17 @@ def run_scene(
     viewer: bool = False,
     record: RecordOptions | None = None,
     view: ViewOptions | None = None,
+    connect_timeout: float | None = None,
 ) -> RunStats:
     """Load and run a scene headless (or in the viewer) until `duration` sim seconds pass
     or the process is interrupted, serving ROS through `endpoint` ("host:port") if given.
     `realtime_factor` None: real time with an endpoint, else the scene's
     (`SimulationSession.pacing`). `record`: a bag of every message in and out; `view`:
-    serve a live 3D view in the browser while it runs."""
-    with SimulationSession(scene, endpoint, record=record) as session:
+    serve a live 3D view in the browser while it runs. `connect_timeout`: ConnectorError
+    when no endpoint answers that soon (None: connect in the background, retrying)."""
+    with SimulationSession(
+        scene, endpoint, record=record, connect_timeout=connect_timeout
+    ) as session:
         live = LiveView(session.world, view) if view is not None else None
         if live is not None and session.sensors is not None:
             session.sensors.add_observer(live.watch_sensors(session.sensors.suite))

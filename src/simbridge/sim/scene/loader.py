@@ -279,6 +279,8 @@ def _robot(section: _Section, base_dir: Path) -> RobotSpec:
             "ros",
         )
     )
+    if not spec.urdf.is_file():
+        raise section.key("urdf").error(f"file '{spec.urdf}' does not exist")
     return spec
 
 

@@ -111,13 +111,15 @@ def load_urdf(
     strict: bool = False,
 ) -> Robot:
     """Parse a .urdf or .xacro file; meshes resolve via the file's folder, `search_paths`
-    and ROS_PACKAGE_PATH (the file's own folder and its parents count as package roots).
+    and ROS_PACKAGE_PATH (the file's own folder and every one above count as package roots).
     `strict` turns tolerated defects (duplicate definitions...) into errors."""
     file = Path(path)
     if not file.is_file():
         raise UrdfError(f"URDF file '{file}' does not exist")
     here = file.resolve()
-    resolver = ResourceResolver.create(here.parent, search_paths, here.parents[:3])
+    # Packages next to the file or above it are found without flags (example-robot-data's
+    # robots name package://example-robot-data/robots/..., four folders up).
+    resolver = ResourceResolver.create(here.parent, search_paths, tuple(here.parents))
     text = file.read_text()
     expanded = is_xacro(file, text)
     if expanded:

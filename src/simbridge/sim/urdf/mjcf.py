@@ -176,7 +176,9 @@ class _Builder:
 
     def mesh_asset(self, name: str, mesh: Mesh) -> str:
         if mesh.path is None:
-            raise UrdfError(f"{name}: mesh '{mesh.filename}' was not found (see search paths)")
+            # the loader's warning says where it looked and how to add a folder
+            why = next((w for w in self.robot.warnings if f"'{mesh.filename}'" in w), None)
+            raise UrdfError(f"{name}: mesh '{mesh.filename}' was not found: {why or 'no resolver'}")
         file = self.meshes.mujoco_file(mesh.path, f"{self.robot_where}{name}")
         ET.SubElement(
             self.doc.asset,

@@ -21,10 +21,16 @@ class ResourceResolver:
     entry, or up to three levels below it holding a `package.xml` naming it by its folder.
     """
 
+    HOW_TO_ADD = (
+        "add the folder that holds it with --search-path DIR, `search_paths: [DIR]` on the "
+        "scene's robot, or ROS_PACKAGE_PATH"
+    )
+
     base_dir: Path | None = None
     search_paths: tuple[Path, ...] = ()
     nearby: tuple[Path, ...] = ()
-    """Folders checked only for a package folder directly in them (not searched below)."""
+    """Folders checked only for a package folder directly in them or being it (not searched
+    below): the URDF's folder and every folder above it."""
 
     @staticmethod
     def create(
@@ -62,10 +68,9 @@ class ResourceResolver:
             package, _, relative = rest.partition("/")
             pkg_dir = self.package_dir(package)
             if pkg_dir is None:
-                searched = ", ".join(str(p) for p in self.search_paths) or "none"
                 raise UrdfError(
-                    f"{element}: package '{package}' of '{uri}' not found "
-                    f"(search paths: {searched}; extend them or set ROS_PACKAGE_PATH)"
+                    f"{element}: package '{package}' of '{uri}' not found (searched "
+                    f"{self.searched()}); {self.HOW_TO_ADD}"
                 )
             path = pkg_dir / relative
         elif uri.startswith("file://"):
@@ -79,5 +84,14 @@ class ResourceResolver:
                     (c for c in candidates if c.is_file()), candidates[0] if candidates else path
                 )
         if not path.is_file():
-            raise UrdfError(f"{element}: file '{uri}' does not exist (looked at {path})")
+            raise UrdfError(
+                f"{element}: file '{uri}' does not exist (looked at {path}); {self.HOW_TO_ADD}"
+            )
         return path.resolve()
+
+    def searched(self) -> str:
+        """The folders a package is looked for in, for an error message."""
+        folders = [f"{p} (and 3 levels below)" for p in self.search_paths]
+        if self.nearby:
+            folders.append(f"{self.nearby[0]} and every folder above it")
+        return "; ".join(folders) or "no folders"
