@@ -378,7 +378,7 @@ def test_flood_of_unregistered_topics_stays_bounded(
     client.send(b"".join(encode_frame(f"/junk{i}", b"x") for i in range(5000)))
     sync(client)
     sessions = endpoint.call(lambda: list(endpoint.server.sessions))
-    assert all(len(s._unregistered_seen) <= 1024 for s in sessions)
+    assert all(len(s.unregistered) <= 1024 for s in sessions)
 
 
 def test_connections_are_bounded() -> None:

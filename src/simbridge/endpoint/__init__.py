@@ -9,7 +9,7 @@ from simbridge.endpoint.node import Node, NodePublisher
 from simbridge.endpoint.options import EndpointOptions
 from simbridge.endpoint.runner import EndpointThread
 from simbridge.endpoint.server import EndpointServer
-from simbridge.endpoint.session import ClientSession
+from simbridge.endpoint.session.session import ClientSession
 from simbridge.endpoint.typecheck import RegistryTypeCheck, TypeCheck
 from simbridge.errors import EndpointError
 

@@ -12,7 +12,7 @@ from simbridge.endpoint.backends.base import Backend
 from simbridge.endpoint.backends.local import LocalBus
 from simbridge.endpoint.budget import MemoryBudget
 from simbridge.endpoint.options import EndpointOptions
-from simbridge.endpoint.session import ClientSession
+from simbridge.endpoint.session.session import ClientSession
 from simbridge.endpoint.typecheck import RegistryTypeCheck, TypeCheck
 from simbridge.errors import EndpointError
 from simbridge.messages import registry_for
@@ -175,7 +175,19 @@ class EndpointServer:
         session.close()
         return True
 
-    def evict_one(self) -> bool:
+    def admit(self, session: ClientSession) -> bool:
+        """Count a newly connected client; when full, first make room by evicting an idle
+        one (`_evict_one`). False when there is no room (the client is then refused)."""
+        if len(self._sessions) >= self.options.max_clients and not self._evict_one():
+            return False
+        self._sessions.add(session)
+        return True
+
+    def forget(self, session: ClientSession) -> None:
+        """A client's connection is gone."""
+        self._sessions.discard(session)
+
+    def _evict_one(self) -> bool:
         """Make room for a new client when full: close the one that has been connected
         longest without sending a complete request (a drip or idle connection). False
         when every client has proven itself (then the new one is refused)."""

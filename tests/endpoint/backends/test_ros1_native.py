@@ -21,7 +21,7 @@ from tests.endpoint.tcpros_publisher import Plan, RawPublisher
 from tests.ros1support import RosMaster, require_ros, ros_string, until, with_backend
 
 from simbridge.endpoint import EndpointOptions, EndpointThread
-from simbridge.endpoint.pushback import PUSHBACK_LIMIT
+from simbridge.endpoint.session.pushback import PUSHBACK_LIMIT
 from simbridge.protocol import (
     CommandReceived,
     MessageReceived,

@@ -10,7 +10,7 @@ again as that buffer drains. A connection with more than `WRITE_HIGH_WATER` byte
 waiting holds further messages in a queue bounded by the registration's `queue_size`
 (and a byte cap); past that the oldest are dropped and counted, as rospy's publisher
 queue does. A topic with queue_size 0 may not drop: while one of its connections is
-behind, its publishers' clients are not read (`endpoint.pushback`).
+behind, its publishers' clients are not read (`endpoint.session.pushback`).
 """
 
 from __future__ import annotations

@@ -6,6 +6,8 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
+from tests.endpoint.rawclient import RawClient
+
 from simbridge.endpoint import EndpointThread
 from simbridge.protocol import (
     ACTIONS_EXTENSION,
@@ -18,7 +20,6 @@ from simbridge.protocol import (
     Handshake,
     WarnMessage,
 )
-from tests.endpoint.rawclient import RawClient
 
 
 def _is(cls: type) -> Callable[[Any], bool]:

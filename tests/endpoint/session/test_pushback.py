@@ -7,7 +7,12 @@ from __future__ import annotations
 import asyncio
 import socket
 
-from simbridge.endpoint.pushback import PUSHBACK_LIMIT, ReadGate, ReadPushback, pushback_limit
+from simbridge.endpoint.session.pushback import (
+    PUSHBACK_LIMIT,
+    ReadGate,
+    ReadPushback,
+    pushback_limit,
+)
 
 LIMIT = 0.2
 

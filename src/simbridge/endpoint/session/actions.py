@@ -12,9 +12,11 @@ import asyncio
 import logging
 from collections.abc import Coroutine
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
-from simbridge.endpoint.backends.base import BackendActionGoal
+from simbridge.endpoint.backends.base import Backend, BackendActionGoal
+from simbridge.endpoint.options import EndpointOptions
+from simbridge.endpoint.session.stats import SessionStats
 from simbridge.errors import SimbridgeError
 from simbridge.protocol import (
     MAX_COMMAND_SIZE,
@@ -29,10 +31,7 @@ from simbridge.protocol import (
     shorten,
 )
 
-if TYPE_CHECKING:
-    from simbridge.endpoint.session import ClientSession
-
-__all__ = ["ActionCommand", "SessionActions"]
+__all__ = ["ActionClient", "ActionCommand", "SessionActions"]
 
 log = logging.getLogger("simbridge.endpoint")
 
@@ -57,11 +56,41 @@ class _Goal:
     helpers: set[asyncio.Task[None]] = field(default_factory=set)
 
 
-class SessionActions:
-    """The action goals of one client connection."""
+class ActionClient(Protocol):
+    """What goal handling needs of the client connection it serves."""
 
-    def __init__(self, session: ClientSession) -> None:
-        self._session = session
+    @property
+    def peer(self) -> str:
+        """The client's address, for errors and logs."""
+        ...
+
+    @property
+    def stats(self) -> SessionStats:
+        """The connection's counters (goals sent and refused, feedback dropped)."""
+        ...
+
+    @property
+    def writing_paused(self) -> bool:
+        """Whether the client is not reading now (feedback is then dropped)."""
+        ...
+
+    def send_control(self, frame: bytes) -> None:
+        """Send a frame that must not be dropped."""
+
+    def send_error(
+        self, text: str, srv_id: int | None = None, *, goal_id: int | None = None
+    ) -> None:
+        """Report a failure to the client (with `goal_id`, that goal's)."""
+
+
+class SessionActions:
+    """The action goals of one client connection, sent through `backend`."""
+
+    def __init__(self, client: ActionClient, backend: Backend, options: EndpointOptions) -> None:
+        self._client = client
+        self._backend = backend
+        self._max_goals = options.max_action_goals
+        self._timeout = options.service_timeout
         self._goals: dict[int, _Goal] = {}
         self._queries: set[asyncio.Task[None]] = set()
 
@@ -75,11 +104,11 @@ class SessionActions:
         elif isinstance(command, ActionCancel):
             self._cancel(command.goal_id)
         elif len(self._queries) >= _MAX_QUERIES:
-            self._session.send_error(
+            self._client.send_error(
                 f"__action_server for {shorten(command.action)} refused: {_MAX_QUERIES} "
                 "queries already waiting for an answer"
             )
-            self._session._send_control(ActionServerReply(command.action, False).encode())
+            self._client.send_control(ActionServerReply(command.action, False).encode())
         else:
             self._spawn(self._queries, self._query(command))
 
@@ -97,7 +126,7 @@ class SessionActions:
         if goals:
             log.info(
                 "client %s disconnected; cancelled its %d action goal(s)",
-                self._session.peer,
+                self._client.peer,
                 len(goals),
             )
 
@@ -109,9 +138,9 @@ class SessionActions:
         )
 
     def _start(self, command: ActionGoal) -> None:
-        session = self._session
+        session = self._client
         session.stats.goals_sent += 1
-        limit = session.options.max_action_goals
+        limit = self._max_goals
         if command.goal_id in self._goals:
             session.stats.goals_refused += 1
             session.send_error(
@@ -132,18 +161,18 @@ class SessionActions:
         goal.task = asyncio.ensure_future(self._run(goal))
 
     async def _run(self, goal: _Goal) -> None:
-        session, command = self._session, goal.command
+        session, command = self._client, goal.command
         goal_id = command.goal_id
-        send = session._send_control
+        send = session.send_control
         try:
             try:
-                accepted = await session.server.backend.send_goal(
+                accepted = await self._backend.send_goal(
                     command.action,
                     command.action_type,
                     command.goal,
                     on_feedback=lambda data: self._feedback(goal_id, data),
                     on_status=lambda status: send(ActionStatus(goal_id, status).encode()),
-                    timeout=session.options.service_timeout,
+                    timeout=self._timeout,
                 )
             except SimbridgeError as exc:
                 session.stats.goals_refused += 1
@@ -190,20 +219,20 @@ class SessionActions:
         """Feedback is a sample, not a record: dropped (counted) while the client is not
         reading, so a fast server cannot fill the control backlog that would end the
         connection."""
-        session = self._session
-        if session._paused:
+        session = self._client
+        if session.writing_paused:
             session.stats.feedback_dropped += 1
             return
         frame = ActionFeedback(goal_id, data).encode()
         if _too_big(frame, ActionFeedback.NAME):
             session.stats.feedback_dropped += 1
             return
-        session._send_control(frame)
+        session.send_control(frame)
 
     def _cancel(self, goal_id: int) -> None:
         goal = self._goals.get(goal_id)
         if goal is None:
-            self._session._send_control(
+            self._client.send_control(
                 WarnMessage(
                     f"__action_cancel: goal {goal_id} is not in flight (it ended already, or "
                     "was never sent)",
@@ -223,7 +252,7 @@ class SessionActions:
         else:
             why = "the server refused"
         if not agreed:
-            self._session._send_control(
+            self._client.send_control(
                 WarnMessage(
                     f"cancel of {self._describe(goal.command)} failed: {why}; it goes on",
                     goal_id=goal.command.goal_id,
@@ -233,18 +262,16 @@ class SessionActions:
     # ---- servers ----------------------------------------------------------------------
 
     async def _query(self, command: ActionServerQuery) -> None:
-        session = self._session
+        session = self._client
         ready = False
         try:
-            ready = await session.server.backend.action_server_ready(
-                command.action, command.action_type
-            )
+            ready = await self._backend.action_server_ready(command.action, command.action_type)
         except SimbridgeError as exc:
             session.send_error(
                 f"__action_server for {shorten(command.action)} "
                 f"[{shorten(command.action_type)}] failed: {exc}"
             )
-        session._send_control(ActionServerReply(command.action, ready).encode())
+        session.send_control(ActionServerReply(command.action, ready).encode())
 
     def _spawn(self, tasks: set[asyncio.Task[None]], coro: Coroutine[Any, Any, None]) -> None:
         task = asyncio.ensure_future(coro)

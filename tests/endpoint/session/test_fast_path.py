@@ -14,8 +14,10 @@ from hypothesis import strategies as st
 
 from simbridge.endpoint import EndpointOptions
 from simbridge.endpoint.backends.local import LocalBus
-from simbridge.endpoint.server import EndpointServer
+from simbridge.endpoint.budget import MemoryBudget
 from simbridge.endpoint.session import ClientSession
+from simbridge.endpoint.typecheck import RegistryTypeCheck
+from simbridge.messages import registry_for
 from simbridge.protocol import (
     KEEPALIVE,
     ProtocolConnection,
@@ -83,9 +85,30 @@ FRAMES = st.one_of(
 )
 
 
+class _Host:
+    """What the session needs of a server, without a listening socket."""
+
+    def __init__(self, loop: asyncio.AbstractEventLoop) -> None:
+        self.options = EndpointOptions(port=0)
+        self.backend = LocalBus()
+        self.types = RegistryTypeCheck(registry_for(self.backend.protocol))
+        self.budget = MemoryBudget(self.options.max_memory, self.options.client_share)
+        self.loop = loop
+        self.sessions: set[ClientSession] = set()
+
+    def admit(self, session: ClientSession) -> bool:
+        self.sessions.add(session)
+        return True
+
+    def forget(self, session: ClientSession) -> None:
+        self.sessions.discard(session)
+
+    def stats(self) -> dict[str, Any]:
+        return {"clients": len(self.sessions)}
+
+
 async def _run(data: bytes, cuts: list[int]) -> tuple[Any, ...]:
-    server = EndpointServer(EndpointOptions(port=0), backend=LocalBus())
-    server._loop = asyncio.get_running_loop()
+    server = _Host(asyncio.get_running_loop())
     await server.backend.start()
     published: list[bytes] = []
     server.backend.subscribe("/a", TYPE, published.append)
