@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
-from simbridge.endpoint.actions import NodeActionClient, NodeActionServer
 from simbridge.endpoint.backends.base import Backend, TopicInfo
 from simbridge.endpoint.backends.local import LocalBus
-from simbridge.endpoint.node import Node, NodePublisher
+from simbridge.endpoint.inprocess.actions import NodeActionClient, NodeActionServer
+from simbridge.endpoint.inprocess.node import Node, NodePublisher
 from simbridge.endpoint.options import EndpointOptions
 from simbridge.endpoint.runner import EndpointThread
 from simbridge.endpoint.server import EndpointServer

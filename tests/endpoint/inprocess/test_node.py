@@ -7,6 +7,8 @@ from collections.abc import Iterator
 from typing import Any
 
 import pytest
+from tests.endpoint.rawclient import RawClient
+from tests.endpoint.test_server import sync
 
 from simbridge.endpoint import EndpointOptions, EndpointThread, LocalBus, Node
 from simbridge.errors import EndpointError, ServiceError
@@ -18,8 +20,6 @@ from simbridge.protocol import (
     ServiceResponseReceived,
     Subscribe,
 )
-from tests.endpoint.rawclient import RawClient
-from tests.endpoint.test_server import sync
 
 REG = default_registry()
 

@@ -7,7 +7,7 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-from simbridge.endpoint.node import Node
+from simbridge.endpoint.inprocess.node import Node
 from simbridge.messages import MessageRegistry
 from simbridge.messages.actionlib import (
     ActionClientCore,
