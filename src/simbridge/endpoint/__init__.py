@@ -1,17 +1,26 @@
-"""The ROS-TCP endpoint: asyncio server, per-client sessions, pluggable backends."""
+"""The ROS-TCP endpoint: asyncio server, per-client sessions, pluggable backends.
+
+Names are loaded on first use (PEP 562), so importing one part (say a ROS 1 tool in
+`backends.ros1`) does not load the server, the sessions or any ROS library.
+"""
 
 from __future__ import annotations
 
-from simbridge.endpoint.backends.base import Backend, TopicInfo
-from simbridge.endpoint.backends.local import LocalBus
-from simbridge.endpoint.inprocess.actions import NodeActionClient, NodeActionServer
-from simbridge.endpoint.inprocess.node import Node, NodePublisher
-from simbridge.endpoint.options import EndpointOptions
-from simbridge.endpoint.runner import EndpointThread
-from simbridge.endpoint.server import EndpointServer
-from simbridge.endpoint.session.session import ClientSession
-from simbridge.endpoint.typecheck import RegistryTypeCheck, TypeCheck
-from simbridge.errors import EndpointError
+from typing import TYPE_CHECKING
+
+from simbridge.endpoint.lazy import lazy_face
+
+if TYPE_CHECKING:
+    from simbridge.endpoint.backends.base import Backend, TopicInfo
+    from simbridge.endpoint.backends.factory import BACKENDS, make_backend
+    from simbridge.endpoint.backends.local import LocalBus
+    from simbridge.endpoint.inprocess.actions import NodeActionClient, NodeActionServer
+    from simbridge.endpoint.inprocess.node import Node, NodePublisher
+    from simbridge.endpoint.options import EndpointOptions
+    from simbridge.endpoint.runner import EndpointThread
+    from simbridge.endpoint.server import EndpointServer
+    from simbridge.endpoint.session.session import ClientSession
+    from simbridge.endpoint.typecheck import RegistryTypeCheck, TypeCheck
 
 __all__ = [
     "BACKENDS",
@@ -31,55 +40,23 @@ __all__ = [
     "make_backend",
 ]
 
-BACKENDS = ("local", "ros1", "ros2")
-
-
-def make_backend(
-    name: str,
-    *,
-    node_name: str = "/simbridge_endpoint",
-    ros_args: tuple[str, ...] = (),
-    protocol: str | None = None,
-    ros1_transport: str = "native",
-) -> Backend:
-    """The backend called `name` ("local", "ros1" or "ros2").
-
-    `ros_args` are ROS arguments: `a:=b` for ros1; for ros2, rcl's `--ros-args` items
-    (ROS 1 style `a:=b` ones are translated). `protocol` ("ROS1" or "ROS2") picks the
-    local bus's serialization; other backends have their own and refuse a different one.
-    `ros1_transport` ("native" or "rospy") picks the ros1 backend's topic data path.
-    """
-    if name == "local":
-        if protocol == "ROS2":
-            return LocalBus("ROS2")
-        if protocol not in (None, "ROS1"):
-            raise EndpointError(f"protocol {protocol!r} is not one of ROS1, ROS2")
-        return LocalBus()
-    if protocol not in (None, "ROS2") and name == "ros2":
-        raise EndpointError(f"the ros2 backend speaks ROS2, not {protocol}")
-    if protocol not in (None, "ROS1") and name == "ros1":
-        raise EndpointError(f"the ros1 backend speaks ROS1, not {protocol}")
-    if name == "ros1":
-        from simbridge.endpoint.backends.ros1 import (  # noqa: PLC0415 - rospy is optional
-            Ros1Backend,
-            Ros1Options,
-        )
-
-        if ros1_transport not in ("native", "rospy"):
-            raise EndpointError(f"ros1 transport {ros1_transport!r} is not one of native, rospy")
-        return Ros1Backend(
-            Ros1Options(
-                node_name=node_name.lstrip("/"),
-                ros_args=ros_args,
-                transport="native" if ros1_transport == "native" else "rospy",
-            )
-        )
-    if name == "ros2":
-        from simbridge.endpoint.backends.ros2 import (  # noqa: PLC0415 - rclpy is optional
-            Ros2Backend,
-            Ros2Options,
-            ros2_cli_args,
-        )
-
-        return Ros2Backend(Ros2Options(node_name=node_name, ros_args=ros2_cli_args(ros_args)))
-    raise EndpointError(f"unknown backend {name!r}; choose one of {', '.join(BACKENDS)}")
+__getattr__, __dir__ = lazy_face(
+    __name__,
+    {
+        "BACKENDS": "backends.factory",
+        "Backend": "backends.base",
+        "ClientSession": "session.session",
+        "EndpointOptions": "options",
+        "EndpointServer": "server",
+        "EndpointThread": "runner",
+        "LocalBus": "backends.local",
+        "Node": "inprocess.node",
+        "NodeActionClient": "inprocess.actions",
+        "NodeActionServer": "inprocess.actions",
+        "NodePublisher": "inprocess.node",
+        "RegistryTypeCheck": "typecheck",
+        "TopicInfo": "backends.base",
+        "TypeCheck": "typecheck",
+        "make_backend": "backends.factory",
+    },
+)
