@@ -23,7 +23,7 @@ def run(side_m: float = 1.0) -> list[dict[str, Any]]:
         rows.append(
             {
                 "sensor_subscribers": "lidar+camera+imu" if subscribed else "none (odom only)",
-                "completed": "yes" if result.completed else "no",
+                "completed": "yes" if result.success else "no",
                 "sim_s": round(result.sim_time, 2),
                 "wall_s": round(result.wall_time, 2),
                 "realtime_factor": round(result.realtime_factor, 2),

@@ -26,6 +26,9 @@ from simbridge.apps.line import (
     run_line,
 )
 from simbridge.apps.line.scene import grasp_contacts
+from simbridge.apps.line.task import MAX_PARTS
+from simbridge.apps.options import LINE_MAX_PARTS
+from simbridge.apps.summary import SUMMARY_KEYS
 from simbridge.cli import main as cli_main
 from simbridge.connector import ConnectorOptions
 from simbridge.endpoint import EndpointOptions, EndpointThread, LocalBus, Node
@@ -72,6 +75,9 @@ def test_json_line_has_the_documented_shape_and_the_bag_every_robot(
     }.items():  # fmt: skip
         assert isinstance(summary[key], kind), key
     assert summary["success"] is True
+    assert list(summary)[:7] == list(SUMMARY_KEYS)
+    assert LINE_MAX_PARTS == MAX_PARTS  # the --parts help matches the output slots
+    assert (summary["seed"], summary["backend"]) == (3, "local")
     assert summary["parts"] == summary["delivered"] == 1
     assert len(summary["placement_error_m"]) == 1
     assert set(summary["robots"]) == set(ROBOTS)
@@ -155,8 +161,10 @@ def test_bad_options_get_a_clear_error(
 
 
 def test_cli_refuses_other_backends(capsys: pytest.CaptureFixture[str]) -> None:
-    assert cli_main(["demo", "line", "--backend", "ros2"]) == 2
-    assert "--backend ros2 is not supported" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exited:  # argparse: ros2 is not one of the choices
+        cli_main(["demo", "line", "--backend", "ros2"])
+    assert exited.value.code == 2
+    assert "argument --backend: invalid choice: 'ros2'" in capsys.readouterr().err
 
 
 def test_result_counts_only_parts_within_tolerance() -> None:

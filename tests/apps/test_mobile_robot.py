@@ -12,6 +12,7 @@ import yaml
 
 from simbridge.apps.mobile_robot import SCENE_PATH, MobileRobotResult, main, run_mobile_robot
 from simbridge.apps.mobile_robot.driver import ScanSample
+from simbridge.apps.summary import SUMMARY_KEYS
 from simbridge.sim.sensors import SensorSuite
 from simbridge.sim.world import World
 
@@ -35,7 +36,7 @@ def test_the_square_closes_and_odometry_matches_ground_truth(
 ) -> None:
     result, progress = square
     assert result.error is None
-    assert result.completed
+    assert result.success
     for corner in ("(1.00, 0.00)", "(1.00, 1.00)", "(0.00, 1.00)", "(0.00, 0.00)"):
         assert corner in progress
     x, y, yaw = result.final_pose
@@ -76,7 +77,7 @@ def test_sensor_rates_as_configured(square: tuple[MobileRobotResult, str]) -> No
 
 def test_unsubscribed_sensors_are_not_computed() -> None:
     result = run_mobile_robot(0.4, subscribe_sensors=False, progress=None)
-    assert result.completed
+    assert result.success
     assert result.scans_per_s == 0
     assert result.images_per_s == 0
     assert math.isinf(result.min_range_m)
@@ -89,8 +90,9 @@ def test_main_prints_json_last_and_rejects_bad_sides(capsys: pytest.CaptureFixtu
     assert main(["--side", "0.3", "--json"]) == 0
     last = capsys.readouterr().out.strip().splitlines()[-1]
     summary = json.loads(last)
-    assert summary["completed"] is True
-    assert list(summary)[:3] == ["completed", "odom_error_m", "wheel_odom_error_m"]
+    assert summary["success"] is True
+    assert list(summary)[:7] == list(SUMMARY_KEYS)
+    assert (summary["seed"], summary["backend"]) == (None, "local")
     assert summary["scans_per_s"] == pytest.approx(10.0, rel=0.05)
 
 

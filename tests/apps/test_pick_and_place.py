@@ -19,6 +19,7 @@ from simbridge.apps.pick_and_place import (
     run_pick_and_place,
 )
 from simbridge.apps.pick_and_place.sim_side import STAGES
+from simbridge.apps.summary import SUMMARY_KEYS
 
 PHASES = (
     "settle",
@@ -106,6 +107,7 @@ def test_json_summary_is_the_last_line(capsys: pytest.CaptureFixture[str]) -> No
     assert summary["cube_error_m"] < 0.02
     assert [p["name"] for p in summary["phases"]] == list(PHASES)
     assert summary["seed"] == 7
+    assert list(summary)[:7] == list(SUMMARY_KEYS)
     task = PickAndPlaceTask.random(7)
     assert summary["target"] == pytest.approx(task.target_center, abs=1e-4)
 

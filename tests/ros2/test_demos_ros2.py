@@ -28,7 +28,7 @@ def test_mobile_robot_drives_over_real_ros2_topics() -> None:
             assert imu["header"]["frame_id"] == "imu_link"
             assert abs(imu["linear_acceleration"]["z"] - 9.81) < 1.0  # gravity, robot upright
             assert set(imu["header"]["stamp"]) == {"sec", "nanosec"}  # ROS 2 layout
-            completed = demo.expect_json("completed", timeout=240)
+            completed = demo.expect_json("success", timeout=240)
             result = demo.output[-1]
     assert completed is True, "".join(demo.output[-20:])
     assert '"error": null' in result

@@ -219,7 +219,7 @@ def test_mobile_robot_demo_records_sensors_and_commands(tmp_path: Path) -> None:
 
     out = tmp_path / "demo.bag"
     result = run_mobile_robot(0.2, record=RecordOptions(out), progress=None)
-    assert result.completed
+    assert result.success
     counts, stamps, _ = _read(out)
     # what the sim publishes (sensors included) and the /cmd_vel it receives
     assert {"/scan", "/odom", "/imu", "/camera/image_raw", "/tf", "/cmd_vel"} <= set(counts)

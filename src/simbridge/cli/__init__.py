@@ -12,6 +12,7 @@ import logging
 import sys
 from collections.abc import Sequence
 
+from simbridge import __version__
 from simbridge.errors import SimbridgeError
 
 from . import demo, endpoint, graph, msg, planner, record, rviz, sim, train
@@ -27,7 +28,13 @@ def build_parser() -> argparse.ArgumentParser:
     """The full argument parser."""
     parser = argparse.ArgumentParser(prog="simbridge", description=__doc__)
     parser.add_argument(
-        "--log-level", default=None, help="DEBUG, INFO, WARNING or ERROR (default INFO for servers)"
+        "--version", action="version", version=f"simbridge {__version__}", help="print the version"
+    )
+    parser.add_argument(
+        "--log-level",
+        default=None,
+        help="DEBUG, INFO, WARNING or ERROR (default INFO for servers, WARNING for tools); "
+        "other libraries log only warnings unless DEBUG",
     )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for group in _GROUPS:
@@ -46,14 +53,19 @@ def main(argv: Sequence[str] | None = None) -> int:
         given, rcl_args = given[:cut], tuple(given[cut:])
     # roslaunch appends ROS arguments (__name:=x, _tcp_port:=10000): keep them for rospy.
     ros_args = tuple(arg for arg in given if ":=" in arg) + rcl_args
-    args = parser.parse_args([arg for arg in given if ":=" not in arg])
+    args = parser.parse_args(demo.with_default_demo(arg for arg in given if ":=" not in arg))
     args.ros_args = ros_args
     quiet_tool = args.command in ("topic", "service", "msg", "urdf", "demo")
     level_name = args.log_level or ("WARNING" if quiet_tool else "INFO")
-    logging.basicConfig(
-        level=getattr(logging, str(level_name).upper(), logging.INFO),
-        format="%(asctime)s %(levelname)s %(name)s: %(message)s",
-    )
+    level = getattr(logging, str(level_name).upper(), logging.INFO)
+    if not logging.getLogger().handlers:  # a host (a test runner) may have set logging up
+        # Libraries' INFO lines (PyOpenGL's "No OpenGL_accelerate module loaded", rospy's)
+        # are not news to a user: they log warnings and errors only, unless DEBUG is asked.
+        logging.basicConfig(
+            level=level if level <= logging.DEBUG else max(level, logging.WARNING),
+            format="%(asctime)s %(levelname)s %(name)s: %(message)s",
+        )
+        logging.getLogger("simbridge").setLevel(level)
     try:
         return int(args.func(args))
     except SimbridgeError as exc:

@@ -142,7 +142,13 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         default=None,
         help="TCP port (default: ros1 param ~tcp_port, else 10000; 0 = any free port)",
     )
-    ep.add_argument("--backend", choices=["local", "ros1", "ros2"], default="local")
+    ep.add_argument(
+        "--backend",
+        choices=["local", "ros1", "ros2"],
+        default="local",
+        help="where topics and services go: local (an in-process bus, no ROS needed; the "
+        "default), ros1 (a ROS 1 master) or ros2 (a ROS 2 graph)",
+    )
     ep.add_argument("--node-name", default="/simbridge_endpoint", help="ROS node name (ros1, ros2)")
     ep.add_argument(
         "--ros1-transport",

@@ -99,29 +99,48 @@ def run_service(args: argparse.Namespace) -> int:
     return 0
 
 
+def _connect_timeout_arg(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--connect-timeout",
+        type=float,
+        default=5.0,
+        metavar="SECONDS",
+        help="fail when the endpoint has not answered within SECONDS (default 5)",
+    )
+
+
 def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     topic = sub.add_parser("topic", help="list, echo, publish or measure topics via an endpoint")
     tsub = topic.add_subparsers(dest="action", required=True)
     t_list = tsub.add_parser("list", help="topics in the graph")
     t_list.add_argument("-v", "--verbose", action="store_true", help="show types too")
     t_echo = tsub.add_parser("echo", help="print messages on a topic")
-    t_echo.add_argument("topic")
+    t_echo.add_argument("topic", help="topic name, e.g. /joint_states")
     t_echo.add_argument("-n", "--count", type=int, default=0, help="stop after N messages")
     t_echo.add_argument("--no-arr", action="store_true", help="summarise arrays")
     t_pub = tsub.add_parser("pub", help="publish a message given as YAML")
-    t_pub.add_argument("topic")
+    t_pub.add_argument("topic", help="topic name, e.g. /cmd_vel")
     t_pub.add_argument("type", nargs="?", help="message type, e.g. geometry_msgs/Twist")
     t_pub.add_argument("data", nargs="?", default="", help="YAML, e.g. '{linear: {x: 0.5}}'")
     t_pub.add_argument("-r", "--rate", type=float, default=0.0, help="repeat at HZ")
     t_pub.add_argument("-n", "--count", type=int, default=0, help="with --rate: stop after N")
-    t_pub.add_argument("-l", "--latch", action="store_true")
+    t_pub.add_argument(
+        "-l", "--latch", action="store_true", help="latch: late subscribers get the last message"
+    )
     t_pub.add_argument("--linger", type=float, default=1.0, help="seconds to stay up when latched")
     t_hz = tsub.add_parser("hz", help="print the publishing rate of a topic")
-    t_hz.add_argument("topic")
-    t_hz.add_argument("-w", "--window", type=int, default=100)
+    t_hz.add_argument("topic", help="topic name, e.g. /scan")
+    t_hz.add_argument(
+        "-w",
+        "--window",
+        type=int,
+        default=100,
+        metavar="N",
+        help="average over the last N messages (default 100)",
+    )
     for p in (t_list, t_echo, t_pub, t_hz):
         add_endpoint_arg(p)
-        p.add_argument("--connect-timeout", type=float, default=5.0)
+        _connect_timeout_arg(p)
     for p in (t_echo, t_hz):
         p.add_argument("--type", help="message type (default: looked up in the topic list)")
         p.add_argument("--duration", type=float, default=0.0, help="stop after S seconds")
@@ -132,10 +151,16 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     svc = sub.add_parser("service", help="call a ROS service via an endpoint")
     ssub = svc.add_subparsers(dest="action", required=True)
     s_call = ssub.add_parser("call", help="call a service with a YAML request")
-    s_call.add_argument("service")
+    s_call.add_argument("service", help="service name, e.g. /reset_odometry")
     s_call.add_argument("type", help="service type, e.g. std_srvs/SetBool")
     s_call.add_argument("data", nargs="?", default="", help="YAML request, e.g. '{data: true}'")
-    s_call.add_argument("--timeout", type=float, default=10.0)
+    s_call.add_argument(
+        "--timeout",
+        type=float,
+        default=10.0,
+        metavar="SECONDS",
+        help="fail when the service has not answered within SECONDS (default 10)",
+    )
     add_endpoint_arg(s_call)
-    s_call.add_argument("--connect-timeout", type=float, default=5.0)
+    _connect_timeout_arg(s_call)
     s_call.set_defaults(func=run_service)

@@ -65,11 +65,11 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     msg = sub.add_parser("msg", help="inspect message types")
     msub = msg.add_subparsers(dest="action", required=True)
     m_show = msub.add_parser("show", help="fields of a message or service type")
-    m_show.add_argument("type")
+    m_show.add_argument("type", help="message or service type, e.g. sensor_msgs/LaserScan")
     m_md5 = msub.add_parser("md5", help="genmsg md5sum of a type")
-    m_md5.add_argument("type")
+    m_md5.add_argument("type", help="message or service type, e.g. std_msgs/String")
     m_list = msub.add_parser("list", help="every known type")
-    m_list.add_argument("--services", action="store_true")
+    m_list.add_argument("--services", action="store_true", help="list service types instead")
     m_genpy = msub.add_parser(
         "genpy",
         help="generate ROS 1 Python modules (for rostopic/rosservice) for types Debian lacks",
@@ -88,5 +88,11 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     m_build.add_argument("--force", action="store_true", help="rebuild even when unchanged")
     m_build.set_defaults(func=run_build)
     for p in (m_show, m_md5, m_list, m_genpy):
-        p.add_argument("--msg-path", action="append", default=[], metavar="DIR")
+        p.add_argument(
+            "--msg-path",
+            action="append",
+            default=[],
+            metavar="DIR",
+            help="also load the .msg/.srv files of the package(s) in DIR (repeatable)",
+        )
         p.set_defaults(func=run_msg)

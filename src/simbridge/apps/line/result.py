@@ -30,6 +30,7 @@ class LineResult:
     """CPU seconds the process spent (all threads) while the world ran: on a busy machine
     ``sim_s / cpu_s`` says what the run would reach with a core to itself."""
     seed: int | None = None
+    backend: str = "local"
     error: str | None = None
     planning_wall_s: float = 0.0
     final_positions: tuple[tuple[float, float, float], ...] = field(default=())
@@ -46,21 +47,23 @@ class LineResult:
         return self.sim_s / self.wall_s if self.wall_s > 0 else 0.0
 
     def to_dict(self) -> dict[str, Any]:
-        """The `--json` line: success, parts, delivered, placement_error_m, cycle_s, sim_s,
-        wall_s, robots, then the extras."""
+        """The `--json` line: the keys every demo has (success, seed, backend, sim_s, wall_s,
+        realtime_factor, error), then parts, delivered, placement_error_m, cycle_s, robots
+        and the extras."""
         return {
             "success": self.success,
+            "seed": self.seed,
+            "backend": self.backend,
+            "sim_s": round(self.sim_s, 3),
+            "wall_s": round(self.wall_s, 3),
+            "realtime_factor": round(self.realtime_factor, 2),
+            "error": self.error,
             "parts": self.parts,
             "delivered": self.delivered,
             "placement_error_m": [round(e, 5) for e in self.placement_error_m],
             "cycle_s": round(self.cycle_s, 3),
-            "sim_s": round(self.sim_s, 3),
-            "wall_s": round(self.wall_s, 3),
             "robots": self.robots,
-            "realtime_factor": round(self.realtime_factor, 2),
             "cpu_s": round(self.cpu_s, 3),
             "planning_wall_s": round(self.planning_wall_s, 3),
-            "seed": self.seed,
-            "error": self.error,
             "video": self.video,
         }

@@ -28,8 +28,9 @@ from simbridge.apps.line.scene import (
     part_name,
 )
 from simbridge.apps.line.supervisor import LineSupervisor
-from simbridge.apps.line.task import MAX_PARTS, LineTask
+from simbridge.apps.line.task import LineTask
 from simbridge.apps.line.view import LineView
+from simbridge.apps.options import LINE, LINE_BACKENDS, add_line_arguments
 from simbridge.apps.pick_and_place.video import VideoRecorder, check_video_path
 from simbridge.apps.ros_master import DemoMaster
 from simbridge.connector import ConnectorOptions
@@ -50,7 +51,7 @@ from simbridge.sim.world import World
 
 __all__ = ["BACKENDS", "main", "run_line"]
 
-BACKENDS = ("local", "ros1")
+BACKENDS = LINE_BACKENDS
 
 SETTLE_S = 0.5
 """Simulated seconds the parts rest after the last one is set down, before measuring."""
@@ -233,7 +234,8 @@ def run_line(
         wall_s=wall_s,
         cpu_s=sim.cpu_s,
         robots=robots,
-        seed=seed,
+        seed=seed if seed is not None else 0,
+        backend=backend,
         error=error,
         planning_wall_s=supervisor.planning_wall_s,
         final_positions=tuple(finals),
@@ -254,37 +256,14 @@ def run_line(
 
 def main(argv: Sequence[str] | None = None) -> int:
     """`simbridge demo line`: 0 when every part was delivered, 1 if not, 2 on errors."""
-    parser = argparse.ArgumentParser(
-        prog="simbridge demo line",
-        description="A small production line: two Niryo One arms and a conveyor, each in its "
-        "own namespace, move parts from an input area to an output area through their "
-        "controllers' actions.",
-    )
-    parser.add_argument("--seed", type=int, help="draw the part poses from this seed (default 0)")
-    parser.add_argument(
-        "--backend",
-        choices=BACKENDS,
-        default="local",
-        help="local (default): the embedded bus; ros1: real ROS 1 topics and actions on the "
-        "master at ROS_MASTER_URI (else a private roscore)",
-    )
-    parser.add_argument("--parts", type=int, default=3, help=f"parts to move, 1 to {MAX_PARTS}")
-    parser.add_argument("--json", action="store_true", help="print a JSON summary last")
-    parser.add_argument("--video", metavar="PATH", help="write a .gif (or .mp4 with ffmpeg)")
-    parser.add_argument(
-        "--realtime",
-        type=float,
-        help="sim seconds per wall second (default: 1 with --view, else 0 = as fast as possible)",
-    )
-    parser.add_argument("--record", metavar="FILE", help="record the run (.mcap or .bag)")
-    parser.add_argument(
-        "--view",
-        action="store_true",
-        help="live browser view (viser); keeps serving after the run, with a button that "
-        "runs the line again with the next seed (Ctrl-C ends)",
-    )
-    parser.add_argument("--view-port", type=int, default=8080, help="live view port")
-    args = parser.parse_args(argv)
+    parser = argparse.ArgumentParser(prog="simbridge demo line", description=LINE)
+    add_line_arguments(parser)
+    return run_from_args(parser.parse_args(argv))
+
+
+def run_from_args(args: argparse.Namespace) -> int:
+    """Run the demo with parsed options: 0 when every part was delivered, 1 if not, 2 on
+    errors."""
     realtime = args.realtime if args.realtime is not None else (1.0 if args.view else 0.0)
     if not realtime >= 0:
         print(f"simbridge demo line: --realtime must be >= 0, got {realtime}", file=sys.stderr)

@@ -19,7 +19,8 @@ class MobileRobotResult:
     ``*_per_s`` are messages received per simulated second.
     """
 
-    completed: bool
+    success: bool
+    """The square was driven and the last readings arrived."""
     sim_time: float
     wall_time: float
     final_pose: tuple[float, float, float]
@@ -35,6 +36,7 @@ class MobileRobotResult:
     image_kib: float
     """Mean JPEG size."""
     sensors_subscribed: bool = True
+    backend: str = "local"
     error: str | None = None
     first_scan: ScanSample | None = field(default=None, repr=False)
 
@@ -44,9 +46,16 @@ class MobileRobotResult:
         return self.sim_time / self.wall_time if self.wall_time > 0 else float("inf")
 
     def to_dict(self) -> dict[str, Any]:
-        """The JSON summary: completion, odometry errors and rates first, then details."""
+        """The JSON summary: the keys every demo has (success, seed, backend, sim_s, wall_s,
+        realtime_factor, error), then odometry errors, rates and details."""
         return {
-            "completed": self.completed,
+            "success": self.success,
+            "seed": None,  # nothing in the run is drawn at random
+            "backend": self.backend,
+            "sim_s": round(self.sim_time, 4),
+            "wall_s": round(self.wall_time, 4),
+            "realtime_factor": round(self.realtime_factor, 3),
+            "error": self.error,
             "odom_error_m": round(self.odom_error_m, 5),
             "wheel_odom_error_m": round(self.wheel_odom_error_m, 5),
             "min_range_m": round(self.min_range_m, 4),
@@ -54,13 +63,9 @@ class MobileRobotResult:
             "images_per_s": round(self.images_per_s, 3),
             "imu_per_s": round(self.imu_per_s, 3),
             "odom_per_s": round(self.odom_per_s, 3),
-            "realtime_factor": round(self.realtime_factor, 3),
             "odom_yaw_error_deg": round(self.odom_yaw_error_deg, 4),
             "wheel_odom_yaw_error_deg": round(self.wheel_odom_yaw_error_deg, 4),
             "final_pose": [round(v, 4) for v in self.final_pose],
             "image_kib": round(self.image_kib, 2),
-            "sim_s": round(self.sim_time, 4),
-            "wall_s": round(self.wall_time, 4),
             "sensors_subscribed": self.sensors_subscribed,
-            "error": self.error,
         }

@@ -8,14 +8,22 @@ from __future__ import annotations
 import argparse
 import json as json_text
 import math
+import queue
 import sys
+import threading
 import time
 from collections.abc import Callable, Sequence
-from contextlib import ExitStack
+from contextlib import ExitStack, suppress
 from pathlib import Path
 
+from simbridge.apps.idle import next_request
 from simbridge.apps.mobile_robot.driver import DriverNode, DriverTopics, SensorTally, SquarePath
 from simbridge.apps.mobile_robot.result import MobileRobotResult
+from simbridge.apps.options import (
+    MOBILE_ROBOT,
+    MOBILE_ROBOT_BACKENDS,
+    add_mobile_robot_arguments,
+)
 from simbridge.apps.ros_master import DemoMaster
 from simbridge.connector import ConnectorOptions
 from simbridge.endpoint import Backend, EndpointOptions, EndpointThread, LocalBus, make_backend
@@ -30,7 +38,7 @@ from simbridge.sim.world import World
 
 __all__ = ["BACKENDS", "BASE_LINK", "SCENE_PATH", "main", "run_mobile_robot"]
 
-BACKENDS = ("local", "ros1", "ros2")
+BACKENDS = MOBILE_ROBOT_BACKENDS
 
 SCENE_PATH = Path(__file__).resolve().parent / "scene.yaml"
 BASE_LINK = "base_link"
@@ -87,6 +95,7 @@ def run_mobile_robot(
     progress: Callable[[str], None] | None = print,
     record: RecordOptions | None = None,
     view: ViewOptions | None = None,
+    serve: threading.Event | None = None,
 ) -> MobileRobotResult:
     """Drive diffbot around a square of `side_m` metres in the walled room and measure.
 
@@ -99,7 +108,9 @@ def run_mobile_robot(
     topics, and the sim speaks ROS 2 (CDR, ROS 2 layouts). `realtime_factor` 0 runs as
     fast as possible; `subscribe_sensors` False leaves lidar, camera and IMU without
     subscribers (so they are never computed). `json` prints the summary as the last line.
-    `record` writes a bag of every sim topic; `view` serves the live browser view.
+    `record` writes a bag of every sim topic; `view` serves the live browser view, which
+    stays up after the run (the world stepping in real time) until Ctrl-C or until `serve`
+    (an event) is set.
     """
     if backend not in BACKENDS:
         raise AppError(f"unknown backend {backend!r}; choose one of {', '.join(BACKENDS)}")
@@ -160,35 +171,43 @@ def run_mobile_robot(
         first = world.run(max_sim_s, realtime_factor)
         settle = world.run(SETTLE_S, realtime_factor)
         caught_up = _wait(lambda: _caught_up(world, driver), 5.0)
-        tally = driver.tally()
-        truth = _planar(world.link_pose(BASE_LINK), anchor)
-        sim_time = world.time
-        wall_time = first.wall_time + settle.wall_time
-    error = None
-    if not driver.done.is_set():
-        error = f"the square was not finished within {max_sim_s:g} s of sim time"
-    elif not caught_up:
-        error = "the last odometry or joint states never reached the driver"
-    result = _result(
-        tally,
-        truth,
-        sim_time=sim_time,
-        wall_time=wall_time,
-        subscribed=subscribe_sensors,
-        error=error,
-    )
-    verdict = "done" if result.completed else f"FAILED ({error})"
+        error = None
+        if not driver.done.is_set():
+            error = f"the square was not finished within {max_sim_s:g} s of sim time"
+        elif not caught_up:
+            error = "the last odometry or joint states never reached the driver"
+        result = _result(
+            driver.tally(),
+            _planar(world.link_pose(BASE_LINK), anchor),
+            sim_time=world.time,
+            wall_time=first.wall_time + settle.wall_time,
+            subscribed=subscribe_sensors,
+            backend=backend,
+            error=error,
+        )
+        _report(result, say, json)
+        if view is not None:
+            say(f"[mobile-robot] the view stays at {live.url} until Ctrl-C")
+            with suppress(KeyboardInterrupt):  # the run is over: Ctrl-C ends the view only
+                next_request(
+                    queue.Queue(), serve or threading.Event(), world, realtime_factor, "view"
+                )
+    return result
+
+
+def _report(result: MobileRobotResult, say: Callable[[str], None], json: bool) -> None:
+    """The one-line verdict, and the JSON summary as the last line if asked."""
+    verdict = "done" if result.success else f"FAILED ({result.error})"
     say(
         f"[mobile-robot] {verdict}: odom error {result.odom_error_m * 1000:.2f} mm, wheel "
         f"odometry error {result.wheel_odom_error_m * 100:.2f} cm / "
         f"{result.wheel_odom_yaw_error_deg:.2f} deg; nearest lidar return "
         f"{result.min_range_m:.3f} m; {result.scans_per_s:.1f} scans/s, "
-        f"{result.images_per_s:.1f} images/s (sim); {sim_time:.1f} s simulated in "
-        f"{wall_time:.1f} s (x{result.realtime_factor:.1f})"
+        f"{result.images_per_s:.1f} images/s (sim); {result.sim_time:.1f} s simulated in "
+        f"{result.wall_time:.1f} s (x{result.realtime_factor:.1f})"
     )
     if json:
         print(json_text.dumps(result.to_dict()), flush=True)
-    return result
 
 
 def _result(
@@ -198,13 +217,14 @@ def _result(
     sim_time: float,
     wall_time: float,
     subscribed: bool,
+    backend: str,
     error: str | None,
 ) -> MobileRobotResult:
     odom_m, odom_deg = _errors(tally.odom_pose, truth)
     wheel_m, wheel_deg = _errors(tally.wheel_pose, truth)
     per_s = 1.0 / sim_time if sim_time > 0 else 0.0
     return MobileRobotResult(
-        completed=error is None,
+        success=error is None,
         sim_time=sim_time,
         wall_time=wall_time,
         final_pose=(truth.x, truth.y, truth.yaw),
@@ -219,6 +239,7 @@ def _result(
         odom_per_s=tally.odoms * per_s,
         image_kib=tally.image_bytes / 1024 / tally.images if tally.images else 0.0,
         sensors_subscribed=subscribed,
+        backend=backend,
         error=error,
         first_scan=tally.first_scan,
     )
@@ -226,33 +247,25 @@ def _result(
 
 def main(argv: Sequence[str] | None = None) -> int:
     """`simbridge demo mobile-robot`: 0 when the square was driven, 1 if not, 2 on errors."""
-    parser = argparse.ArgumentParser(
-        prog="simbridge demo mobile-robot",
-        description="Drive a differential-drive robot around a square in a walled room over "
-        "ROS topics (/cmd_vel, /odom, /scan, camera, /imu) and measure what arrives.",
-    )
-    parser.add_argument("--side", type=float, default=1.0, help="square side in metres")
-    parser.add_argument(
-        "--realtime", type=float, default=0.0, help="sim seconds per wall second (0: unpaced)"
-    )
-    parser.add_argument(
-        "--backend",
-        choices=BACKENDS,
-        default="local",
-        help="local (default): the embedded bus; ros1: real ROS topics on a ROS 1 master",
-    )
-    parser.add_argument("--json", action="store_true", help="print a JSON summary last")
-    parser.add_argument("--record", metavar="FILE", help="record the run (.mcap or .bag)")
-    parser.add_argument("--view", action="store_true", help="live browser view (viser)")
-    parser.add_argument("--view-port", type=int, default=8080, help="live view port")
-    args = parser.parse_args(argv)
+    parser = argparse.ArgumentParser(prog="simbridge demo mobile-robot", description=MOBILE_ROBOT)
+    add_mobile_robot_arguments(parser)
+    return run_from_args(parser.parse_args(argv))
+
+
+def run_from_args(args: argparse.Namespace) -> int:
+    """Run the demo with parsed options: 0 when the square was driven, 1 if not, 2 on
+    errors."""
     if not 0.2 <= args.side <= 1.2:
         print("simbridge demo mobile-robot: --side must be in [0.2, 1.2] m", file=sys.stderr)
+        return 2
+    realtime = args.realtime if args.realtime is not None else (1.0 if args.view else 0.0)
+    if not realtime >= 0:
+        print("simbridge demo mobile-robot: --realtime must be >= 0", file=sys.stderr)
         return 2
     try:
         result = run_mobile_robot(
             args.side,
-            args.realtime,
+            realtime,
             args.json,
             backend=args.backend,
             record=RecordOptions(Path(args.record)) if args.record else None,
@@ -261,4 +274,4 @@ def main(argv: Sequence[str] | None = None) -> int:
     except SimbridgeError as exc:
         print(f"simbridge demo mobile-robot: {exc}", file=sys.stderr)
         return 2
-    return 0 if result.completed else 1
+    return 0 if result.success else 1

@@ -17,6 +17,7 @@ from contextlib import ExitStack
 from pathlib import Path
 
 from simbridge.apps.idle import next_request
+from simbridge.apps.options import PICK_AND_PLACE_BACKENDS
 from simbridge.apps.pick_and_place.planner_node import LocalPlannerNode
 from simbridge.apps.pick_and_place.result import PickAndPlaceResult
 from simbridge.apps.pick_and_place.ros1_graph import Ros1Graph
@@ -37,7 +38,7 @@ from simbridge.sim.view import LiveView, ViewOptions
 
 __all__ = ["AGAIN_LABEL", "BACKENDS", "PickAndPlaceDemo"]
 
-BACKENDS = ("local", "ros1", "ros2")
+BACKENDS = PICK_AND_PLACE_BACKENDS
 AGAIN_LABEL = "Pick and place again (new seed)"
 """The demo's button in the live view."""
 

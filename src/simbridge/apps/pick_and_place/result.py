@@ -69,21 +69,25 @@ class PickAndPlaceResult:
         return sum(p.wall_s for p in self.phases)
 
     def to_dict(self) -> dict[str, Any]:
-        """The JSON summary: success, cube_error_m and phases first, then the details."""
+        """The JSON summary: the keys every demo has (success, seed, backend, sim_s, wall_s,
+        realtime_factor, error), then cube_error_m, phases and the details. `seed` None is
+        the fixed default task (not drawn from a seed)."""
+        wall = self.wall_time
         return {
             "success": self.success,
+            "seed": self.seed,
+            "backend": self.backend,
+            "sim_s": round(self.sim_time, 4),
+            "wall_s": round(wall, 4),
+            "realtime_factor": round(self.sim_time / wall, 3) if wall > 0 else 0.0,
+            "error": self.error,
             "cube_error_m": round(self.cube_error_m, 5),
             "phases": [p.to_dict() for p in self.phases],
             "upright": self.upright,
             "tilt_deg": round(self.tilt_deg, 3),
-            "backend": self.backend,
-            "seed": self.seed,
             "cube_start": [round(v, 4) for v in self.cube_start],
             "target": [round(v, 4) for v in self.target],
             "cube_final": [round(v, 4) for v in self.cube_final],
             "trajectories": self.trajectories,
-            "sim_s": round(self.sim_time, 4),
-            "wall_s": round(self.wall_time, 4),
-            "error": self.error,
             "video": self.video,
         }

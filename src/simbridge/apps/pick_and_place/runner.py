@@ -13,6 +13,7 @@ import threading
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
+from simbridge.apps.options import PICK_AND_PLACE, add_pick_and_place_arguments
 from simbridge.apps.pick_and_place.demo import BACKENDS, PickAndPlaceDemo
 from simbridge.apps.pick_and_place.result import PickAndPlaceResult
 from simbridge.apps.pick_and_place.scene import SCENE_PATH
@@ -72,27 +73,14 @@ def run_pick_and_place(
 def main(argv: Sequence[str] | None = None) -> int:
     """`simbridge demo pick-and-place`: 0 on success, 1 when the cube missed, 2 on errors."""
     parser = argparse.ArgumentParser(
-        prog="simbridge demo pick-and-place",
-        description="Pick a cube and place it on a target with a Niryo One arm planned over ROS.",
+        prog="simbridge demo pick-and-place", description=PICK_AND_PLACE
     )
-    parser.add_argument("--backend", choices=BACKENDS, default="local")
-    parser.add_argument("--json", action="store_true", help="print a JSON summary last")
-    parser.add_argument("--video", metavar="PATH", help="write a .gif (or .mp4 with ffmpeg)")
-    parser.add_argument("--seed", type=int, help="draw a random cube and target from this seed")
-    parser.add_argument(
-        "--realtime",
-        type=float,
-        help="sim seconds per wall second (default: 1 with --view, else 0 = as fast as possible)",
-    )
-    parser.add_argument("--record", metavar="FILE", help="record the run (.mcap or .bag)")
-    parser.add_argument(
-        "--view",
-        action="store_true",
-        help="live browser view (viser); keeps serving after the run, with a button that "
-        "runs again with a new seed, until Ctrl-C",
-    )
-    parser.add_argument("--view-port", type=int, default=8080, help="live view port")
-    args = parser.parse_args(argv)
+    add_pick_and_place_arguments(parser)
+    return run_from_args(parser.parse_args(argv))
+
+
+def run_from_args(args: argparse.Namespace) -> int:
+    """Run the demo with parsed options: 0 on success, 1 when the cube missed, 2 on errors."""
     realtime = args.realtime if args.realtime is not None else (1.0 if args.view else 0.0)
     if not realtime >= 0:
         print("simbridge demo pick-and-place: --realtime must be >= 0", file=sys.stderr)
