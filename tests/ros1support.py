@@ -28,8 +28,7 @@ from typing import TYPE_CHECKING, TypeVar
 import pytest
 
 from simbridge.connector import ConnectorOptions
-from simbridge.endpoint.backends.drained_process import DrainedProcess
-from simbridge.endpoint.backends.ros1_master import RosCore, terminate
+from simbridge.endpoint.backends.ros1 import DrainedProcess, RosCore, terminate
 
 if TYPE_CHECKING:  # rospy is imported only once require_ros() let the tests run
     from simbridge.endpoint.backends.ros1 import Ros1Backend, Ros1Options

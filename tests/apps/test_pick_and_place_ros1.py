@@ -22,8 +22,7 @@ import yaml
 
 from simbridge.apps.pick_and_place import PLANNER_SERVICE, SERVICE_TYPE, PickAndPlaceTask
 from simbridge.apps.pick_and_place.conversion import pose_to_msg
-from simbridge.endpoint.backends.ros1_genpy import generate_python_messages
-from simbridge.endpoint.backends.ros1_master import master_answers
+from simbridge.endpoint.backends.ros1 import generate_python_messages, master_answers
 from simbridge.messages import default_registry
 from simbridge.planning import Pose, top_down_orientation
 from tests.ros1support import RosMaster, require_ros, shared_master
@@ -80,8 +79,7 @@ def rospy_call(payload: bytes) -> Any:
     """Call /niryo_moveit with rospy and raw service classes from the message registry."""
     import rospy
 
-    from simbridge.endpoint.backends.ros1_raw import raw_service_class
-    from simbridge.endpoint.backends.ros1_types import Ros1Types
+    from simbridge.endpoint.backends.ros1 import Ros1Types, raw_service_class
 
     service_class = raw_service_class(Ros1Types(REG).service(SERVICE_TYPE))
     proxy = rospy.ServiceProxy(PLANNER_SERVICE, service_class)

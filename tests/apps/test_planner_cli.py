@@ -48,7 +48,7 @@ def master() -> Iterator[RosMaster]:
 
 def served_by(master: RosMaster) -> str | None:
     """The node answering a probe on /niryo_moveit, or None."""
-    from simbridge.endpoint.backends.ros1_probe import probe_service
+    from simbridge.endpoint.backends.ros1 import probe_service
 
     try:
         return probe_service(master.uri, PLANNER_SERVICE)

@@ -20,7 +20,7 @@ from tests.ros1support import (
 from tests.waiting import wait_for
 
 from simbridge.connector import ActionClient, Connector, ConnectorOptions
-from simbridge.endpoint.backends.ros1_genpy import generate_python_messages
+from simbridge.endpoint.backends.ros1 import generate_python_messages
 from simbridge.messages import default_registry
 from simbridge.messages.actionlib import ACTIVE, PREEMPTED, SUCCEEDED
 

@@ -22,7 +22,7 @@ from tests.ros1support import (
 )
 from tests.sim.urdf_samples import GRAVITY_ARM
 
-from simbridge.endpoint.backends.ros1_genpy import generate_python_messages
+from simbridge.endpoint.backends.ros1 import generate_python_messages
 from simbridge.messages import default_registry
 
 require_ros(module_level=True)

@@ -24,7 +24,7 @@ require_ros(module_level=True)
 
 import rosgraph  # noqa: E402
 
-from simbridge.endpoint.backends.ros1_probe import probe_service  # noqa: E402
+from simbridge.endpoint.backends.ros1 import probe_service  # noqa: E402
 from simbridge.errors import EndpointError  # noqa: E402
 
 pytestmark = [pytest.mark.ros1, pytest.mark.timeout(240)]

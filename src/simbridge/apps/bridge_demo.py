@@ -11,7 +11,7 @@ from typing import Any
 from simbridge.apps.ros_master import DemoMaster
 from simbridge.connector import Connector, ConnectorOptions
 from simbridge.endpoint import Backend, EndpointOptions, EndpointThread, LocalBus, make_backend
-from simbridge.endpoint.backends.ros1_master import unique_node_name
+from simbridge.endpoint.backends.ros1 import unique_node_name
 from simbridge.errors import AppError
 from simbridge.messages import default_registry
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 import os
 import shutil
 
-from simbridge.endpoint.backends.ros1_master import RosCore, master_answers
+from simbridge.endpoint.backends.ros1 import RosCore, master_answers
 from simbridge.errors import AppError, EndpointError
 
 __all__ = ["DemoMaster"]

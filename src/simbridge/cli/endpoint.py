@@ -83,7 +83,7 @@ def run_endpoint(args: argparse.Namespace) -> int:
         # Precedence: command-line flag, then the original node's ~tcp_ip/~tcp_port, then default.
         host, port = args.host, args.port
         if args.backend == "ros1":
-            from simbridge.endpoint.backends.ros1_node import read_drop_in_params
+            from simbridge.endpoint.backends.ros1 import read_drop_in_params
 
             await backend.start()
             param_host, param_port = read_drop_in_params()

@@ -44,7 +44,7 @@ def run_msg(args: argparse.Namespace) -> int:
     if args.action == "genpy":
         from pathlib import Path
 
-        from simbridge.endpoint.backends.ros1_genpy import generate_python_messages
+        from simbridge.endpoint.backends.ros1 import generate_python_messages
 
         services = [t for t in args.types if registry.has_service(t)]
         messages = [t for t in args.types if not registry.has_service(t)]

@@ -42,7 +42,7 @@ from simbridge.endpoint import (
     Node,
     make_backend,
 )
-from simbridge.endpoint.backends.ros1_master import unique_node_name
+from simbridge.endpoint.backends.ros1 import unique_node_name
 from simbridge.errors import AppError, SimbridgeError
 from simbridge.sim.record import RecordOptions
 from simbridge.sim.ros import SimulationSession

@@ -27,7 +27,7 @@ from simbridge.apps.options import (
 from simbridge.apps.ros_master import DemoMaster
 from simbridge.connector import ConnectorOptions
 from simbridge.endpoint import Backend, EndpointOptions, EndpointThread, LocalBus, make_backend
-from simbridge.endpoint.backends.ros1_master import unique_node_name
+from simbridge.endpoint.backends.ros1 import unique_node_name
 from simbridge.errors import AppError, SimbridgeError
 from simbridge.sim.control import Pose2D
 from simbridge.sim.record import RecordOptions

@@ -27,7 +27,7 @@ from simbridge.apps.pick_and_place.task import PickAndPlaceTask
 from simbridge.apps.pick_and_place.video import VideoRecorder
 from simbridge.connector import Connector, ConnectorOptions
 from simbridge.endpoint import EndpointOptions, EndpointThread, LocalBus, make_backend
-from simbridge.endpoint.backends.ros1_master import unique_node_name
+from simbridge.endpoint.backends.ros1 import unique_node_name
 from simbridge.errors import AppError
 from simbridge.sim import World
 from simbridge.sim.record import Recorder, RecordOptions

@@ -21,7 +21,7 @@ from typing import IO
 from simbridge.apps.pick_and_place.planner_node import NODE_NAME, PLANNER_SERVICE
 from simbridge.apps.pick_and_place.scene import SCENE_PATH
 from simbridge.apps.ros_master import DemoMaster
-from simbridge.endpoint.backends.ros1_master import terminate, unique_node_name
+from simbridge.endpoint.backends.ros1 import terminate, unique_node_name
 from simbridge.errors import AppError, EndpointError
 
 __all__ = ["Ros1Graph"]
@@ -50,7 +50,7 @@ class Ros1Graph:
         return self
 
     def _start_planner(self) -> None:
-        from simbridge.endpoint.backends.ros1_probe import (  # noqa: PLC0415 - ROS is optional
+        from simbridge.endpoint.backends.ros1 import (  # noqa: PLC0415 - ROS is optional
             probe_service,
         )
 

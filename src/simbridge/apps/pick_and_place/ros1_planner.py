@@ -21,9 +21,13 @@ from simbridge.apps.pick_and_place.planner_node import (
     MoverServiceHandler,
     planner_for_scene,
 )
-from simbridge.endpoint.backends.ros1_node import join_graph, on_node_shutdown
-from simbridge.endpoint.backends.ros1_raw import RawMessage, raw_service_class
-from simbridge.endpoint.backends.ros1_types import Ros1Types
+from simbridge.endpoint.backends.ros1 import (
+    RawMessage,
+    Ros1Types,
+    join_graph,
+    on_node_shutdown,
+    raw_service_class,
+)
 from simbridge.errors import AppError
 from simbridge.messages import default_registry
 

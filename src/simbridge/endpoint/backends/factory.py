@@ -38,7 +38,7 @@ def make_backend(
     if protocol not in (None, "ROS1") and name == "ros1":
         raise EndpointError(f"the ros1 backend speaks ROS1, not {protocol}")
     if name == "ros1":
-        from simbridge.endpoint.backends.ros1 import (  # noqa: PLC0415 - rospy is optional
+        from simbridge.endpoint.backends.ros1.backend import (  # noqa: PLC0415 - rospy is optional
             Ros1Backend,
             Ros1Options,
         )

@@ -11,8 +11,8 @@ import threading
 import time
 from collections.abc import Callable, Sequence
 
-from simbridge.endpoint.backends.ros1_raw import RawMessageType
-from simbridge.endpoint.backends.ros1_tcpros_sub import COALESCE, Sink, SubscribedTopic
+from simbridge.endpoint.backends.ros1.raw import RawMessageType
+from simbridge.endpoint.backends.ros1.tcpros_sub import COALESCE, Sink, SubscribedTopic
 from simbridge.protocol.tcpros import TcprosDecoder, encode_header, frame
 
 INFO = RawMessageType("std_msgs/UInt32", "304a39449588c7f8ce2df6e8001c5fce", "uint32 data\n")

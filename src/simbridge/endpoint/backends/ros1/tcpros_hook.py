@@ -23,7 +23,7 @@ from typing import Any
 from rospy.impl.registration import RegManager, get_registration_listeners
 from rospy.impl.tcpros import get_tcpros_handler
 
-from simbridge.endpoint.backends.ros1_tcpros_sub import SubscribedTopic
+from simbridge.endpoint.backends.ros1.tcpros_sub import SubscribedTopic
 from simbridge.errors import EndpointError
 
 __all__ = [

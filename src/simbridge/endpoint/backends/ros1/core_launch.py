@@ -3,7 +3,7 @@ the master on a port the OS chooses: no port is picked before it is bound, so no
 taken in between.
 
 Run as a script by the interpreter that runs `rosmaster` (it imports nothing of
-simbridge): `python3 ros1_core_launch.py URI_FILE`. The master's URI is written to
+simbridge): `python3 core_launch.py URI_FILE`. The master's URI is written to
 URI_FILE once it serves; SIGINT or SIGTERM stops /rosout and the master.
 """
 
@@ -39,7 +39,7 @@ def main(argv: list[str]) -> int:
     import rosmaster.master  # noqa: PLC0415
 
     if len(argv) != 2:
-        print("usage: ros1_core_launch.py URI_FILE", file=sys.stderr)
+        print("usage: core_launch.py URI_FILE", file=sys.stderr)
         return 2
     stop = threading.Event()
     for signum in (signal.SIGINT, signal.SIGTERM):

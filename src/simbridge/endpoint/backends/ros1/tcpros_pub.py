@@ -23,7 +23,7 @@ import struct
 from collections import deque
 from collections.abc import Callable
 
-from simbridge.endpoint.backends.ros1_raw import RawMessageType
+from simbridge.endpoint.backends.ros1.raw import RawMessageType
 from simbridge.endpoint.deferred import DeferredWrites, deferred_writes
 from simbridge.endpoint.speed.splice import MAX_BACKLOG, SINK_WAIT, unsent
 from simbridge.endpoint.speed.writev import SocketWriter

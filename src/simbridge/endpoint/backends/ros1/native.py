@@ -18,9 +18,9 @@ import rosgraph.network
 import rospy
 
 from simbridge.endpoint.backends.base import BackendSubscription, BatchCallback, MessageCallback
-from simbridge.endpoint.backends.ros1_raw import RawMessage, RawMessageType
-from simbridge.endpoint.backends.ros1_registration import Registration, Ros1Publisher
-from simbridge.endpoint.backends.ros1_tcpros_hook import (
+from simbridge.endpoint.backends.ros1.raw import RawMessage, RawMessageType
+from simbridge.endpoint.backends.ros1.registration import Registration, Ros1Publisher
+from simbridge.endpoint.backends.ros1.tcpros_hook import (
     add_bus_info,
     install,
     remove_bus_info,
@@ -28,8 +28,8 @@ from simbridge.endpoint.backends.ros1_tcpros_hook import (
     route_subscription,
     unroute,
 )
-from simbridge.endpoint.backends.ros1_tcpros_pub import PublishedTopic, TopicServer
-from simbridge.endpoint.backends.ros1_tcpros_sub import Sink, SubscribedTopic
+from simbridge.endpoint.backends.ros1.tcpros_pub import PublishedTopic, TopicServer
+from simbridge.endpoint.backends.ros1.tcpros_sub import Sink, SubscribedTopic
 from simbridge.endpoint.speed.splice import SpliceSink
 from simbridge.errors import EndpointError
 

@@ -10,7 +10,7 @@ from typing import Any
 import pytest
 from tests.ros1support import RosMaster, require_ros
 
-from simbridge.endpoint.backends.ros1_master import _descendants
+from simbridge.endpoint.backends.ros1.master import _descendants
 from simbridge.errors import EndpointError
 
 pytestmark = [pytest.mark.ros1, pytest.mark.timeout(120)]
@@ -69,3 +69,19 @@ def test_a_port_asked_for_is_kept_and_a_taken_one_fails_clearly() -> None:
         with pytest.raises(EndpointError, match=f"roscore on port {first.port} did not come up"):
             second.start(timeout=20)
         assert second.port == first.port
+
+
+def test_the_launcher_folder_shadows_nothing_the_launcher_imports() -> None:
+    """core_launch.py runs as a script, so its folder comes first on its module path: a
+    module there named like a top-level one (the standard library's `types`, ROS's
+    `genpy`) would be imported in its place by the launcher or by rosmaster."""
+    import importlib.util
+    import sys
+    from pathlib import Path
+
+    from simbridge.endpoint.backends.ros1 import core_launch
+
+    folder = Path(core_launch.__file__).parent
+    names = {path.stem for path in folder.glob("*.py")} - {"__init__"}
+    shadowing = {n for n in names if n in sys.stdlib_module_names or importlib.util.find_spec(n)}
+    assert not shadowing

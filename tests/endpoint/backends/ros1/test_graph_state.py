@@ -20,7 +20,7 @@ require_ros(module_level=True)
 import rospy  # noqa: E402
 
 from simbridge.endpoint.backends.ros1 import Ros1Backend  # noqa: E402
-from simbridge.endpoint.backends.ros1_rejoin import register_again  # noqa: E402
+from simbridge.endpoint.backends.ros1.rejoin import register_again  # noqa: E402
 
 pytestmark = [
     pytest.mark.ros1,

@@ -24,7 +24,7 @@ from simbridge.protocol.tcpros import TcprosDecoder
 
 require_ros(module_level=True)
 
-from tests.endpoint.backends.test_ros1_native import (  # noqa: E402
+from tests.endpoint.backends.ros1.test_native import (  # noqa: E402
     send_in_background,
     subscriber_header,
     tcpros_address,

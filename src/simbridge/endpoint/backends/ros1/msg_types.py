@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from simbridge.endpoint.backends.ros1_raw import RawMessageType, RawServiceType
+from simbridge.endpoint.backends.ros1.raw import RawMessageType, RawServiceType
 from simbridge.messages import MessageRegistry
 
 __all__ = ["Ros1Types"]

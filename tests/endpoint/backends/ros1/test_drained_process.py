@@ -9,8 +9,7 @@ import time
 
 import pytest
 
-from simbridge.endpoint.backends.drained_process import DrainedProcess
-from simbridge.endpoint.backends.ros1_master import RosCore
+from simbridge.endpoint.backends.ros1 import DrainedProcess, RosCore
 
 CHATTY = "import sys; sys.stderr.write('e' * 300_000 + 'last err'); print('x' * 300_000 + 'end')"
 

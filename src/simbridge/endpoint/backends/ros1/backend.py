@@ -2,9 +2,9 @@
 
 rospy registers the node, its topics and services with the master and serves its
 slave API, parameters and /rosout. Topic data moves, by default, over the endpoint's
-own TCPROS connections on its event loop (ros1_native: no rospy thread and no
+own TCPROS connections on its event loop (`native`: no rospy thread and no
 thread hand-off per message); with `Ros1Options(transport="rospy")` it crosses rospy
-as raw bytes instead (see ros1_raw), each callback hopping back to the loop with
+as raw bytes instead (see `raw`), each callback hopping back to the loop with
 `call_soon_threadsafe`. Nothing is decoded either way. Sim-implemented services run
 their async handler on the loop while a rospy service thread waits for the answer.
 """
@@ -33,18 +33,18 @@ from simbridge.endpoint.backends.base import (
 )
 from simbridge.endpoint.backends.gc_tuning import freeze_startup_objects
 from simbridge.endpoint.backends.malloc_tuning import keep_large_buffers
-from simbridge.endpoint.backends.ros1_native import NativeData
-from simbridge.endpoint.backends.ros1_node import NodeIdentity, join_graph, on_node_shutdown
-from simbridge.endpoint.backends.ros1_raw import (
+from simbridge.endpoint.backends.ros1.msg_types import Ros1Types
+from simbridge.endpoint.backends.ros1.native import NativeData
+from simbridge.endpoint.backends.ros1.node import NodeIdentity, join_graph, on_node_shutdown
+from simbridge.endpoint.backends.ros1.raw import (
     RawMessage,
     RawService,
     raw_message_class,
     raw_service_class,
 )
-from simbridge.endpoint.backends.ros1_registration import Registration, Ros1Publisher
-from simbridge.endpoint.backends.ros1_rejoin import remember_param
-from simbridge.endpoint.backends.ros1_rosout import RosoutForwarder
-from simbridge.endpoint.backends.ros1_types import Ros1Types
+from simbridge.endpoint.backends.ros1.registration import Registration, Ros1Publisher
+from simbridge.endpoint.backends.ros1.rejoin import remember_param
+from simbridge.endpoint.backends.ros1.rosout import RosoutForwarder
 from simbridge.endpoint.backends.subscriber_watch import SubscriberWatch
 from simbridge.errors import EndpointError, MessageError, ServiceError
 from simbridge.messages import MessageRegistry, default_registry

@@ -22,7 +22,7 @@ from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
-from simbridge.endpoint.backends.drained_process import DrainedProcess
+from simbridge.endpoint.backends.ros1.drained_process import DrainedProcess
 from simbridge.errors import EndpointError
 
 __all__ = ["RosCore", "master_answers", "terminate", "unique_node_name"]
@@ -97,7 +97,7 @@ def terminate(process: subprocess.Popen[bytes] | subprocess.Popen[str], grace: f
 class RosCore:
     """A roscore with a private ROS_HOME; use as a context manager.
 
-    Without a port, the master binds one the OS chooses (`ros1_core_launch`) and `port` and
+    Without a port, the master binds one the OS chooses (`core_launch`) and `port` and
     `uri` are read back once it serves: no port is picked first that another process could
     take. With a port (or after a first start, so `kill` and `start` keep the URI), the
     real `roscore -p PORT` runs.
@@ -144,7 +144,7 @@ class RosCore:
         python = first[2:].strip() if first.startswith("#!") else sys.executable
         return [
             *python.split(),
-            str(Path(__file__).with_name("ros1_core_launch.py")),
+            str(Path(__file__).with_name("core_launch.py")),
             str(self._uri_file),
         ]
 

@@ -14,7 +14,7 @@ from tests.ros1support import RosMaster, require_ros, with_backend
 require_ros(module_level=True)
 
 from simbridge.endpoint.backends.ros1 import Ros1Backend  # noqa: E402
-from simbridge.endpoint.backends.ros1_rejoin import register_again  # noqa: E402
+from simbridge.endpoint.backends.ros1.rejoin import register_again  # noqa: E402
 from simbridge.errors import EndpointError  # noqa: E402
 
 pytestmark = [

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import rosgraph
 import rospy
 
-from simbridge.endpoint.backends.ros1_rejoin import MasterWatch
+from simbridge.endpoint.backends.ros1.rejoin import MasterWatch
 from simbridge.errors import EndpointError
 
 __all__ = ["NodeIdentity", "join_graph", "on_node_shutdown", "read_drop_in_params", "ros_args"]

@@ -31,8 +31,13 @@ require_ros(module_level=True)
 
 import rosgraph  # noqa: E402
 
-from simbridge.endpoint.backends.ros1 import Ros1Backend, Ros1Options, Ros1Publisher  # noqa: E402
-from simbridge.endpoint.backends.ros1_node import read_drop_in_params, ros_args  # noqa: E402
+from simbridge.endpoint.backends.ros1 import (  # noqa: E402  # noqa: E402
+    Ros1Backend,
+    Ros1Options,
+    Ros1Publisher,
+    read_drop_in_params,
+    ros_args,
+)
 
 pytestmark = [
     pytest.mark.ros1,
@@ -209,7 +214,7 @@ def test_second_node_identity_in_one_process_is_refused(master: RosMaster) -> No
 
 
 def test_missing_master_fails_fast(master: RosMaster) -> None:
-    from simbridge.endpoint.backends.ros1_node import _wait_for_master
+    from simbridge.endpoint.backends.ros1.node import _wait_for_master
 
     start = time.monotonic()
     with pytest.raises(EndpointError, match="no ROS master"):
@@ -339,7 +344,7 @@ def test_ros_args_rename_node_and_set_drop_in_params(master: RosMaster, tmp_path
             """
             import asyncio, os, rospy
             from simbridge.endpoint.backends.ros1 import Ros1Backend, Ros1Options, Ros1Publisher
-            from simbridge.endpoint.backends.ros1_node import read_drop_in_params
+            from simbridge.endpoint.backends.ros1 import read_drop_in_params
 
             async def main():
                 uri = os.environ.pop("ROS_MASTER_URI")  # given as __master:= instead

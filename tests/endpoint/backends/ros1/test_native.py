@@ -36,14 +36,18 @@ require_ros(module_level=True)
 
 import rospy  # noqa: E402
 
-from simbridge.endpoint.backends.ros1 import Ros1Backend, Ros1Options, Ros1Publisher  # noqa: E402
-from simbridge.endpoint.backends.ros1_raw import raw_message_class  # noqa: E402
-from simbridge.endpoint.backends.ros1_tcpros_sub import (  # noqa: E402
+from simbridge.endpoint.backends.ros1 import (  # noqa: E402
+    Ros1Backend,
+    Ros1Options,
+    Ros1Publisher,
+    Ros1Types,
+    raw_message_class,
+)
+from simbridge.endpoint.backends.ros1.tcpros_sub import (  # noqa: E402
     RETRY_FIRST,
     RETRY_MAX,
     SubscribedTopic,
 )
-from simbridge.endpoint.backends.ros1_types import Ros1Types  # noqa: E402
 from simbridge.messages import default_registry  # noqa: E402
 
 pytestmark = [
