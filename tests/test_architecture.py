@@ -89,3 +89,154 @@ def test_lower_layers_never_import_higher_ones() -> None:
         for target in _imported_layers(path) - allowed:
             violations.append(f"{path.relative_to(SRC)} ({layer}) imports simbridge.{target}")
     assert not violations, "\n".join(violations)
+
+
+# ---- inside endpoint/ -------------------------------------------------------------------
+#
+# Every import counts here, those under TYPE_CHECKING and inside functions included: a
+# type-hint import is still a dependency a reader has to follow.
+
+ENDPOINT = "endpoint"
+
+SHARED_LEAVES = {"endpoint.lazy", "endpoint.typecheck"}
+"""Endpoint modules every part may import; they import nothing else of the endpoint."""
+
+# What each part of endpoint/ may import of it (itself, and the shared leaves).
+ENDPOINT_PARTS: dict[str, set[str]] = {
+    "endpoint.speed": {"endpoint.speed"},
+    "endpoint.backends": {"endpoint.backends", "endpoint.speed"},
+    "endpoint.backends.ros1": {"endpoint.backends.ros1", "endpoint.backends", "endpoint.speed"},
+    "endpoint.backends.ros2": {"endpoint.backends.ros2", "endpoint.backends", "endpoint.speed"},
+}
+"""The most specific entry that contains a module applies (so ros1 and ros2 never import
+each other)."""
+
+# Until the ROS 2 backend moves into backends/ros2/ (issue 31, after issue 36 lands):
+# deferred moves into speed/ with it, and the ros2 <-> ros2_actions circle is cut there.
+PENDING_IMPORTS = {"endpoint.deferred"}
+PENDING_CIRCLES = [["endpoint.backends.ros2", "endpoint.backends.ros2_actions"]]
+
+
+def _module_names() -> dict[str, Path]:
+    """Every module of simbridge by dotted name below `simbridge.` (a package by its own)."""
+    names: dict[str, Path] = {}
+    for path in sorted(SRC.rglob("*.py")):
+        parts = list(path.relative_to(SRC).with_suffix("").parts)
+        if parts[-1] == "__init__":
+            parts.pop()
+        if parts:
+            names[".".join(parts)] = path
+    return names
+
+
+MODULES = _module_names()
+
+
+def _resolve(name: str) -> str | None:
+    """The module `simbridge.NAME` imports: NAME itself, or the deepest module above it
+    (`pkg.mod.Class` is `pkg.mod`)."""
+    while name and name not in MODULES:
+        name = name.rpartition(".")[0]
+    return name or None
+
+
+def _module_imports(name: str) -> set[str]:
+    """The simbridge modules `name` imports, anywhere in its source."""
+    path = MODULES[name]
+    package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    found: set[str] = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        targets: list[str] = []
+        if isinstance(node, ast.Import):
+            targets = [alias.name for alias in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                anchor = "simbridge." + package
+                for _ in range(node.level - 1):
+                    anchor = anchor.rpartition(".")[0]
+                base = f"{anchor}.{base}" if base else anchor
+            targets = [base, *(f"{base}.{alias.name}" for alias in node.names)]
+        for target in targets:
+            if target.startswith("simbridge."):
+                resolved = _resolve(target.removeprefix("simbridge."))
+                if resolved is not None and resolved != name:
+                    found.add(resolved)
+    return found
+
+
+def _within(name: str, part: str) -> bool:
+    return name == part or name.startswith(part + ".")
+
+
+def _endpoint_graph() -> dict[str, set[str]]:
+    """Each endpoint module's imports of other endpoint modules."""
+    return {
+        name: {t for t in _module_imports(name) if _within(t, ENDPOINT)}
+        for name in MODULES
+        if _within(name, ENDPOINT)
+    }
+
+
+def _circles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """The strongly connected groups of more than one module (Tarjan's algorithm)."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    found: list[list[str]] = []
+
+    def visit(node: str) -> None:
+        index[node] = low[node] = len(index)
+        stack.append(node)
+        on_stack.add(node)
+        for target in sorted(graph.get(node, ())):
+            if target not in index:
+                visit(target)
+                low[node] = min(low[node], low[target])
+            elif target in on_stack:
+                low[node] = min(low[node], index[target])
+        if low[node] == index[node]:
+            group = []
+            while True:
+                member = stack.pop()
+                on_stack.discard(member)
+                group.append(member)
+                if member == node:
+                    break
+            if len(group) > 1:
+                found.append(sorted(group))
+
+    for node in sorted(graph):
+        if node not in index:
+            visit(node)
+    return found
+
+
+def test_endpoint_has_no_import_circles() -> None:
+    circles = [group for group in _circles(_endpoint_graph()) if group not in PENDING_CIRCLES]
+    assert not circles, "\n".join(" <-> ".join(group) for group in circles)
+
+
+def test_circles_are_found() -> None:
+    assert _circles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
+    assert _circles({"a": {"b"}, "b": set()}) == []
+
+
+def test_endpoint_parts_import_only_what_lies_below_them() -> None:
+    violations = []
+    for name, targets in sorted(_endpoint_graph().items()):
+        parts = [part for part in ENDPOINT_PARTS if _within(name, part)]
+        if not parts:
+            continue
+        allowed = ENDPOINT_PARTS[max(parts, key=len)]
+        for target in sorted(targets - SHARED_LEAVES - PENDING_IMPORTS):
+            if not any(_within(target, part) for part in allowed):
+                violations.append(f"{name} imports {target}")
+    assert not violations, "\n".join(violations)
+
+
+def test_shared_leaves_import_nothing_of_the_endpoint() -> None:
+    graph = _endpoint_graph()
+    leaning = {leaf: graph[leaf] for leaf in SHARED_LEAVES if graph[leaf]}
+    assert not leaning
