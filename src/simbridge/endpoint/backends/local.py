@@ -63,14 +63,18 @@ class _Service:
 
 
 class _Publisher(BackendPublisher):
-    __slots__ = ("_bus", "_id", "_latch", "_state", "_topic")
+    """`closed(topic)` tells the bus the publisher is gone (it forgets an unused topic)."""
 
-    def __init__(self, bus: LocalBus, topic: str, state: _Topic, latch: bool) -> None:
-        self._bus = bus
+    __slots__ = ("_closed", "_id", "_latch", "_state", "_topic")
+
+    def __init__(
+        self, topic: str, state: _Topic, latch: bool, pub_id: int, closed: Callable[[str], None]
+    ) -> None:
         self._topic = topic
         self._state: _Topic | None = state
         self._latch = latch
-        self._id = next(bus._ids)
+        self._id = pub_id
+        self._closed = closed
 
     def publish(self, payload: bytes | bytearray) -> None:
         payload = bytes(payload)  # subscribers and the latch keep bytes (no copy if bytes)
@@ -99,32 +103,31 @@ class _Publisher(BackendPublisher):
             state.watchers.pop(self._id, None)
             state.publishers -= 1
             state.latched.pop(self._id, None)
-            self._bus._gc(self._topic)
+            self._closed(self._topic)
 
 
 class _Subscription(BackendSubscription):
-    __slots__ = ("_bus", "_id", "_topic")
+    """`close` calls `unsubscribe(topic, sub_id)`, the bus's own bookkeeping."""
 
-    def __init__(self, bus: LocalBus, topic: str, sub_id: int) -> None:
-        self._bus, self._topic, self._id = bus, topic, sub_id
+    __slots__ = ("_id", "_topic", "_unsubscribe")
+
+    def __init__(self, topic: str, sub_id: int, unsubscribe: Callable[[str, int], None]) -> None:
+        self._topic, self._id, self._unsubscribe = topic, sub_id, unsubscribe
 
     def close(self) -> None:
-        state = self._bus._topics.get(self._topic)
-        if state is not None and state.callbacks.pop(self._id, None) is not None:
-            state.subscribers_changed()
-            self._bus._gc(self._topic)
+        self._unsubscribe(self._topic, self._id)
 
 
 class _ServiceServer(BackendServiceServer):
-    __slots__ = ("_bus", "_id", "_name")
+    """`close` calls `withdraw(name, owner)`, the bus's own bookkeeping."""
 
-    def __init__(self, bus: LocalBus, name: str, owner: int) -> None:
-        self._bus, self._name, self._id = bus, name, owner
+    __slots__ = ("_id", "_name", "_withdraw")
+
+    def __init__(self, name: str, owner: int, withdraw: Callable[[str, int], None]) -> None:
+        self._name, self._id, self._withdraw = name, owner, withdraw
 
     def close(self) -> None:
-        service = self._bus._services.get(self._name)
-        if service is not None and service.owner == self._id:
-            del self._bus._services[self._name]
+        self._withdraw(self._name, self._id)
 
 
 class LocalBus(Backend):
@@ -161,12 +164,23 @@ class LocalBus(Backend):
         if state is not None and not state.callbacks and state.publishers <= 0:
             del self._topics[topic]
 
+    def _unsubscribe(self, topic: str, sub_id: int) -> None:
+        state = self._topics.get(topic)
+        if state is not None and state.callbacks.pop(sub_id, None) is not None:
+            state.subscribers_changed()
+            self._gc(topic)
+
+    def _withdraw(self, name: str, owner: int) -> None:
+        service = self._services.get(name)
+        if service is not None and service.owner == owner:
+            del self._services[name]
+
     def advertise(
         self, topic: str, msg_type: str, *, queue_size: int, latch: bool
     ) -> BackendPublisher:
         state = self._state(topic, msg_type)
         state.publishers += 1
-        return _Publisher(self, topic, state, latch)
+        return _Publisher(topic, state, latch, next(self._ids), self._gc)
 
     def subscribe(
         self, topic: str, msg_type: str, callback: MessageCallback
@@ -177,7 +191,7 @@ class LocalBus(Backend):
         state.subscribers_changed()
         for payload in tuple(state.latched.values()):
             callback(payload)
-        return _Subscription(self, topic, sub_id)
+        return _Subscription(topic, sub_id, self._unsubscribe)
 
     async def call_service(
         self, service: str, srv_type: str, request: bytes, *, timeout: float
@@ -202,7 +216,7 @@ class LocalBus(Backend):
     ) -> BackendServiceServer:
         owner = next(self._ids)
         self._services[service] = _Service(srv_type, handler, owner)
-        return _ServiceServer(self, service, owner)
+        return _ServiceServer(service, owner, self._withdraw)
 
     def topics(self) -> list[TopicInfo]:
         return [TopicInfo(name, state.msg_type) for name, state in sorted(self._topics.items())]

@@ -24,7 +24,7 @@ from simbridge.endpoint.backends.base import (
 )
 from simbridge.endpoint.backends.local import LocalBus
 from simbridge.errors import EndpointError, ServiceError
-from simbridge.messages import MessageRegistry, WireFormat, registry_for
+from simbridge.messages import Codec, MessageRegistry, WireFormat, registry_for
 
 __all__ = ["Node", "NodePublisher"]
 
@@ -32,17 +32,26 @@ log = logging.getLogger("simbridge.node")
 
 
 class NodePublisher:
-    """Publishes message objects on one topic."""
+    """Publishes message objects on one topic, encoded as `fmt`; `on_loop(fn, *args)` runs
+    `fn` on the bus's loop (the node's)."""
 
-    def __init__(self, node: Node, topic: str, msg_type: str, backend: BackendPublisher) -> None:
+    def __init__(
+        self,
+        topic: str,
+        msg_type: str,
+        backend: BackendPublisher,
+        *,
+        codec: Codec,
+        fmt: WireFormat,
+        on_loop: Callable[..., None],
+    ) -> None:
         self.topic, self.msg_type = topic, msg_type
-        self._node, self._backend = node, backend
-        self._codec = node.registry.codec(msg_type)
+        self._backend, self._codec, self._fmt, self._on_loop = backend, codec, fmt, on_loop
 
     def publish(self, msg: Any) -> None:
         """Serialize in the caller's thread, deliver on the bus loop."""
-        payload = msg if isinstance(msg, bytes) else self._codec.encode(msg, self._node.fmt)
-        self._node._on_loop(self._backend.publish, payload)
+        payload = msg if isinstance(msg, bytes) else self._codec.encode(msg, self._fmt)
+        self._on_loop(self._backend.publish, payload)
 
 
 class _Inbox:
@@ -109,14 +118,21 @@ class Node:
         self._inboxes: dict[str, _Inbox] = {}
         self._closed = False
 
+    def _in_loop(self) -> bool:
+        """Whether the caller runs on the bus's loop (then calls need no hand-off)."""
+        try:
+            return asyncio.get_running_loop() is self.loop
+        except RuntimeError:  # no loop runs in this thread
+            return False
+
     def _on_loop(self, fn: Callable[..., Any], *args: Any) -> None:
-        if threading.get_ident() == getattr(self.loop, "_thread_id", None):
+        if self._in_loop():
             fn(*args)
         else:
             self.loop.call_soon_threadsafe(fn, *args)
 
     def _sync(self, fn: Callable[[], Any], timeout: float = 10.0) -> Any:
-        if threading.get_ident() == getattr(self.loop, "_thread_id", None):
+        if self._in_loop():
             return fn()
 
         async def run() -> Any:
@@ -131,7 +147,10 @@ class Node:
             lambda: self.bus.advertise(topic, canonical, queue_size=10, latch=latch)
         )
         self._handles.append(backend)
-        return NodePublisher(self, topic, canonical, backend)
+        codec = self.registry.codec(canonical)
+        return NodePublisher(
+            topic, canonical, backend, codec=codec, fmt=self.fmt, on_loop=self._on_loop
+        )
 
     def subscribe(
         self,
@@ -206,7 +225,7 @@ class Node:
 
     def call(self, service: str, srv_type: str, request: Any, *, timeout: float = 10.0) -> Any:
         """Call a service on the bus from a thread other than the bus loop's."""
-        if threading.get_ident() == getattr(self.loop, "_thread_id", None):
+        if self._in_loop():
             raise ServiceError("Node.call would block the bus loop; call it from another thread")
         info = self.registry.service(srv_type)
         payload = (

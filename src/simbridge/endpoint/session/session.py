@@ -140,13 +140,12 @@ class ClientSession(asyncio.BufferedProtocol):
         self.subscriptions: dict[str, tuple[BackendSubscription, Outbox]] = {}
         self.ros_services: dict[str, str] = {}
         self.unity_services: dict[str, tuple[str, BackendServiceServer]] = {}
-        self.services = SessionServices(
-            self, self.ros_services, server.backend, server.options, server.loop
-        )
+        self.services = SessionServices(self, server.backend, server.options, server.loop)
         self.actions = SessionActions(self, server.backend, server.options)
         self.output = ClientOutput(server.options, self.memory, self.stats, server.loop, self.close)
         self._discard = bytearray(4096)
         self._fd = -1
+        """The socket's descriptor (the output's scatter-gather writes; a splice's duplicate)."""
         self._writes = deferred_writes(server.loop)
         """Writes leave at the end of the read that caused them (`ClientOutput`)."""
         opts = server.options
@@ -500,7 +499,9 @@ class ClientSession(asyncio.BufferedProtocol):
             self.subscriptions[command.topic] = (subscription, outbox)
         elif isinstance(command, RosService):
             self._check_room(command.topic, self.ros_services)
-            self.ros_services[command.topic] = types.service(command.message_name)
+            srv_type = types.service(command.message_name)
+            self.services.open_caller(command.topic, srv_type)
+            self.ros_services[command.topic] = srv_type
         elif isinstance(command, UnityService):
             self._check_room(command.topic, self.unity_services)
             srv_type = types.service(command.message_name)
@@ -515,6 +516,7 @@ class ClientSession(asyncio.BufferedProtocol):
             self._drop_subscription(command.topic)
         elif isinstance(command, RemoveRosService):
             self.ros_services.pop(command.topic, None)
+            self.services.close_caller(command.topic)
         elif isinstance(command, RemoveUnityService):
             self._drop_unity_service(command.topic)
         elif isinstance(command, TopicListRequest):

@@ -126,11 +126,12 @@ class NativeData:
         try:
             registration = rospy.Publisher(name, cls, queue_size=max(queue_size, 0), latch=latch)
         except BaseException:
-            self._release(info_topic)
+            self.release(info_topic)
             raise
         return NativePublisher(self, info_topic, registration, live)
 
-    def _release(self, topic: PublishedTopic) -> None:
+    def release(self, topic: PublishedTopic) -> None:
+        """A publisher of `topic` closed: the topic goes once its last one has."""
         server = self._server
         if server is None:
             return
@@ -155,11 +156,12 @@ class NativeData:
         try:
             registration = rospy.Subscriber(name, cls)
         except BaseException:
-            self._leave(subscribed, sink)
+            self.leave(subscribed, sink)
             raise
         return NativeSubscription(self, subscribed, sink, registration, live)
 
-    def _leave(self, topic: SubscribedTopic, sink: Sink) -> None:
+    def leave(self, topic: SubscribedTopic, sink: Sink) -> None:
+        """A consumer of `topic` closed: the subscription goes once its last one has."""
         if sink in topic.sinks:
             topic.sinks.remove(sink)
         if not topic.sinks and self._subscribed.get(topic.name) is topic:
@@ -232,7 +234,7 @@ class NativePublisher(Ros1Publisher):
                 self._topic.backlog_watchers.remove(pair)
             pair[1]()  # a closed publisher holds nobody back
         self._registration.unregister()
-        self._data._release(self._topic)
+        self._data.release(self._topic)
         _log.info("stopped publishing %s", self.topic)
 
 
@@ -271,5 +273,5 @@ class NativeSubscription(Registration, BackendSubscription):
 
     def _unregister(self) -> None:
         self._registration.unregister()
-        self._data._leave(self._subscribed, self._sink)
+        self._data.leave(self._subscribed, self._sink)
         _log.info("unsubscribed from %s", self.topic)

@@ -215,7 +215,11 @@ class TopicServer:
             except OSError as exc:  # out of file descriptors: those waiting stay queued
                 _log.warning("cannot accept a TCPROS connection: %s", exc)
                 return
-            _SubscriberConnection(self, sock, loop)
+            self._connections.add(_SubscriberConnection(self, sock, loop))
+
+    def forget(self, connection: _SubscriberConnection) -> None:
+        """`connection` has closed."""
+        self._connections.discard(connection)
 
     def close(self) -> None:
         """Stop listening and close every connection."""
@@ -295,7 +299,6 @@ class _SubscriberConnection:
         except OSError:
             peer = None
         self.peer = f"{peer[0]}:{peer[1]}" if isinstance(peer, tuple) else str(peer)
-        server._connections.add(self)
         loop.add_reader(self._fd, self._readable)
         self._timer: asyncio.TimerHandle | None = loop.call_later(
             HEADER_TIMEOUT, self._header_timeout
@@ -512,7 +515,7 @@ class _SubscriberConnection:
         self._writer.close()
         self._loop.remove_reader(self._fd)
         self._sock.close()
-        self._server._connections.discard(self)
+        self._server.forget(self)
         self._held.clear()
         self._pending.clear()
         if self._topic is not None:
