@@ -177,22 +177,22 @@ def ray_rows() -> list[dict[str, Any]]:
             table_ref = ray.put(noise_table(CONFIG))
             split = [PER_WORKER] * workers
             actor = ray.remote(num_cpus=1)(RolloutWorker)
-            start = time.perf_counter()
-            actors = [
-                actor.options(scheduling_strategy="SPREAD").remote(
-                    ENV_ID, count, MAX_STEPS, [table_ref], {}
+
+            def spawn(directions: int, actor: Any = actor, table_ref: Any = table_ref) -> Any:
+                return actor.options(scheduling_strategy="SPREAD").remote(
+                    ENV_ID, directions, MAX_STEPS, [table_ref], {}
                 )
-                for count in split
-            ]
-            answers = ray.get([a.spaces.remote() for a in actors])
+
+            start = time.perf_counter()
+            rollouts = RayRollouts(ray, spawn, split)
+            obs, act = rollouts.start()
             workers_s = time.perf_counter() - start
-            obs, act, _ = answers[0]
             policy = LinearPolicy.zeros(obs, act)
-            rollouts = RayRollouts(ray, actors, split)
             rate = _rate(_iteration(rollouts, policy, sum(split)))
             walls = [wall for wall, _ in rollouts.batches]
             spare = [wall - max(r.busy_s for r in reports) for wall, reports in rollouts.batches]
-            nodes_used = len({node for _, _, node in answers})
+            nodes_used = len(set(rollouts.nodes))
+            rollouts.stop()
         rows.append(
             {
                 "layout": name,

@@ -36,6 +36,7 @@ __all__ = [
     "OBJECT_STORE_BYTES",
     "RAY_BIN",
     "RayProcesses",
+    "descendants_named",
     "local_cluster",
     "ray_environment",
     "require_ray",
@@ -103,6 +104,29 @@ def local_cluster(nodes: int = 2) -> Iterator[Any]:
         finally:
             ray.shutdown()
             cluster.shutdown()
+
+
+def descendants_named(prefix: str, root: int | None = None) -> list[int]:
+    """Processes under `root` (default: this one), at any depth, whose command line starts
+    with `prefix` (Ray names a worker "ray::CLASS" or "ray::CLASS.METHOD")."""
+    parents: dict[int, int] = {}
+    names: dict[int, str] = {}
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            stat = (entry / "stat").read_text()
+            names[int(entry.name)] = (entry / "cmdline").read_bytes().decode(errors="replace")
+        except OSError:  # gone meanwhile
+            continue
+        parents[int(entry.name)] = int(stat.rsplit(")", 1)[1].split()[1])
+    under = {os.getpid() if root is None else root}
+    grew = True
+    while grew:
+        found = {pid for pid, parent in parents.items() if parent in under} - under
+        under |= found
+        grew = bool(found)
+    return sorted(pid for pid in under if names.get(pid, "").startswith(prefix))
 
 
 class RayProcesses:

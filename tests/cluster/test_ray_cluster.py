@@ -3,6 +3,8 @@ runs on both nodes and gives what the single-process path gives."""
 
 from __future__ import annotations
 
+import os
+import signal
 from collections.abc import Iterator
 from typing import Any
 
@@ -12,7 +14,8 @@ import pytest
 
 from simbridge.cluster import train_ars_on_ray
 from simbridge.gym import ARSConfig, train_ars
-from tests.raysupport import local_cluster, require_ray
+from simbridge.gym.ars import CurvePoint
+from tests.raysupport import descendants_named, local_cluster, require_ray
 
 ENV_ID = "simbridge/Reach-v0"
 
@@ -29,16 +32,30 @@ def _alive_nodes() -> set[str]:
     return {node["NodeID"] for node in ray.nodes() if node["Alive"]}
 
 
-def test_ars_on_two_nodes_learns_what_the_local_learner_learns(cluster: Any) -> None:
+def test_ars_on_two_nodes_learns_what_the_local_learner_learns_through_a_killed_worker(
+    cluster: Any,
+) -> None:
     # 3 directions on 2 workers: shares of 2 and 1, so the join has work to do
     config = ARSConfig(
         directions=3, top=2, iterations=3, eval_every=2, eval_episodes=5, target_success=None
     )
-    run = train_ars_on_ray(ENV_ID, 20, config, workers=2)
+    killed: list[int] = []
+
+    def kill_a_worker(point: CurvePoint) -> None:  # after the first evaluation
+        if not killed:
+            workers = descendants_named("ray::RolloutWorker")
+            assert len(workers) == 2, workers
+            os.kill(workers[0], signal.SIGKILL)
+            killed.append(workers[0])
+
+    run = train_ars_on_ray(ENV_ID, 20, config, workers=2, progress=kill_a_worker)
     vec = gym.make_vec(ENV_ID, num_envs=2 * config.directions, max_episode_steps=20)
     local = train_ars(vec, 20, config)
     vec.close()
-    # where it ran: one worker on each node (one CPU each), both reported episodes
+    # where it ran: one worker on each node (one CPU each), both reported episodes; the
+    # killed one was replaced (on its node: the other's CPU is taken)
+    assert killed
+    assert run.restarts == 1
     assert len(set(run.worker_nodes)) == 2
     assert set(run.worker_nodes) == _alive_nodes()
     assert set(run.episodes_per_node) == set(run.worker_nodes)

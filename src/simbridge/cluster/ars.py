@@ -11,6 +11,7 @@ would have produced, so the result is the local learner's for the same config an
 
 from __future__ import annotations
 
+import itertools
 import time
 from collections import Counter
 from collections.abc import Callable, Mapping, Sequence
@@ -35,7 +36,9 @@ from simbridge.gym.ars import (
 )
 
 __all__ = [
+    "MAX_RESTARTS",
     "START_TIMEOUT_S",
+    "Call",
     "RayRollouts",
     "RayTraining",
     "RolloutWorker",
@@ -47,6 +50,9 @@ __all__ = [
 
 START_TIMEOUT_S = 180.0
 """How long the workers may take to start (a worker needs a free CPU in the cluster)."""
+
+MAX_RESTARTS = 3
+"""Workers that may die and be replaced in one run before it fails."""
 
 
 def make_vector(
@@ -112,29 +118,93 @@ class RolloutWorker:
         return episodes, WorkReport(node_id(), time.perf_counter() - start)
 
 
-class RayRollouts:
-    """`Rollouts` on Ray actors: worker k runs directions `shares[k]` of each iteration
-    and a proportional share of the evaluation seeds. Counts the episodes each node ran,
-    and keeps each batch's wall time and its workers' busy times (`batches`)."""
+Spawn = Callable[[int], Any]
+"""Starts a worker actor for that many directions (its handle; not waited for)."""
 
-    def __init__(self, ray: Any, workers: Sequence[Any], directions: Sequence[int]) -> None:
-        self._ray, self._workers, self._directions = ray, list(workers), list(directions)
+
+class RayRollouts:
+    """`Rollouts` on Ray actors: worker k runs directions `directions[k]` of each
+    iteration and a proportional share of the evaluation seeds. A worker that dies (its
+    process killed, its node lost) is replaced and its call sent again, up to
+    `MAX_RESTARTS` times a run: episodes are pure functions of the call, so the retry
+    gives what the lost call would have. Counts the episodes each node ran, and keeps
+    each batch's wall time and its workers' busy times (`batches`)."""
+
+    def __init__(self, ray: Any, spawn: Spawn, directions: Sequence[int]) -> None:
+        self._ray, self._spawn, self._directions = ray, spawn, list(directions)
+        self._workers = [spawn(count) for count in self._directions]
+        self.nodes: list[str] = []
+        """The node of each worker (of its replacement, after a restart)."""
+        self.restarts = 0
         self.episodes_per_node: Counter[str] = Counter()
         self.batches: list[tuple[float, list[WorkReport]]] = []
 
-    def _gather(
-        self, start: float, calls: Sequence[tuple[Any, Sequence[int]]], worlds: int
-    ) -> Episodes:
+    def start(self) -> tuple[spaces.Dict, spaces.Box]:
+        """Wait until every worker has built its env; the env's spaces."""
+        observation, action, _ = self._ready(list(range(len(self._workers))))[0]
+        if not isinstance(observation, spaces.Dict) or not isinstance(action, spaces.Box):
+            raise ClusterError(
+                f"ARS needs Dict observations and Box actions, the env has {observation} "
+                f"and {action}"
+            )
+        return observation, action
+
+    def _ready(self, which: list[int]) -> list[tuple[Any, Any, str]]:
+        pending = [self._workers[k].spaces.remote() for k in which]
+        ready, _ = self._ray.wait(pending, num_returns=len(pending), timeout=START_TIMEOUT_S)
+        if len(ready) < len(pending):
+            cpus = self._ray.cluster_resources().get("CPU", 0)
+            raise ClusterError(
+                f"{len(ready)} of {len(pending)} ARS workers started in "
+                f"{START_TIMEOUT_S:.0f} s; each needs a CPU and the cluster has {cpus:g}: "
+                "ask for fewer (--workers)"
+            )
         try:
-            results = self._ray.get([ref for ref, _ in calls])
+            answers: list[tuple[Any, Any, str]] = self._ray.get(pending)
         except self._ray.exceptions.RayError as exc:
-            raise ClusterError(f"a rollout worker failed: {exc}") from exc
+            raise ClusterError(f"an ARS worker failed to start: {exc}") from exc
+        self.nodes += [""] * (len(self._workers) - len(self.nodes))
+        for k, (_, _, node) in zip(which, answers, strict=True):
+            self.nodes[k] = node
+        return answers
+
+    def stop(self) -> None:
+        """End every worker."""
+        for worker in self._workers:
+            self._ray.kill(worker)
+
+    def _gather(self, start: float, calls: Sequence[Call], worlds: int) -> Episodes:
+        """Each call's answer (calls to dead workers sent again to their replacement),
+        joined into one batch of `worlds`."""
+        refs = [call.send(self._workers[call.worker]) for call in calls]
+        results: list[tuple[Episodes, WorkReport]] = []
+        for call, first in zip(calls, refs, strict=True):
+            sent = first
+            while True:
+                try:
+                    results.append(self._ray.get(sent))
+                    break
+                except self._ray.exceptions.RayActorError as exc:
+                    self._replace(call.worker, exc)
+                    sent = call.send(self._workers[call.worker])
+                except self._ray.exceptions.RayError as exc:
+                    raise ClusterError(f"ARS worker {call.worker} failed: {exc}") from exc
         self.batches.append((time.perf_counter() - start, [report for _, report in results]))
         parts = []
-        for (episodes, report), (_, columns) in zip(results, calls, strict=True):
+        for (episodes, report), call in zip(results, calls, strict=True):
             self.episodes_per_node[report.node] += len(episodes.returns)
-            parts.append((episodes, columns))
+            parts.append((episodes, call.columns))
         return Episodes.join(parts, worlds)
+
+    def _replace(self, k: int, error: Exception) -> None:
+        if self.restarts >= MAX_RESTARTS:
+            raise ClusterError(
+                f"ARS worker {k} died after {self.restarts} restarts in this run: {error}"
+            ) from error
+        self.restarts += 1
+        self._ray.kill(self._workers[k])
+        self._workers[k] = self._spawn(self._directions[k])
+        self._ready([k])
 
     def perturbed(
         self, policy: LinearPolicy, noise: float, offsets: Sequence[int], seeds: Sequence[int]
@@ -147,11 +217,11 @@ class RayRollouts:
         start = time.perf_counter()
         shared = self._ray.put(policy)
         calls, first = [], 0
-        for worker, count in zip(self._workers, self._directions, strict=True):
+        for k, count in enumerate(self._directions):
             part = slice(first, first + count)
-            ref = worker.perturbed.remote(shared, noise, offsets[part], seeds[part])
+            args = (shared, noise, offsets[part], seeds[part])
             columns = [*range(first, first + count), *range(n + first, n + first + count)]
-            calls.append((ref, columns))
+            calls.append(Call(k, "perturbed", args, columns))
             first += count
         return self._gather(start, calls, 2 * n)
 
@@ -163,11 +233,26 @@ class RayRollouts:
         start = time.perf_counter()
         shared = self._ray.put(policy)
         calls = [
-            (worker.evaluate.remote(shared, seeds[lo:hi]), range(lo, hi))
-            for worker, lo, hi in zip(self._workers, bounds, bounds[1:], strict=False)
+            Call(k, "evaluate", (shared, seeds[lo:hi]), range(lo, hi))
+            for k, (lo, hi) in enumerate(itertools.pairwise(bounds))
             if hi > lo
         ]
         return self._gather(start, calls, len(seeds))
+
+
+@dataclass(frozen=True)
+class Call:
+    """One worker's part of a batch: which worker, which method with which arguments,
+    and which worlds of the batch its answer fills."""
+
+    worker: int
+    method: str
+    args: tuple[Any, ...]
+    columns: Sequence[int]
+
+    def send(self, worker: Any) -> Any:
+        """The call sent to `worker` (an actor handle); its object ref."""
+        return getattr(worker, self.method).remote(*self.args)
 
 
 @dataclass
@@ -176,7 +261,7 @@ class RayTraining:
 
     result: ARSResult
     worker_nodes: list[str]
-    """The node id each worker (actor) ran on."""
+    """The node id each worker (actor) ran on (its replacement's, if it was restarted)."""
     episodes_per_node: dict[str, int] = field(default_factory=dict)
     """Episodes each node ran (reported by the workers with each batch)."""
     busy_s_per_node: dict[str, float] = field(default_factory=dict)
@@ -187,11 +272,11 @@ class RayTraining:
     """Of `batches_s`, what the slowest worker of each batch did not spend computing:
     Ray's calls, moving policy and features, joining."""
     cluster_cpus: float = 0.0
+    restarts: int = 0
+    """Workers that died and were replaced during the run."""
 
     @classmethod
-    def of(
-        cls, result: ARSResult, worker_nodes: list[str], rollouts: RayRollouts, cpus: float
-    ) -> RayTraining:
+    def of(cls, result: ARSResult, rollouts: RayRollouts, cpus: float) -> RayTraining:
         """The record of a finished run on `rollouts`."""
         busy: dict[str, float] = {}
         for _, reports in rollouts.batches:
@@ -199,48 +284,14 @@ class RayTraining:
                 busy[report.node] = busy.get(report.node, 0.0) + report.busy_s
         return cls(
             result,
-            worker_nodes,
+            list(rollouts.nodes),
             dict(rollouts.episodes_per_node),
             busy,
             sum(wall for wall, _ in rollouts.batches),
             sum(wall - max(r.busy_s for r in reports) for wall, reports in rollouts.batches),
             cpus,
+            rollouts.restarts,
         )
-
-
-def _start_workers(  # noqa: PLR0917
-    ray: Any,
-    env_id: str,
-    split: list[int],
-    max_steps: int,
-    table_ref: Any,
-    env_kwargs: Mapping[str, Any],
-) -> tuple[list[Any], list[Any]]:
-    """The actors, spread over the nodes, and what each answered once started. A worker
-    that dies fails the run (ClusterError); the same command and seed run again give the
-    same result."""
-    worker_class = ray.remote(num_cpus=1)(RolloutWorker)
-    workers = [
-        worker_class.options(scheduling_strategy="SPREAD").remote(
-            env_id, count, max_steps, [table_ref], dict(env_kwargs)
-        )
-        for count in split
-    ]
-    pending = [worker.spaces.remote() for worker in workers]
-    ready, _ = ray.wait(pending, num_returns=len(pending), timeout=START_TIMEOUT_S)
-    if len(ready) < len(pending):
-        for worker in workers:
-            ray.kill(worker)
-        cpus = ray.cluster_resources().get("CPU", 0)
-        raise ClusterError(
-            f"{len(ready)} of {len(workers)} ARS workers started in {START_TIMEOUT_S:.0f} s; "
-            f"each needs a CPU and the cluster has {cpus:g}: ask for fewer (--workers)"
-        )
-    try:
-        answers = ray.get(pending)
-    except ray.exceptions.RayError as exc:
-        raise ClusterError(f"an ARS worker failed to start: {exc}") from exc
-    return workers, answers
 
 
 def train_ars_on_ray(
@@ -267,15 +318,19 @@ def train_ars_on_ray(
         split = [n for n in shares(cfg.directions, count) if n > 0]
         table = noise_table(cfg)
         table_ref = ray.put(table)  # once: every worker reads the object store's copy
-        actors, answers = _start_workers(ray, env_id, split, max_steps, table_ref, env_kwargs or {})
+        worker_class = ray.remote(num_cpus=1)(RolloutWorker)
+        kwargs = dict(env_kwargs or {})
+
+        def spawn(directions: int) -> Any:
+            return worker_class.options(scheduling_strategy="SPREAD").remote(
+                env_id, directions, max_steps, [table_ref], kwargs
+            )
+
+        rollouts = RayRollouts(ray, spawn, split)
         try:
-            obs_space, act_space, _ = answers[0]
-            assert isinstance(obs_space, spaces.Dict)
-            assert isinstance(act_space, spaces.Box)
+            obs_space, act_space = rollouts.start()
             policy = LinearPolicy.zeros(obs_space, act_space, cfg.keys)
-            rollouts = RayRollouts(ray, actors, split)
             result = learn_ars(rollouts, policy, table, cfg, progress)
         finally:
-            for actor in actors:
-                ray.kill(actor)
-        return RayTraining.of(result, [node for _, _, node in answers], rollouts, cpus)
+            rollouts.stop()
+        return RayTraining.of(result, rollouts, cpus)
