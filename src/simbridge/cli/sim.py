@@ -9,11 +9,38 @@ import threading
 import warnings
 from collections.abc import Iterator
 from contextlib import contextmanager
+from pathlib import Path
 from typing import TextIO
 
 from .common import endpoint_address
 
-__all__ = ["add_parser"]
+__all__ = ["SHIPPED_SCENES", "add_parser", "scene_file"]
+
+SHIPPED_SCENES = {
+    "mobile-robot": ("apps", "mobile_robot", "scene.yaml"),
+    "pick-and-place": ("apps", "pick_and_place", "scene.yaml"),
+    "line": ("apps", "line", "scene.yaml"),
+    "reach": ("gym", "scenes", "reach.yaml"),
+}
+"""Scenes shipped inside the package, by the name `simbridge sim NAME` takes."""
+
+
+def scene_file(text: str) -> Path:
+    """The scene `simbridge sim` was given: a file, else a shipped scene's name. Neither:
+    SimError naming the shipped scenes (and the closest one)."""
+    from importlib import resources
+
+    from simbridge.errors import SimError, did_you_mean
+
+    given = Path(text)
+    if given.exists() or text not in SHIPPED_SCENES:
+        if given.exists() or given.suffix in (".yaml", ".yml") or "/" in text:
+            return given  # a file: loading it says what is wrong with it
+        raise SimError(
+            f"no scene file or shipped scene '{text}'{did_you_mean(text, SHIPPED_SCENES)} "
+            f"(shipped: {', '.join(SHIPPED_SCENES)}; or a path to a scene YAML file)"
+        )
+    return Path(str(resources.files("simbridge").joinpath(*SHIPPED_SCENES[text])))
 
 
 @contextmanager
@@ -92,25 +119,30 @@ def run_urdf(args: argparse.Namespace) -> int:
 
 
 def run_sim(args: argparse.Namespace) -> int:
-    from pathlib import Path
-
     from simbridge.errors import ConnectorError
     from simbridge.sim.record import RecordOptions
     from simbridge.sim.ros import run_scene
     from simbridge.sim.scene import load_scene, with_overrides
     from simbridge.sim.view import ViewOptions
 
-    scene = with_overrides(load_scene(args.scene), _xacro_args(args), strict=args.strict)
+    scene = with_overrides(
+        load_scene(scene_file(args.scene)), _xacro_args(args), strict=args.strict
+    )
     endpoint = f"{args.endpoint[0]}:{args.endpoint[1]}" if args.endpoint else None
     record = RecordOptions(Path(args.record), args.record_buffer) if args.record else None
-    view = ViewOptions(args.view_host, args.view_port, args.view_rate) if args.view else None
+    view = None
+    realtime = args.realtime
+    if args.view:  # a view shows the run as it happens, and stays up after it
+        follow = args.view_follow
+        view = ViewOptions(args.view_host, args.view_port, args.view_rate, follow, linger=True)
+        realtime = 1.0 if realtime is None else realtime
     with _plain_warnings(), _sigterm_interrupts():
         try:
             stats = run_scene(
                 scene,
                 endpoint=endpoint,
                 duration=args.duration,
-                realtime_factor=args.realtime,
+                realtime_factor=realtime,
                 viewer=args.viewer,
                 record=record,
                 view=view,
@@ -173,7 +205,11 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         p.set_defaults(func=run_urdf)
 
     sim = sub.add_parser("sim", help="run a scene file headless (or in MuJoCo's viewer)")
-    sim.add_argument("scene", help="scene YAML (see docs/scenes.md), then NAME:=VALUE xacro args")
+    sim.add_argument(
+        "scene",
+        help=f"a scene YAML file, or a shipped scene: {', '.join(SHIPPED_SCENES)} (the format: "
+        "docs/scenes.md in the simbridge source); then NAME:=VALUE xacro args",
+    )
     sim.add_argument(
         "--endpoint",
         type=endpoint_address,
@@ -201,8 +237,8 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         default=None,
         metavar="FACTOR",
         help="pace at FACTOR x real time, 0 = as fast as possible (default: 1 with "
-        "--endpoint, whatever the scene says, so ROS nodes and commands see real time; "
-        "without --endpoint the scene's physics.realtime_factor, 1 unless set)",
+        "--endpoint or --view, whatever the scene says, so ROS nodes, commands and the eye "
+        "see real time; otherwise the scene's physics.realtime_factor, 1 unless set)",
     )
     sim.add_argument("--viewer", action="store_true", help="open MuJoCo's viewer (needs a display)")
     sim.add_argument(
@@ -222,9 +258,22 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     sim.add_argument(
         "--view",
         action="store_true",
-        help="serve a live 3D view in the browser (viser) at http://127.0.0.1:8080",
+        help="serve a live 3D view in the browser (viser) at http://127.0.0.1:8080, in real "
+        "time unless --realtime says otherwise; it stays up after --duration until Ctrl-C",
     )
-    sim.add_argument("--view-port", type=int, default=8080, help="live view port (0: any free)")
+    sim.add_argument(
+        "--view-follow",
+        default=None,
+        metavar="NAME",
+        help="what the view's camera follows: a robot or body by name, or 'nothing' "
+        "(default: the first robot; the page's Follow menu changes it)",
+    )
+    sim.add_argument(
+        "--view-port",
+        type=int,
+        default=8080,
+        help="live view port (default 8080; taken is an error; 0: any free port)",
+    )
     sim.add_argument(
         "--view-host",
         default="127.0.0.1",

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import time
 from collections.abc import Sequence
@@ -220,13 +221,25 @@ def run_scene(
         world = session.world
         steps, sim_start, wall_start = world.step_count, world.time, time.perf_counter()
         try:
-            return session.run(duration, realtime_factor, viewer)
+            stats = session.run(duration, realtime_factor, viewer)
         except KeyboardInterrupt:  # what ran until then (a reset service restarts the count)
             return RunStats(
                 max(0, world.step_count - steps),
                 max(0.0, world.time - sim_start),
                 time.perf_counter() - wall_start,
             )
+        else:
+            if live is not None and view is not None and view.linger:
+                _log.info(
+                    "simulated %.3f s in %.3f s wall; the live view stays at %s until Ctrl-C",
+                    stats.sim_time,
+                    stats.wall_time,
+                    live.url,
+                )
+                with contextlib.suppress(KeyboardInterrupt):
+                    while True:
+                        time.sleep(1.0)
+            return stats
         finally:
             if live is not None:
                 live.close()

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from simbridge.sim.view.controls import SimControls, joint_slider_ranges
+from simbridge.sim.view.follow import CameraFollow, follow_targets
 from simbridge.sim.view.framing import MIN_DISTANCE, Framing, framing
 from simbridge.sim.view.live import LiveView, ViewOptions
 from simbridge.sim.view.mover import ObjectMover, free_bodies, place_body
@@ -14,6 +15,7 @@ __all__ = [
     "CONTACT_RGB",
     "LIDAR_RGB",
     "MIN_DISTANCE",
+    "CameraFollow",
     "ContactPoints",
     "Framing",
     "LiveView",
@@ -24,6 +26,7 @@ __all__ = [
     "TfFrames",
     "ViewOptions",
     "body_names",
+    "follow_targets",
     "framing",
     "free_bodies",
     "joint_slider_ranges",

@@ -11,10 +11,12 @@ attached (`sensors.py`), and the buttons a demo registers (`add_button`).
 
 from __future__ import annotations
 
+import io
 import logging
 import threading
 import time
 from collections.abc import Callable
+from contextlib import AbstractContextManager, redirect_stdout
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -24,6 +26,7 @@ import numpy as np
 from simbridge.errors import SimError
 from simbridge.sim.sensors import SensorSuite
 from simbridge.sim.view.controls import SimControls
+from simbridge.sim.view.follow import CameraFollow
 from simbridge.sim.view.framing import framing
 from simbridge.sim.view.mover import ObjectMover
 from simbridge.sim.view.overlays import ContactPoints, TfFrames
@@ -49,6 +52,18 @@ class ViewOptions:
     """0 picks a free port (see `LiveView.port`)."""
     rate: float = 30.0
     """Pose updates per wall-clock second (bounded so the view never slows physics)."""
+    follow: str | None = None
+    """What the camera follows (`follow.py`): a robot or body by name, "nothing", or None
+    for the first robot."""
+    linger: bool = False
+    """After the run, keep serving (the last state) until Ctrl-C, so a browser opened late
+    still sees it; `run_scene` waits, the command line asks for it."""
+
+
+def _quiet() -> AbstractContextManager[object]:
+    """viser prints a banner and "(viser) Server stopped" on stdout whatever `verbose` says:
+    they would land in a demo's output (after its JSON line); the log says where the view is."""
+    return redirect_stdout(io.StringIO())
 
 
 class LiveView:
@@ -65,8 +80,16 @@ class LiveView:
                 "--view needs the 'viser' package: pip install 'simbridge[view]' (make installs it)"
             ) from exc
         self.world = world
-        self.server = viser.ViserServer(host=opts.host, port=opts.port, verbose=False)
+        with _quiet():
+            self.server = viser.ViserServer(host=opts.host, port=opts.port, verbose=False)
         self.port = int(self.server.get_port())
+        if opts.port and self.port != opts.port:  # viser moved on to the next free port
+            with _quiet():
+                self.server.stop()
+            raise SimError(
+                f"view port {opts.port} on {opts.host} is taken (another view or server); "
+                "pick another with --view-port PORT, or --view-port 0 for any free port"
+            )
         self.frames_sent = 0
         """Pose updates sent since start (for tests and benchmarks)."""
         self.buttons: dict[str, Any] = {}
@@ -80,9 +103,15 @@ class LiveView:
         with self.server.gui.add_folder("Show") as self._show_folder:
             self.tf = TfFrames(self.server)
             self.contacts = ContactPoints(self.server)
+            self.follow = CameraFollow(self.server)
         self.mover = ObjectMover(self.server, lambda: self.world)
         self._demo_folder: Any = None
-        self.show(world)
+        try:
+            self.show(world)
+        except BaseException:  # e.g. nothing of the name to follow: the server goes too
+            with _quiet():
+                self.server.stop()
+            raise
         self._thread = threading.Thread(target=self._stream, name="simbridge-view", daemon=True)
         self._thread.start()
         _log.info("live view at http://%s:%d", opts.host, self.port)
@@ -106,6 +135,7 @@ class LiveView:
             if self.sensors is not None:
                 self.sensors.forget_scene()
             self._build_scene(world.model)
+            self.follow.reset(world, self.options.follow)
             self.controls.show_joints(world)
             self.mover.reset(world.model)
 
@@ -237,6 +267,7 @@ class LiveView:
                     )
                 ]
             self._last = (xpos, xquat)
+            self.follow.update(xpos)
             with self.server.atomic():
                 for body in moved:  # bodies at rest cost nothing
                     handle = self._bodies.get(body)
@@ -254,7 +285,8 @@ class LiveView:
         """Stop streaming and the server."""
         self._stop.set()
         self._thread.join(timeout=5)
-        self.server.stop()
+        with _quiet():
+            self.server.stop()
 
     def __enter__(self) -> LiveView:
         return self
