@@ -5,7 +5,9 @@ from __future__ import annotations
 
 import os
 import signal
-from collections.abc import Iterator
+import time
+from collections.abc import Callable, Iterator
+from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
@@ -13,6 +15,7 @@ import numpy as np
 import pytest
 
 from simbridge.cluster import train_ars_on_ray
+from simbridge.cluster.shards import Progress, chunks, render_on_ray
 from simbridge.gym import ARSConfig, train_ars
 from simbridge.gym.ars import CurvePoint
 from tests.raysupport import descendants_named, local_cluster, require_ray
@@ -83,3 +86,50 @@ def test_docs_python_example_runs_on_the_cluster(cluster: Any) -> None:
     assert set(run.worker_nodes) == _alive_nodes()
     assert [point.iteration for point in run.result.curve] == [0, 5]
     assert sum(run.episodes_per_node.values()) == 5 * 16 + 2 * 32
+
+
+def _render_text(frames: range, folder: Path, report: Callable[[int], None]) -> None:
+    """A stand-in chunk renderer: one file per frame, a pure function of its index."""
+    for done, frame in enumerate(frames, 1):
+        time.sleep(0.2)  # long enough for the test to kill a chunk under way
+        (folder / f"{frame:05d}.txt").write_text(f"frame {frame}\n" * (frame + 1))
+        report(done)
+
+
+def test_shards_survive_a_killed_worker_without_duplicates_or_holes(
+    cluster: Any, tmp_path: Path
+) -> None:
+    ray = require_ray()
+    killed: list[int] = []
+    seen: list[Progress] = []
+
+    def kill_a_chunk_under_way(progress: Progress) -> None:
+        seen.append(progress)
+        # a chunk with a frame or two done of its 4 (so at least 2 x 0.2 s still to go)
+        started = [(c, pid) for c, (pid, done) in progress.running.items() if 0 < done <= 2]
+        if not killed and started:
+            chunk, pid = started[0]
+            os.kill(pid, signal.SIGKILL)
+            killed.append(chunk)
+
+    ranges = chunks(12, 4)
+    run = render_on_ray(
+        ray, _render_text, ranges, tmp_path / "shards", progress=kill_a_chunk_under_way, every_s=0.2
+    )
+    assert killed, "no chunk was under way to kill"
+    assert run.progress is not None
+    assert len(run.progress.attempts[killed[0]]) == 2  # retried in another process
+    # every frame once, in the shard of its chunk, as the renderer writes it
+    written = sorted((tmp_path / "shards").rglob("*.txt"))
+    assert [p.relative_to(tmp_path / "shards").as_posix() for p in written] == [
+        f"shard-{i // 4:05d}/{i:05d}.txt" for i in range(12)
+    ]
+    assert all(p.read_text() == f"frame {int(p.stem)}\n" * (int(p.stem) + 1) for p in written)
+    assert not list((tmp_path / "shards").glob(".*")), "a partial shard was left"
+    # progress counted across both nodes, ending at every frame once; both nodes rendered
+    # (the killed attempt's frames count as work, not as progress; a chunk waiting for the
+    # busy head is sent to the other node)
+    assert set(run.nodes.values()) <= _alive_nodes()
+    assert seen[-1].done == seen[-1].total == 12
+    assert set(seen[-1].rendered_per_node) == _alive_nodes()
+    assert sum(seen[-1].rendered_per_node.values()) > 12

@@ -73,8 +73,10 @@ class Progress:
     per_node: dict[str, int]
     attempts: dict[int, list[int]]
     """Per chunk, the worker processes that ran it (more than one: retried)."""
-    running: dict[int, int]
-    """Chunks under way (frames done in their latest attempt) -> worker process."""
+    running: dict[int, tuple[int, int]]
+    """Chunks under way -> the worker process of their latest attempt, its frames done."""
+    rendered_per_node: dict[str, int] = field(default_factory=dict)
+    """Frames each node rendered, lost attempts included (what the cluster worked)."""
 
 
 class ProgressBoard:
@@ -85,6 +87,7 @@ class ProgressBoard:
         self.sizes = list(sizes)
         self.latest: dict[int, tuple[int, str, int]] = {}  # chunk -> (pid, node, done)
         self.attempts: dict[int, list[int]] = {}
+        self.rendered: dict[tuple[int, int], tuple[str, int]] = {}  # (chunk, pid) -> node, done
         self.finished: set[int] = set()
 
     def report(self, chunk: int, pid: int, node: str, done: int) -> None:
@@ -93,6 +96,7 @@ class ProgressBoard:
         if pid not in seen:
             seen.append(pid)
         self.latest[chunk] = (pid, node, done)
+        self.rendered[chunk, pid] = (node, done)
 
     def finish(self, chunk: int, pid: int, node: str) -> None:
         """The driver stored chunk `chunk`, which process `pid` on `node` rendered."""
@@ -105,14 +109,20 @@ class ProgressBoard:
         for _, node, done in self.latest.values():
             per_node[node] = per_node.get(node, 0) + done
         running = {
-            chunk: pid for chunk, (pid, _, _) in self.latest.items() if chunk not in self.finished
+            chunk: (pid, done)
+            for chunk, (pid, _, done) in self.latest.items()
+            if chunk not in self.finished
         }
+        rendered: dict[str, int] = {}
+        for node, done in self.rendered.values():
+            rendered[node] = rendered.get(node, 0) + done
         return Progress(
             sum(per_node.values()),
             sum(self.sizes),
             per_node,
             {chunk: list(pids) for chunk, pids in self.attempts.items()},
             running,
+            rendered,
         )
 
 
