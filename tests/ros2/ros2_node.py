@@ -1,8 +1,9 @@
 """A ROS 2 helper node for the tests, run with the ROS 2 venv's Python (never imported by
 pytest, which runs beside rospy). One JSON object per line on stdout.
 
-    ros2_node.py echo TOPIC pkg/msg/Type COUNT [--latched]
-        print {"ready": true}, then each message as {"msg": {...}} (decoded with rclpy)
+    ros2_node.py echo TOPIC pkg/msg/Type COUNT [--latched] [--raw]
+        print {"ready": true}, then each message as {"msg": {...}} (decoded with rclpy);
+        with --raw, as {"raw": "hex"}: its CDR bytes as DDS delivered them
     ros2_node.py pub TOPIC pkg/msg/Type JSON RATE COUNT
         once a subscription matched (30 s at most), publish JSON (field values) COUNT times
         at RATE Hz; {"sent": n} at the end
@@ -19,6 +20,12 @@ pytest, which runs beside rospy). One JSON object per line on stdout.
         wait for the server, call once, print {"response": {...}} or {"error": "..."}
     ros2_node.py graph SECONDS
         print {"topics": [[name, [types]], ...]} of the graph after SECONDS
+    ros2_node.py clients NODE SECONDS
+        print {"clients": [name, ...]}: the services node /NODE has clients of, after SECONDS
+    ros2_node.py lookup ACTION
+        a tf2_msgs/action/LookupTransform action server (its Feedback has no fields): each
+        goal gets two feedback messages, then a result from target_frame to source_frame.
+        Prints {"ready": true}, then {"goal": target_frame} per goal
     ros2_node.py fibonacci ACTION PERIOD [--reject]
         a test_msgs/action/Fibonacci action server: each goal gets one feedback per term
         every PERIOD s, then the sequence as result; it honours cancel requests, and with
@@ -103,13 +110,15 @@ def run(node: Any, argv: list[str]) -> None:
             reliability=ReliabilityPolicy.RELIABLE,
             durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE,
         )
+        raw = "--raw" in argv
         got: list[Any] = []
-        node.create_subscription(cls, topic, got.append, qos)
+        node.create_subscription(cls, topic, got.append, qos, raw=raw)
         emit({"ready": True})
         while rclpy.ok() and len(got) < count:
             rclpy.spin_once(node, timeout_sec=0.1)
             while got:
-                emit({"msg": message_to_ordereddict(got.pop(0))})
+                message = got.pop(0)
+                emit({"raw": message.hex()} if raw else {"msg": message_to_ordereddict(message)})
                 count -= 1
     elif mode == "pub":
         topic, cls, values = argv[1], load(argv[2]), json.loads(argv[3])
@@ -175,6 +184,14 @@ def run(node: Any, argv: list[str]) -> None:
         while time.monotonic() < deadline:
             rclpy.spin_once(node, timeout_sec=0.05)
         emit({"topics": node.get_topic_names_and_types()})
+    elif mode == "clients":
+        deadline = time.monotonic() + float(argv[2])
+        while time.monotonic() < deadline:
+            rclpy.spin_once(node, timeout_sec=0.05)
+        found = node.get_client_names_and_types_by_node(argv[1], "/")
+        emit({"clients": sorted(name for name, _types in found)})
+    elif mode == "lookup":
+        lookup_server(node, argv[1])
     elif mode == "fibonacci":
         fibonacci_server(node, argv[1], float(argv[2]), reject="--reject" in argv)
     else:
@@ -229,6 +246,29 @@ def fibonacci_server(node: Any, action: str, period: float, *, reject: bool) -> 
     executor = MultiThreadedExecutor(num_threads=4)
     executor.add_node(node)
     executor.spin()
+
+
+def lookup_server(node: Any, action: str) -> None:
+    from rclpy.action import ActionServer
+
+    lookup = load("tf2_msgs/action/LookupTransform")
+
+    def execute(handle: Any) -> Any:
+        goal = handle.request
+        emit({"goal": goal.target_frame})
+        for _ in range(2):
+            handle.publish_feedback(lookup.Feedback())
+            time.sleep(0.05)
+        handle.succeed()
+        result = lookup.Result()
+        result.transform.header.frame_id = goal.target_frame
+        result.transform.child_frame_id = goal.source_frame
+        result.transform.transform.rotation.w = 1.0
+        return result
+
+    ActionServer(node, lookup, action, execute_callback=execute)
+    emit({"ready": True})
+    rclpy.spin(node)
 
 
 if __name__ == "__main__":

@@ -47,9 +47,13 @@ nanosec, spelled `{sec, nanosec}` in dicts), CameraInfo with `d k r p`. Its `pro
 the same `pkg/msg`, `pkg/srv`, `pkg/action` layout; actions expand as rosidl does
 (`pkg/FooGoal`, `pkg/FooFeedbackMessage`, services `pkg/FooSendGoal`, `pkg/FooGetResult`).
 `ros2_name(name)` gives the rosidl spelling (`pkg/msg/Type`, `pkg/srv/Srv_Request`,
-`pkg/action/Foo_Goal`); every such spelling is accepted as input. `Translator(src, dst)`
-turns message objects of one registry's layouts into another's (Header loses `seq`,
-CameraInfo `D` becomes `d`, ...), rebuilding only the parts that differ.
+`pkg/action/Foo_Goal`); every such spelling is accepted as input. A type without fields
+(std_msgs/Empty, std_srvs/Trigger's request) is written in CDR as rclpy writes it (header,
+rosidl's placeholder byte, padding) and read from that or from the header alone, as
+Unity writes it (`simbridge.messages.empty`; `Codec.ros2_cdr` respells a payload).
+`Translator(src, dst)` turns message objects of one registry's layouts into another's
+(Header loses `seq`, CameraInfo `D` becomes `d`, ...), rebuilding only the parts that
+differ.
 """
 
 from __future__ import annotations

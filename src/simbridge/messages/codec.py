@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING, Any, Literal
 from simbridge.errors import MessageError
 
 from .diagnose import find_unencodable
+from .empty import CDR_HEADERS, ROS2_EMPTY, is_empty_type, ros2_empty
 from .schema import canonical_of
 
 if TYPE_CHECKING:
@@ -19,11 +20,14 @@ WireFormat = Literal["ros1", "cdr"]
 
 _CDR_LE = b"\x00\x01\x00\x00"
 _ENCODE_HINT = "(numeric arrays must be numpy arrays; MessageRegistry.new/from_dict convert lists)"
-_CDR_HEADERS = (b"\x00\x00", b"\x00\x01")
 
 
 class Codec:
-    """Encodes and decodes one message type; the hot path is a few direct calls."""
+    """Encodes and decodes one message type; the hot path is a few direct calls.
+
+    A type without fields (`empty`) is written in CDR as ROS 2 writes it, and read from
+    that or from the header alone, as Unity writes it (`simbridge.messages.empty`).
+    """
 
     __slots__ = (
         "_cls",
@@ -38,6 +42,7 @@ class Codec:
         "_ser_cdr",
         "_ser_ros1",
         "_store",
+        "empty",
         "name",
     )
 
@@ -56,6 +61,8 @@ class Codec:
         self._ser_cdr = msgdef.serialize_cdr_le
         self._de_cdr_le = msgdef.deserialize_cdr_le
         self._de_cdr_be = msgdef.deserialize_cdr_be
+        self.empty = is_empty_type(field for field, _desc in msgdef.fields)
+        """The type carries no data (no fields, or only rosidl's placeholder)."""
 
     def encode(self, msg: object, fmt: WireFormat = "ros1") -> bytes:
         """Serialize `msg`; MessageError when a field holds a value its type cannot carry."""
@@ -110,6 +117,8 @@ class Codec:
     def cdr_buffer(self, msg: object) -> bytearray:
         """Serialize to little-endian CDR with encapsulation header."""
         self._check_type(msg)
+        if self.empty:
+            return bytearray(ROS2_EMPTY)
         try:
             size = self._fixed_cdr or self._getsize_cdr(0, msg, self._store)
             buf = bytearray(4 + size)
@@ -131,15 +140,24 @@ class Codec:
             raw = _frozen(data)
         except TypeError as exc:
             raise MessageError(f"cannot decode {type(data).__name__} as CDR {self.name}") from exc
-        if len(raw) < 4 or raw[:2] not in _CDR_HEADERS:
+        if len(raw) < 4 or raw[:2] not in CDR_HEADERS:
             msg_ = f"malformed CDR {self.name}: missing or unknown encapsulation header"
             raise MessageError(msg_)
+        if self.empty:
+            raw = ROS2_EMPTY  # the header alone (Unity) is a whole message too
         func = self._de_cdr_le if raw[1] else self._de_cdr_be
         try:
             msg, _end = func(memoryview(raw)[4:], 0, self._cls, self._store)
         except Exception as exc:
             raise MessageError(f"malformed CDR {self.name} ({len(data)} bytes): {exc}") from exc
         return msg
+
+    def ros2_cdr(self, data: bytes | bytearray | memoryview) -> bytes:
+        """CDR `data` as ROS 2 reads it: unchanged, except that an empty type comes in
+        ROS 2's spelling from either (its header is checked; nothing else is decoded)."""
+        if self.empty:
+            return ros2_empty(data, self.name)
+        return data if type(data) is bytes else bytes(data)
 
     def _encode_error(self, fmt: WireFormat, msg: object, exc: Exception) -> str:
         """Name the offending field, value and accepted range where it can be found."""

@@ -475,10 +475,11 @@ class MessageRegistry:
     def transcode(
         self, data: bytes | bytearray | memoryview, name: str, src: WireFormat, dst: WireFormat
     ) -> bytes:
-        """Re-encode serialized bytes from one wire format to another."""
+        """Re-encode serialized bytes from one wire format to another (the same format
+        comes back as it is, checked, except an empty type's CDR, in ROS 2's spelling)."""
         if src == dst:
             self.decode(data, name, src)
-            return bytes(data)
+            return self.codec(name).ros2_cdr(data) if src == "cdr" else bytes(data)
         return self.encode(self.decode(data, name, src), name, dst)
 
 

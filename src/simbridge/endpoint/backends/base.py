@@ -23,6 +23,7 @@ __all__ = [
     "Backend",
     "BackendActionGoal",
     "BackendPublisher",
+    "BackendServiceClient",
     "BackendServiceServer",
     "BackendSubscription",
     "BatchCallback",
@@ -125,6 +126,36 @@ class BackendServiceServer(abc.ABC):
         """Unadvertise the service."""
 
 
+class BackendServiceClient(abc.ABC):
+    """A caller of one service in the graph for one TCP client (its `__ros_service`), closed
+    when the client removes the registration or leaves, like everything else it made."""
+
+    @abc.abstractmethod
+    async def call(self, request: bytes, *, timeout: float) -> bytes:
+        """Call the service; raises ServiceError on failure, timeout or close()."""
+
+    @abc.abstractmethod
+    def close(self) -> None:
+        """Release what it holds in the graph (a call in flight that needs it then fails)."""
+
+
+class _CallEach(BackendServiceClient):
+    """A caller that is no graph entity: each call goes to `Backend.call_service`."""
+
+    def __init__(self, backend: Backend, service: str, srv_type: str) -> None:
+        self._backend = backend
+        self._service = service
+        self._srv_type = srv_type
+
+    async def call(self, request: bytes, *, timeout: float) -> bytes:
+        return await self._backend.call_service(
+            self._service, self._srv_type, request, timeout=timeout
+        )
+
+    def close(self) -> None:
+        """Nothing was made."""
+
+
 class BackendActionGoal(abc.ABC):
     """A goal an action server accepted (ROS 2 actions, the `actions` extension)."""
 
@@ -201,6 +232,12 @@ class Backend(abc.ABC):
         self, service: str, srv_type: str, request: bytes, *, timeout: float
     ) -> bytes:
         """Call a service in the graph; raises ServiceError on failure or timeout."""
+
+    def service_client(self, service: str, srv_type: str) -> BackendServiceClient:
+        """A caller of `service` for one TCP client, to close when that client is done
+        with it. The default holds nothing and goes through `call_service` (for graphs
+        where a call leaves nothing behind)."""
+        return _CallEach(self, service, srv_type)
 
     @abc.abstractmethod
     def advertise_service(

@@ -4,8 +4,11 @@ Topics are relayed as raw CDR in both directions: `publisher.publish(bytes)` (a 
 payload in place through rcl, ros2_rcl) and `create_subscription(..., raw=True)`,
 nothing decoded on the hot path. Services
 have no raw mode in rclpy, so their requests and responses are decoded and
-encoded with the installed interface classes; so are action goals, feedback and
-results (the `actions` extension, in ros2_actions).
+encoded with the installed interface classes (calls in ros2_calls, one rclpy client per
+`__ros_service`); so are action goals, feedback and results (the `actions` extension, in
+ros2_actions). A type without fields is the one payload rewritten on its way: a client
+may send the CDR header alone (Unity does), which rclpy refuses, so ROS 2 gets rclpy's
+spelling and clients the header alone (ros2_cdr, `simbridge.messages.empty`).
 
 rclpy runs one SingleThreadedExecutor on a thread of its own for services, clients
 and actions. Publishers, subscriptions and clients are created from the endpoint's
@@ -33,13 +36,14 @@ import rclpy
 import rclpy.executors
 from rclpy.event_handler import PublisherEventCallbacks
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
-from rclpy.serialization import deserialize_message, serialize_message
+from rclpy.serialization import serialize_message
 from rclpy.task import Future as RclpyFuture
 
 from simbridge.endpoint.backends.base import (
     Backend,
     BackendActionGoal,
     BackendPublisher,
+    BackendServiceClient,
     BackendServiceServer,
     BackendSubscription,
     BatchCallback,
@@ -49,9 +53,15 @@ from simbridge.endpoint.backends.base import (
     TopicInfo,
 )
 from simbridge.endpoint.backends.gc_tuning import freeze_startup_objects
-from simbridge.endpoint.backends.loop_calls import call_soon_from_thread
 from simbridge.endpoint.backends.malloc_tuning import keep_large_buffers
 from simbridge.endpoint.backends.ros2_actions import Ros2Actions
+from simbridge.endpoint.backends.ros2_calls import Ros2ServiceClient
+from simbridge.endpoint.backends.ros2_cdr import (
+    from_client,
+    interface_name,
+    is_empty_interface,
+    to_client,
+)
 from simbridge.endpoint.backends.ros2_env import apply_ros2_env
 from simbridge.endpoint.backends.ros2_rcl import DirectTake, direct_publish, direct_take
 from simbridge.endpoint.backends.ros2_takes import LoopTakes
@@ -59,6 +69,7 @@ from simbridge.endpoint.backends.ros2_types import Ros2Types, tcp_type_name
 from simbridge.endpoint.backends.subscriber_watch import SubscriberWatch
 from simbridge.endpoint.typecheck import TypeCheck
 from simbridge.errors import EndpointError, ServiceError
+from simbridge.messages.empty import CLIENT_EMPTY, ros2_empty
 from simbridge.protocol import ACTIONS_EXTENSION
 
 __all__ = ["Ros2Backend", "Ros2Options", "Ros2TypeCheck", "ros2_cli_args"]
@@ -155,7 +166,8 @@ class Ros2Backend(Backend):
         self._node: Any = None
         self._executor: Any = None
         self._thread: threading.Thread | None = None
-        self._clients: dict[tuple[str, str], Any] = {}
+        self._callers: set[Ros2ServiceClient] = set()
+        """Service clients (`service_client`), destroyed by close() if still open."""
         self._descriptions: dict[str, Ros2Publisher] = {}
         """`__set_param` of `*/robot_description`: its latched topic's publisher."""
         self._live: set[_Entity] = set()
@@ -223,7 +235,8 @@ class Ros2Backend(Backend):
             return
         for entity in list(self._live):
             entity.close()
-        self._clients.clear()
+        for caller in list(self._callers):
+            caller.close()
         await self._actions.close()
         if self._takes is not None:
             await self._takes.close()
@@ -332,60 +345,36 @@ class Ros2Backend(Backend):
 
     # ---- services --------------------------------------------------------------------
 
+    def service_client(self, service: str, srv_type: str) -> BackendServiceClient:
+        """An rclpy client of `service` for one TCP client's calls (ros2_calls)."""
+        loop = self._started()
+        cls = self._types.service(srv_type)
+        caller = Ros2ServiceClient(
+            self.node,
+            loop,
+            service,
+            srv_type,
+            cls,
+            discovery_wait=self._options.discovery_wait,
+            on_close=self._callers.discard,
+        )
+        self._callers.add(caller)
+        _log.info("calling %s [%s] for the sim", service, srv_type)
+        return caller
+
     async def call_service(
         self, service: str, srv_type: str, request: bytes, *, timeout: float
     ) -> bytes:
-        """Call a ROS 2 service; no server, a bad request or no answer -> ServiceError."""
-        loop = self._started()
+        """Call a ROS 2 service once, through a client made for the call and destroyed
+        after it; no server, a bad request or no answer -> ServiceError."""
         try:
-            cls = self._types.service(srv_type)
-            client = self._client(service, srv_type, cls)
+            caller = self.service_client(service, srv_type)
         except EndpointError as exc:
             raise ServiceError(f"cannot call {service!r}: {exc}") from exc
-        deadline = time.monotonic() + min(timeout, self._options.discovery_wait)
-        while not client.service_is_ready():
-            if time.monotonic() >= deadline:
-                raise ServiceError(
-                    f"no ROS 2 server for {service!r} [{srv_type}] "
-                    f"(none found within {min(timeout, self._options.discovery_wait):g} s)"
-                )
-            await asyncio.sleep(0.01)
         try:
-            decoded = deserialize_message(request, cls.Request)
-        except Exception as exc:
-            raise ServiceError(
-                f"request for {service!r} is not a CDR {srv_type} request: {exc}"
-            ) from exc
-        answer: asyncio.Future[Any] = loop.create_future()
-        pending = client.call_async(decoded)
-
-        def settle(done: Any) -> None:
-            if answer.done():
-                return
-            error = done.exception()
-            if error is not None:
-                answer.set_exception(ServiceError(f"service {service!r} failed: {error}"))
-            else:
-                answer.set_result(done.result())
-
-        pending.add_done_callback(lambda done: call_soon_from_thread(loop, settle, done))
-        try:
-            response = await asyncio.wait_for(answer, timeout)
-        except TimeoutError as exc:
-            client.remove_pending_request(pending)
-            raise ServiceError(f"service {service!r} did not answer within {timeout:g} s") from exc
-        return bytes(serialize_message(response))
-
-    def _client(self, service: str, srv_type: str, cls: Any) -> Any:
-        key = (service, srv_type)
-        client = self._clients.get(key)
-        if client is None:
-            try:
-                client = self.node.create_client(cls, service)
-            except Exception as exc:
-                raise EndpointError(f"cannot create a client for {service!r}: {exc}") from exc
-            self._clients[key] = client
-        return client
+            return await caller.call(request, timeout=timeout)
+        finally:
+            caller.close()
 
     def advertise_service(
         self, service: str, srv_type: str, handler: ServiceHandler
@@ -490,6 +479,10 @@ class Ros2Publisher(_Entity, BackendPublisher):
         self._publish_lent = direct_publish(self._publisher) or self._publish_raw
         """Large payloads arrive as the bytearray they were received into (lent by the
         session): published in place, without publish_raw's copy (ros2_rcl)."""
+        if is_empty_interface(cls):  # the CDR header alone (Unity) needs the placeholder
+            self._publish_raw = self._publish_lent = _spelled_for_ros2(
+                self._publish_raw, interface_name(cls)
+            )
         super().__init__(backend)
 
     def publish(self, payload: bytes | bytearray) -> None:
@@ -529,6 +522,17 @@ class Ros2Publisher(_Entity, BackendPublisher):
         _log.info("stopped publishing %s", self.topic)
 
 
+def _spelled_for_ros2(
+    publish: Callable[[bytes | bytearray], None], name: str
+) -> Callable[[bytes | bytearray], None]:
+    """`publish` of an empty type's CDR in ROS 2's spelling, whichever a client sent."""
+
+    def publish_empty(payload: bytes | bytearray) -> None:
+        publish(ros2_empty(payload, name))
+
+    return publish_empty
+
+
 def _raw_publish(publisher: Any) -> Callable[[bytes | bytearray], None]:
     """The C++ publisher's `publish_raw`: what `Publisher.publish(bytes)` ends in, without
     its handle guard and type checks (about 2 us of a Twist's publish); it takes a bytearray
@@ -558,6 +562,8 @@ class _Ros2Subscription(_Entity, BackendSubscription):
         self._callback = callback
         self._batch: BatchCallback | None = None
         self._cls = cls
+        self._empty = is_empty_interface(cls)
+        """Clients get an empty type's CDR as the header alone, not rclpy's padding."""
         self._takes = takes
         self._lent: LentCallback | None = None
         self._direct: DirectTake | None = None
@@ -640,6 +646,8 @@ class _Ros2Subscription(_Entity, BackendSubscription):
         (it takes what its client can have now), the rest one by one to the message
         callback (which queues or drops by the client's queue_size: DDS cannot take
         them back)."""
+        if self._empty:
+            payloads = [CLIENT_EMPTY] * len(payloads)
         batch = self._batch
         rest: list[bytes] = payloads
         if batch is not None and len(payloads) > 1:
@@ -722,7 +730,7 @@ class _Ros2ServiceServer(_Entity, BackendServiceServer):
             )
         answer = RclpyFuture()
         executor = self._backend._executor
-        payload = bytes(serialize_message(request))
+        payload = to_client(request)
         call = asyncio.run_coroutine_threadsafe(self._run(payload), self._loop)
 
         def finished(done: Any) -> None:
@@ -745,7 +753,7 @@ class _Ros2ServiceServer(_Entity, BackendServiceServer):
                 f"the sim failed {self._service}: {exc}; the ROS 2 caller gets no response"
             ) from exc
         try:
-            return deserialize_message(response, self._cls.Response)
+            return from_client(response, self._cls.Response)
         except Exception as exc:
             raise _SimServiceFailedError(
                 f"the sim's answer to {self._service} is not a CDR "

@@ -4,7 +4,8 @@ rclpy's ActionClient keeps its pending requests in plain dicts that its executor
 reads, so every call on it (create, send, cancel, get the result) runs on the rclpy thread
 (`executor.create_task`); answers hop back to the event loop. Goals arrive and leave as
 CDR: decoded into the action's Goal class with rclpy.serialization, feedback and results
-encoded back. One ActionClient per action and type serves every client of the endpoint.
+encoded back (ros2_cdr: an empty part in each side's spelling). One ActionClient per
+action and type serves every client of the endpoint.
 """
 
 from __future__ import annotations
@@ -18,10 +19,10 @@ from typing import TYPE_CHECKING, Any, TypeVar
 
 from rclpy.action import ActionClient
 from rclpy.action.client import ClientGoalHandle
-from rclpy.serialization import deserialize_message, serialize_message
 
 from simbridge.endpoint.backends.base import BackendActionGoal, MessageCallback
 from simbridge.endpoint.backends.loop_calls import call_soon_from_thread
+from simbridge.endpoint.backends.ros2_cdr import from_client, to_client
 from simbridge.errors import EndpointError
 from simbridge.protocol import (
     STATUS_ABORTED,
@@ -212,7 +213,7 @@ class Ros2Actions:
         """See `Backend.send_goal`."""
         client, cls = await self.client(action, action_type)
         try:
-            decoded = deserialize_message(goal, cls.Goal)
+            decoded = from_client(goal, cls.Goal)
         except Exception as exc:
             raise EndpointError(f"the goal is not a CDR {action_type} goal: {exc}") from exc
         wait = min(timeout, discovery_wait)
@@ -478,7 +479,7 @@ class _Ros2Goal(BackendActionGoal):
             return
         if self._r_abandoned:
             return
-        data = bytes(serialize_message(message.feedback))
+        data = to_client(message.feedback)
         self._post(self._deliver, self._on_feedback, data)
 
     def status_seen(self, status: int) -> None:
@@ -501,7 +502,7 @@ class _Ros2Goal(BackendActionGoal):
             self._post(self._settle, self._result, None, EndpointError(f"no result: {error}"))
             return
         response = future.result()
-        data = bytes(serialize_message(response.result))
+        data = to_client(response.result)
         self._post(self._settle, self._result, (int(response.status), data), None)
 
     def _r_abandon(self) -> bool:

@@ -1,7 +1,8 @@
 """One client's requests that wait for an answer, for its `ClientSession`: service calls both
 ways (the client calling ROS, ROS calling a service the client implements) and parameter
 sets. Each runs as a task; those in flight are bounded per client, and every one ends in
-an answer or an `__error` naming it, never a hang.
+an answer or an `__error` naming it, never a hang. Each `__ros_service` has a caller of
+its own in the backend (`Backend.service_client`), closed with the registration.
 """
 
 from __future__ import annotations
@@ -9,10 +10,10 @@ from __future__ import annotations
 import asyncio
 import itertools
 import logging
-from collections.abc import Awaitable, Callable, Coroutine, Mapping
+from collections.abc import Awaitable, Callable, Coroutine
 from typing import Any, Protocol
 
-from simbridge.endpoint.backends.base import Backend
+from simbridge.endpoint.backends.base import Backend, BackendServiceClient
 from simbridge.endpoint.options import EndpointOptions
 from simbridge.errors import EndpointError, ServiceError, SimbridgeError
 from simbridge.protocol import (
@@ -56,20 +57,18 @@ class ServiceClient(Protocol):
 class SessionServices:
     """The calls and parameter sets of one client connection that wait for an answer.
 
-    `registered` is the client's `__ros_service` registrations (service -> type), read as
-    each call starts.
+    The client's `__ros_service` registrations come and go through `open_caller` and
+    `close_caller`.
     """
 
     def __init__(
         self,
         client: ServiceClient,
-        registered: Mapping[str, str],
         backend: Backend,
         options: EndpointOptions,
         loop: asyncio.AbstractEventLoop,
     ) -> None:
         self._client = client
-        self._registered = registered
         self._backend = backend
         self._timeout = options.service_timeout
         self._max_inflight = options.max_inflight_calls
@@ -77,6 +76,23 @@ class SessionServices:
         self._pending: dict[int, asyncio.Future[bytes]] = {}
         self._srv_ids = itertools.count(FIRST_SRV_ID)
         self._tasks: set[asyncio.Task[None]] = set()
+        self._callers: dict[str, BackendServiceClient] = {}
+        """The backend's caller of each registered service."""
+
+    # ---- the client's registrations ---------------------------------------------------
+
+    def open_caller(self, service: str, srv_type: str) -> None:
+        """`__ros_service`: a caller of `service` replaces any earlier one (SimbridgeError
+        when the backend cannot make it; the earlier one is then kept)."""
+        caller = self._backend.service_client(service, srv_type)
+        self.close_caller(service)
+        self._callers[service] = caller
+
+    def close_caller(self, service: str) -> None:
+        """The registration of `service` is gone: so is its caller (a call in flight fails)."""
+        caller = self._callers.pop(service, None)
+        if caller is not None:
+            caller.close()
 
     # ---- the client calls ROS -------------------------------------------------------
 
@@ -95,8 +111,8 @@ class SessionServices:
 
     async def _serve(self, event: ServiceRequestReceived) -> None:
         client = self._client
-        srv_type = self._registered.get(event.service)
-        if srv_type is None:
+        caller = self._callers.get(event.service)
+        if caller is None:
             client.send_error(
                 f"service {shorten(event.service)} was not registered with __ros_service; "
                 "register it before calling",
@@ -104,9 +120,7 @@ class SessionServices:
             )
             return
         try:
-            response = await self._backend.call_service(
-                event.service, srv_type, event.payload, timeout=self._timeout
-            )
+            response = await caller.call(event.payload, timeout=self._timeout)
         except SimbridgeError as exc:
             client.send_error(
                 f"call of {shorten(event.service)} (srv_id {event.srv_id}) failed: {exc}",
@@ -192,13 +206,16 @@ class SessionServices:
     # ---- end --------------------------------------------------------------------------
 
     def close(self) -> None:
-        """The client left: its requests to ROS are cancelled, ROS's calls to it fail."""
+        """The client left: its requests to ROS are cancelled, ROS's calls to it fail, its
+        callers leave the graph."""
         for future in self._pending.values():
             if not future.done():
                 future.set_exception(ServiceError(f"client {self._client.peer} disconnected"))
         self._pending.clear()
         for task in list(self._tasks):
             task.cancel()
+        for service in list(self._callers):
+            self.close_caller(service)
 
     def _spawn(self, coro: Coroutine[Any, Any, None]) -> None:
         task = asyncio.ensure_future(coro)

@@ -2,8 +2,9 @@
 
 The connector's tap hands each payload to `Recorder.tap`, which stamps it with the
 simulation time and puts it in a bounded queue without ever waiting; a writer thread
-converts (ROS 1 binary <-> CDR when the file's format differs from the wire's) and
-writes. A full queue drops the message and counts it: recording never slows the physics.
+converts (ROS 1 binary <-> CDR when the file's format differs from the wire's; an
+empty type's CDR to ROS 2's spelling, `simbridge.messages.empty`) and writes. A full
+queue drops the message and counts it: recording never slows the physics.
 """
 
 from __future__ import annotations
@@ -130,6 +131,8 @@ class Recorder:
                 data = payload
                 if fmt != file.wire_format:
                     data = registry.transcode(payload, msg_type, fmt, file.wire_format)  # type: ignore[arg-type]
+                elif fmt == "cdr":  # an empty type as Unity spells it: ROS 2's spelling
+                    data = registry.codec(msg_type).ros2_cdr(payload)
                 conn = file.connection(topic, msg_type, registry, topic in _LATCHED)
                 last_ns = max(last_ns, stamp_ns)  # bags want time order
                 file.write(conn, last_ns, data)
