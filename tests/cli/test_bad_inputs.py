@@ -83,6 +83,16 @@ def test_a_bad_scene_is_one_error_line(
     assert re.match(rf"simbridge: error: {re.escape(str(scene))}:{expected}", error), error
 
 
+def test_a_mistyped_shipped_scene_names_the_closest(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["sim", "mobile-robt", "--duration", "0.01"]) == 2
+    error = _error_line(capsys.readouterr().err)
+    assert error == (
+        "simbridge: error: no scene file or shipped scene 'mobile-robt'; did you mean "
+        "'mobile-robot'? (shipped: mobile-robot, pick-and-place, line, reach; or a path to a "
+        "scene YAML file)"
+    )
+
+
 def test_a_missing_mesh_lists_where_it_looked_and_how_to_add_a_folder(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

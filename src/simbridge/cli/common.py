@@ -3,6 +3,10 @@
 from __future__ import annotations
 
 import argparse
+import importlib
+import importlib.util
+import sys
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
@@ -10,12 +14,17 @@ if TYPE_CHECKING:
     from simbridge.messages import MessageRegistry
 
 __all__ = [
+    "DEBIAN_DIST_PACKAGES",
     "add_endpoint_arg",
     "connect",
     "endpoint_address",
+    "ensure_ros1",
     "print_msg",
     "reexec_in_ros2_venv",
 ]
+
+DEBIAN_DIST_PACKAGES = Path("/usr/lib/python3/dist-packages")
+"""Where Debian's ROS 1 Python packages (python3-rospy and friends) are installed."""
 
 
 def endpoint_address(text: str) -> tuple[str, int]:
@@ -87,3 +96,39 @@ def reexec_in_ros2_venv() -> None:
     sys.stdout.flush()
     sys.stderr.flush()
     os.execve(python, argv, env)
+
+
+def ensure_ros1(what: str = "--backend ros1", folder: Path = DEBIAN_DIST_PACKAGES) -> None:
+    """ROS 1's Python packages (rospy, rosgraph, genpy) come from Debian, not PyPI: when this
+    Python lacks them and Debian's `folder` has them, append it to sys.path (after this
+    environment's own packages, as the checkout's venv does with a .pth file); otherwise
+    EndpointError saying what to install. Returns once `rospy` imports."""
+    from simbridge.errors import EndpointError
+
+    if _has_rospy():
+        return
+    install = (
+        "install ROS 1 from Debian (Debian 12 or later): `sudo apt install ros-core "
+        "python3-rospy python3-rostopic python3-rosservice python3-genpy` (the simbridge "
+        "checkout's scripts/install-system-deps.sh lists every package it uses); or use "
+        "--backend local (no ROS needed) or ros2"
+    )
+    if not (folder / "rospy").is_dir():
+        raise EndpointError(
+            f"{what} needs rospy, which neither this Python nor {folder} has: {install}"
+        )
+    if str(folder) not in sys.path:
+        sys.path.append(str(folder))
+        importlib.invalidate_caches()
+    try:
+        importlib.import_module("rospy")
+    except ImportError as exc:
+        version = f"{sys.version_info.major}.{sys.version_info.minor}"
+        raise EndpointError(
+            f"{what}: Debian's ROS 1 in {folder} does not import into this Python {version} "
+            f"({exc}); use a Python of the same minor version as /usr/bin/python3, or {install}"
+        ) from None
+
+
+def _has_rospy() -> bool:
+    return importlib.util.find_spec("rospy") is not None

@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 from collections.abc import Iterable
 
-from .common import reexec_in_ros2_venv
+from .common import ensure_ros1, reexec_in_ros2_venv
 
 __all__ = ["DEMO_NAMES", "add_parser", "with_default_demo"]
 
@@ -28,29 +28,38 @@ def with_default_demo(argv: Iterable[str]) -> list[str]:
     return words
 
 
-def _run_pick_and_place(args: argparse.Namespace) -> int:
-    if args.backend == "ros2":
+def _prepare(backend: str) -> None:
+    """ROS 1 from Debian's packages, ROS 2 from its venv (a re-run there), before the demo
+    imports either."""
+    if backend == "ros1":
+        ensure_ros1()
+    elif backend == "ros2":
         reexec_in_ros2_venv()
+
+
+def _run_pick_and_place(args: argparse.Namespace) -> int:
+    _prepare(args.backend)
     from simbridge.apps.pick_and_place.runner import run_from_args
 
     return run_from_args(args)
 
 
 def _run_mobile_robot(args: argparse.Namespace) -> int:
-    if args.backend == "ros2":
-        reexec_in_ros2_venv()
+    _prepare(args.backend)
     from simbridge.apps.mobile_robot.runner import run_from_args
 
     return run_from_args(args)
 
 
 def _run_line(args: argparse.Namespace) -> int:
+    _prepare(args.backend)
     from simbridge.apps.line.runner import run_from_args
 
     return run_from_args(args)
 
 
 def _run_bridge(args: argparse.Namespace) -> int:
+    _prepare(args.backend)
     from simbridge.apps.bridge_demo import run_bridge_demo
 
     count = 5

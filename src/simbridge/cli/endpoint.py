@@ -9,7 +9,7 @@ import logging
 import signal
 from typing import TYPE_CHECKING
 
-from .common import reexec_in_ros2_venv
+from .common import ensure_ros1, reexec_in_ros2_venv
 
 if TYPE_CHECKING:
     from simbridge.endpoint import EndpointOptions
@@ -52,6 +52,8 @@ def busy_poll_selector(args: argparse.Namespace) -> BusyPollSelector | None:
 
 
 def run_endpoint(args: argparse.Namespace) -> int:
+    if args.backend == "ros1":
+        ensure_ros1()
     if args.backend == "ros2":
         reexec_in_ros2_venv()
     from simbridge.endpoint import EndpointServer, make_backend

@@ -44,6 +44,10 @@ def run_msg(args: argparse.Namespace) -> int:
     if args.action == "genpy":
         from pathlib import Path
 
+        from .common import ensure_ros1
+
+        ensure_ros1("msg genpy")  # genpy is ROS 1's, from Debian
+
         from simbridge.endpoint.backends.ros1 import generate_python_messages
 
         services = [t for t in args.types if registry.has_service(t)]

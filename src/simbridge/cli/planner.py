@@ -17,7 +17,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
-from .common import reexec_in_ros2_venv
+from .common import ensure_ros1, reexec_in_ros2_venv
 
 __all__ = ["add_parser"]
 
@@ -45,6 +45,8 @@ def _stop_on_signals() -> Iterator[threading.Event]:
 
 
 def run_planner(args: argparse.Namespace) -> int:
+    if args.backend == "ros1":
+        ensure_ros1()
     from simbridge.apps.pick_and_place.planner_node import PLANNER_SERVICE, SERVICE_TYPE
     from simbridge.apps.pick_and_place.scene import SCENE_PATH
 
