@@ -14,6 +14,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from benchmarks.readme import machine_line, write_tables
 from benchmarks.repeats import REPEATS
 from benchmarks.table import format_table
+from simbridge.progress import Ticker, elapsed
 
 SUITES = {
     "endpoint": "benchmarks.bench_endpoint",
@@ -70,15 +71,26 @@ def main() -> int:
     machine = machine_line()
     print(f"# {machine}")
     sections = [machine]
-    for name in names:
+    began, ran, skipped = time.perf_counter(), [], []
+    for number, name in enumerate(names, 1):
         try:
             module = importlib.import_module(SUITES[name])
         except ModuleNotFoundError as exc:
             print(f"\n## {name}: skipped ({exc})")
+            skipped.append(name)
             continue
         print(f"\n## {name}\n", flush=True)
         start = time.perf_counter()
-        rows = module.run()
+
+        def status(name: str = name, number: int = number, start: float = start) -> str:
+            return (
+                f"bench {name} ({number} of {len(names)}): {elapsed(time.perf_counter() - start)}"
+                f", {elapsed(time.perf_counter() - began)} in all"
+            )
+
+        with Ticker(status):  # a suite runs for minutes before its table
+            rows = module.run()
+        ran.append(name)
         # A suite returns one table (a list of rows) or several ({title: rows}).
         tables = rows if isinstance(rows, dict) else {"": rows}
         for title, table in tables.items():
@@ -91,6 +103,11 @@ def main() -> int:
     if args.readme is not None:
         write_tables(args.readme, "\n\n".join([*sections, NOTES]))
         print(f"\nwrote the tables into {args.readme}")
+    print(
+        f"\nbench: {len(ran)} suites in {elapsed(time.perf_counter() - began)}"
+        + (f"; skipped {', '.join(skipped)}" if skipped else ""),
+        flush=True,
+    )
     return 0
 
 

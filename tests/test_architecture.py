@@ -13,8 +13,9 @@ import simbridge
 
 SRC = Path(simbridge.__file__).parent
 
-# Each layer may import itself and the layers listed after it (errors, assets and tcp
-# anywhere: tcp is the socket options both the connector and the endpoint set).
+# Each layer may import itself and the layers listed after it (errors, assets, tcp and
+# progress anywhere: tcp is the socket options both the connector and the endpoint set,
+# progress the status line of any long work).
 LAYERS = [
     "cli",
     "cluster",
@@ -42,7 +43,7 @@ ALLOWED: dict[str, set[str]] = {
     "protocol": {"protocol"},
     "messages": {"messages"},
 }
-ANYWHERE = {"errors", "assets", "tcp", "__init__"}
+ANYWHERE = {"errors", "assets", "tcp", "progress", "__init__"}
 
 PACKAGES = sorted(
     name for _, name, is_pkg in pkgutil.walk_packages([str(SRC)], prefix="simbridge.") if is_pkg

@@ -147,6 +147,7 @@ def run_sim(args: argparse.Namespace) -> int:
                 record=record,
                 view=view,
                 connect_timeout=None if args.wait_for_endpoint else args.connect_timeout,
+                progress=True,
             )
         except ConnectorError as exc:
             raise ConnectorError(

@@ -41,6 +41,7 @@ def run_train(args: argparse.Namespace) -> int:
     from simbridge.errors import GymError
     from simbridge.gym import ENV_IDS, ARSConfig
     from simbridge.gym.ars import CurvePoint
+    from simbridge.progress import Ticker, elapsed
 
     if args.env not in ENV_IDS:
         raise GymError(f"unknown environment {args.env!r}; simbridge has {', '.join(ENV_IDS)}")
@@ -63,53 +64,68 @@ def run_train(args: argparse.Namespace) -> int:
     )
     env_kwargs = dict(args.env_arg)
 
+    latest: list[CurvePoint] = []
+
     def show(point: CurvePoint) -> None:
-        print(
+        latest[:] = [point]
+        ticker.print(
             f"iteration {point.iteration:4d}: success {point.success_rate:.2f}, "
             f"return {point.mean_return:8.3f}, {point.env_steps:,} env steps, "
-            f"{point.wall_s:.1f} s",
-            flush=True,
+            f"{point.wall_s:.1f} s"
         )
 
     start = time.perf_counter()
+
+    def status() -> str:  # between the evaluations' lines, which may be minutes apart
+        now = f"training {args.env}: {elapsed(time.perf_counter() - start)}"
+        if not latest:
+            return now
+        point = latest[0]
+        return (
+            f"{now}; last evaluated at iteration {point.iteration} of {config.iterations}: "
+            f"success {point.success_rate:.2f}"
+        )
+
     where: dict[str, Any] = {"ray": None}
-    if args.ray:
-        from simbridge.cluster import train_ars_on_ray
+    ticker = Ticker(status)
+    with ticker:
+        if args.ray:
+            from simbridge.cluster import train_ars_on_ray
 
-        run = train_ars_on_ray(
-            args.env,
-            max_steps,
-            config,
-            address=args.ray,
-            workers=args.workers,
-            env_kwargs=env_kwargs,
-            progress=show,
-        )
-        result = run.result
-        where = {
-            "ray": args.ray,
-            "worker_nodes": run.worker_nodes,
-            "episodes_per_node": run.episodes_per_node,
-            "busy_s_per_node": run.busy_s_per_node,
-            "batches_s": run.batches_s,
-            "overhead_s": run.overhead_s,
-            "cluster_cpus": run.cluster_cpus,
-        }
-        nodes = len(set(run.worker_nodes))
-        placed = (
-            f" on {len(run.worker_nodes)} Ray workers, {nodes} node(s) (Ray's overhead "
-            f"{run.overhead_s:.1f} s of {run.batches_s:.1f} s waiting for episodes)"
-        )
-    else:
-        from simbridge.cluster import make_vector
-        from simbridge.gym import train_ars
+            run = train_ars_on_ray(
+                args.env,
+                max_steps,
+                config,
+                address=args.ray,
+                workers=args.workers,
+                env_kwargs=env_kwargs,
+                progress=show,
+            )
+            result = run.result
+            where = {
+                "ray": args.ray,
+                "worker_nodes": run.worker_nodes,
+                "episodes_per_node": run.episodes_per_node,
+                "busy_s_per_node": run.busy_s_per_node,
+                "batches_s": run.batches_s,
+                "overhead_s": run.overhead_s,
+                "cluster_cpus": run.cluster_cpus,
+            }
+            nodes = len(set(run.worker_nodes))
+            placed = (
+                f" on {len(run.worker_nodes)} Ray workers, {nodes} node(s) (Ray's overhead "
+                f"{run.overhead_s:.1f} s of {run.batches_s:.1f} s waiting for episodes)"
+            )
+        else:
+            from simbridge.cluster import make_vector
+            from simbridge.gym import train_ars
 
-        vec = make_vector(args.env, 2 * config.directions, max_steps, env_kwargs)
-        try:
-            result = train_ars(vec, max_steps, config, progress=show)
-        finally:
-            vec.close()
-        placed = ""
+            vec = make_vector(args.env, 2 * config.directions, max_steps, env_kwargs)
+            try:
+                result = train_ars(vec, max_steps, config, progress=show)
+            finally:
+                vec.close()
+            placed = ""
     wall = time.perf_counter() - start
     last = result.curve[-1]
     print(

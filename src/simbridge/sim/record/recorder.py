@@ -113,6 +113,14 @@ class Recorder:
                 return
             self._queued_bytes += size
 
+    def progress(self) -> str:
+        """A live status line: messages written and dropped so far, and waiting."""
+        return (
+            f"recording {self.options.path.name}: {self._stats.written:,} messages on "
+            f"{len(self._stats.topics)} topics, {self._dropped:,} dropped, "
+            f"{self._queue.qsize():,} waiting"
+        )
+
     def topic_counts(self) -> Counter[str]:
         """Messages written so far per topic (a copy)."""
         return Counter(self._stats.topics)

@@ -10,6 +10,7 @@ from pathlib import Path
 
 from simbridge.connector import Connector, ConnectorOptions
 from simbridge.errors import SimError
+from simbridge.progress import Ticker
 from simbridge.sim.record import Recorder, RecordOptions
 from simbridge.sim.ros.bridge import SimRosBridge
 from simbridge.sim.ros.names import resolve_name
@@ -205,13 +206,15 @@ def run_scene(
     record: RecordOptions | None = None,
     view: ViewOptions | None = None,
     connect_timeout: float | None = None,
+    progress: bool = False,
 ) -> RunStats:
     """Load and run a scene headless (or in the viewer) until `duration` sim seconds pass
     or the process is interrupted, serving ROS through `endpoint` ("host:port") if given.
     `realtime_factor` None: real time with an endpoint, else the scene's
     (`SimulationSession.pacing`). `record`: a bag of every message in and out; `view`:
     serve a live 3D view in the browser while it runs. `connect_timeout`: ConnectorError
-    when no endpoint answers that soon (None: connect in the background, retrying)."""
+    when no endpoint answers that soon (None: connect in the background, retrying).
+    `progress`: while recording, a status line on stderr (`simbridge.progress.Ticker`)."""
     with SimulationSession(
         scene, endpoint, record=record, connect_timeout=connect_timeout
     ) as session:
@@ -220,8 +223,15 @@ def run_scene(
             session.sensors.add_observer(live.watch_sensors(session.sensors.suite))
         world = session.world
         steps, sim_start, wall_start = world.step_count, world.time, time.perf_counter()
+        recorder = session.recorder
+        ticker = (
+            Ticker(lambda: f"{recorder.progress()}; sim {world.time:.1f} s")
+            if progress and recorder is not None
+            else contextlib.nullcontext()
+        )
         try:
-            stats = session.run(duration, realtime_factor, viewer)
+            with ticker:
+                stats = session.run(duration, realtime_factor, viewer)
         except KeyboardInterrupt:  # what ran until then (a reset service restarts the count)
             return RunStats(
                 max(0, world.step_count - steps),
