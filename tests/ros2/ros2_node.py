@@ -22,6 +22,7 @@ pytest, which runs beside rospy). One JSON object per line on stdout.
         print {"topics": [[name, [types]], ...]} of the graph after SECONDS
     ros2_node.py clients NODE SECONDS
         print {"clients": [name, ...]}: the services node /NODE has clients of, after SECONDS
+        (and once /NODE is known, 30 s at most)
     ros2_node.py lookup ACTION
         a tf2_msgs/action/LookupTransform action server (its Feedback has no fields): each
         goal gets two feedback messages, then a result from target_frame to source_frame.
@@ -185,8 +186,10 @@ def run(node: Any, argv: list[str]) -> None:
             rclpy.spin_once(node, timeout_sec=0.05)
         emit({"topics": node.get_topic_names_and_types()})
     elif mode == "clients":
-        deadline = time.monotonic() + float(argv[2])
-        while time.monotonic() < deadline:
+        start = time.monotonic()
+        while time.monotonic() < start + float(argv[2]) or (
+            argv[1] not in node.get_node_names() and time.monotonic() < start + 30
+        ):
             rclpy.spin_once(node, timeout_sec=0.05)
         found = node.get_client_names_and_types_by_node(argv[1], "/")
         emit({"clients": sorted(name for name, _types in found)})
