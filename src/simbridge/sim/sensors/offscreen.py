@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import atexit
 import math
+import weakref
 
 import mujoco
 import numpy as np
@@ -12,6 +14,18 @@ from simbridge.sim.sensors.frames import Pose
 from simbridge.sim.sensors.gl_backend import GLContext, create_gl_context
 
 __all__ = ["OffscreenRenderer"]
+
+_OPEN: weakref.WeakSet[OffscreenRenderer] = weakref.WeakSet()
+"""Renderers not closed yet."""
+
+
+@atexit.register
+def _close_at_exit() -> None:
+    """Free the GL contexts of renderers nobody closed (an `rgb_array` env left open) while
+    the interpreter still runs: MuJoCo's GLContext.__del__ would try during shutdown, when
+    PyOpenGL can no longer convert its arguments, and print a ctypes traceback."""
+    for renderer in list(_OPEN):
+        renderer.close()
 
 
 class OffscreenRenderer:
@@ -41,6 +55,7 @@ class OffscreenRenderer:
         self.height = height
         self._model = model
         self._context: GLContext | None = create_gl_context(width, height)
+        _OPEN.add(self)
         self._context.make_current()
         # The context reads the sample count from the model; leave the model as it was.
         model_samples = int(model.vis.quality.offsamples)
@@ -118,6 +133,7 @@ class OffscreenRenderer:
 
     def close(self) -> None:
         """Free the GL resources; the renderer cannot be used afterwards."""
+        _OPEN.discard(self)
         if self._context is not None:
             self._context.make_current()
             if self._mjr is not None:
