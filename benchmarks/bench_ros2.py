@@ -1,7 +1,7 @@
 """Throughput of the ROS 2 backend in both directions against the rclpy ceiling, and latency.
 
 Everything rclpy runs with the ROS 2 venv's Python (.venv-ros2), in a ROS domain of
-its own, localhost only (ros2_env). Ceiling: a raw rclpy publisher process -> a raw
+its own, localhost only (`backends.ros2.env`). Ceiling: a raw rclpy publisher process -> a raw
 rclpy subscriber process (`publish(bytes)`, `raw=True`; the endpoint's executor and
 burst take). Through the endpoint: a
 Connector in this process -> `simbridge endpoint --backend ros2` (a subprocess) ->
@@ -48,7 +48,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # also as a bare s
 
 from benchmarks.cpu import process_cpu_ns
 from benchmarks.repeats import REPEATS, best_and_median, ceiling_summary, load_average
-from simbridge.endpoint.backends.ros2_env import ros2_python
+from simbridge.endpoint.backends.ros2 import ros2_python
 
 __all__ = ["run"]
 

@@ -4,7 +4,7 @@ pytest runs in the main venv (beside Debian's rospy), so everything rclpy runs i
 subprocesses with the ROS 2 venv's Python: the endpoint itself and the helper nodes
 in tests/ros2/ros2_node.py. Each pytest process takes a ROS domain of its own (a
 lock file per domain id) and every child gets the localhost-only settings of
-simbridge.endpoint.backends.ros2_env. Children are stopped with SIGINT (so Fast DDS
+simbridge.endpoint.backends.ros2.env. Children are stopped with SIGINT (so Fast DDS
 removes its shared memory) and killed if that fails; stale /dev/shm files are
 removed at exit.
 """
@@ -27,7 +27,7 @@ from typing import Any
 
 import pytest
 
-from simbridge.endpoint.backends.ros2_env import clean_stale_shm, ros2_env, ros2_python
+from simbridge.endpoint.backends.ros2 import clean_stale_shm, ros2_env, ros2_python
 
 __all__ = [
     "NODE_SCRIPT",

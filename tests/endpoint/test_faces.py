@@ -9,6 +9,10 @@ import subprocess
 import sys
 import textwrap
 
+import pytest
+
+from tests.ros2support import Ros2Process
+
 ROS_MODULES = ("rospy", "rosgraph", "genpy", "rclpy")
 
 _LOADED = f"""
@@ -66,3 +70,23 @@ def test_the_ros_free_tools_import_no_ros() -> None:
     assert RosCore and generate_python_messages and master_answers and unique_node_name
     """
     assert _ros_modules_loaded(script) == []
+
+
+@pytest.mark.ros2
+def test_the_ros2_face_resolves_in_the_ros2_venv_and_its_tools_need_no_rclpy() -> None:
+    """Every name of backends.ros2 loads where rclpy is installed (the main venv cannot
+    load Ros2Backend), and `build_packages` and `ros2_python` load without rclpy."""
+    script = textwrap.dedent(
+        """
+        import json, sys
+        from simbridge.endpoint.backends.ros2 import build_packages, ros2_python
+        tools = "rclpy" in sys.modules
+        import simbridge.endpoint.backends.ros2 as face
+        missing = [name for name in face.__all__ if not hasattr(face, name)]
+        print(json.dumps({"face": {"tools_load_rclpy": tools, "missing": missing,
+                                   "rclpy": "rclpy" in sys.modules}}), flush=True)
+        """
+    )
+    with Ros2Process(["-c", script]) as proc:
+        result = proc.expect_json("face", timeout=60)
+    assert result == {"tools_load_rclpy": False, "missing": [], "rclpy": True}

@@ -82,7 +82,7 @@ def reexec_in_ros2_venv() -> None:
 
     if importlib.util.find_spec("rclpy") is not None:
         return
-    from simbridge.endpoint.backends.ros2_env import ros2_python
+    from simbridge.endpoint.backends.ros2 import ros2_python
     from simbridge.errors import EndpointError
 
     python = ros2_python()

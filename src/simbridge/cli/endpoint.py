@@ -76,7 +76,7 @@ def run_endpoint(args: argparse.Namespace) -> int:
         import sys
         from pathlib import Path
 
-        from simbridge.endpoint.backends.ros2_build import build_packages
+        from simbridge.endpoint.backends.ros2 import build_packages
 
         build_packages(args.msg_path, Path(sys.prefix), progress=print)
         importlib.invalidate_caches()

@@ -11,8 +11,7 @@ def run_build(args: argparse.Namespace) -> int:
     """Build interface packages into the ROS 2 venv (cached by content)."""
     from pathlib import Path
 
-    from simbridge.endpoint.backends.ros2_build import SHIPPED_ROS2_PACKAGES, build_packages
-    from simbridge.endpoint.backends.ros2_env import ros2_python
+    from simbridge.endpoint.backends.ros2 import SHIPPED_ROS2_PACKAGES, build_packages, ros2_python
     from simbridge.errors import EndpointError
     from simbridge.messages.registry import SHIPPED_DEFINITIONS
 

@@ -4,7 +4,7 @@ Runs in the ROS 2 venv, where the niryo_moveit interface package is built (`make
 builds the shipped definitions). rclpy services have no raw mode, so a request is
 serialized to CDR by rclpy, planned by the same MoverServiceHandler as on the other
 backends (with the ROS 2 message layouts), and the CDR answer deserialized by rclpy.
-The node has an rclpy context of its own and localhost-only DDS settings (ros2_env).
+The node has an rclpy context of its own and localhost-only DDS settings (`backends.ros2.env`).
 """
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ from simbridge.apps.pick_and_place.planner_node import (
     planner_for_scene,
 )
 from simbridge.apps.pick_and_place.scene import SCENE_PATH
-from simbridge.endpoint.backends.ros2_env import apply_ros2_env
+from simbridge.endpoint.backends.ros2 import apply_ros2_env
 from simbridge.errors import AppError
 from simbridge.messages import ros2_registry
 

@@ -53,7 +53,7 @@ def make_backend(
             )
         )
     if name == "ros2":
-        from simbridge.endpoint.backends.ros2 import (  # noqa: PLC0415 - rclpy is optional
+        from simbridge.endpoint.backends.ros2.backend import (  # noqa: PLC0415 - rclpy is optional
             Ros2Backend,
             Ros2Options,
             ros2_cli_args,

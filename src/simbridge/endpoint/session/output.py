@@ -12,9 +12,9 @@ from collections import deque
 from collections.abc import Callable, Sequence
 
 from simbridge.endpoint.budget import MemoryShare
-from simbridge.endpoint.deferred import deferred_writes
 from simbridge.endpoint.options import EndpointOptions
 from simbridge.endpoint.session.stats import SessionStats
+from simbridge.endpoint.speed.deferred import deferred_writes
 from simbridge.endpoint.speed.writev import WRITE_ALONE, write_chunks
 from simbridge.protocol import KEEPALIVE, WarnMessage, shorten
 

@@ -17,13 +17,13 @@ from simbridge.endpoint.backends.base import (
     BackendServiceServer,
     BackendSubscription,
 )
-from simbridge.endpoint.deferred import deferred_writes
 from simbridge.endpoint.session.actions import SessionActions
 from simbridge.endpoint.session.output import ClientOutput, Outbox
 from simbridge.endpoint.session.pushback import ReadGate, ReadPushback, pushback_limit
 from simbridge.endpoint.session.services import SessionServices
 from simbridge.endpoint.session.stats import SessionStats
 from simbridge.endpoint.session.unregistered import UnregisteredReports
+from simbridge.endpoint.speed.deferred import deferred_writes
 from simbridge.endpoint.speed.splice import SpliceRelay, can_splice
 from simbridge.errors import EndpointError, SimbridgeError
 from simbridge.protocol import (

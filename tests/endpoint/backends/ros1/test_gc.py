@@ -1,4 +1,4 @@
-"""The ros1 backend leaves its startup objects out of garbage collection (gc_tuning), as
+"""The ros1 backend leaves its startup objects out of garbage collection (`speed.gc_tuning`), as
 the ros2 backend does: rospy, its message modules and the node are walked by no later
 collection. Runs in a child process, so the freeze does not reach the test process."""
 

@@ -31,8 +31,6 @@ from simbridge.endpoint.backends.base import (
     ServiceHandler,
     TopicInfo,
 )
-from simbridge.endpoint.backends.gc_tuning import freeze_startup_objects
-from simbridge.endpoint.backends.malloc_tuning import keep_large_buffers
 from simbridge.endpoint.backends.ros1.msg_types import Ros1Types
 from simbridge.endpoint.backends.ros1.native import NativeData
 from simbridge.endpoint.backends.ros1.node import NodeIdentity, join_graph, on_node_shutdown
@@ -46,6 +44,8 @@ from simbridge.endpoint.backends.ros1.registration import Registration, Ros1Publ
 from simbridge.endpoint.backends.ros1.rejoin import remember_param
 from simbridge.endpoint.backends.ros1.rosout import RosoutForwarder
 from simbridge.endpoint.backends.subscriber_watch import SubscriberWatch
+from simbridge.endpoint.speed.gc_tuning import freeze_startup_objects
+from simbridge.endpoint.speed.malloc_tuning import keep_large_buffers
 from simbridge.errors import EndpointError, MessageError, ServiceError
 from simbridge.messages import MessageRegistry, default_registry
 

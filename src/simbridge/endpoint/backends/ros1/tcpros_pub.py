@@ -2,7 +2,7 @@
 
 Runs on the endpoint's event loop, so a publish is a few appends and one write per
 connection per read of the client's frames (everything one read brings in goes out in
-one `writev`, right at the end of that read: see `endpoint.deferred`), with no thread
+one `writev`, right at the end of that read: see `endpoint.speed.deferred`), with no thread
 hand-off. The sockets are the server's own, not asyncio transports: what the kernel
 does not take at once waits as the messages' own bytes (`endpoint.writev.SocketWriter`),
 where a transport would copy the rest of each camera image into its buffer and copy it
@@ -24,7 +24,7 @@ from collections import deque
 from collections.abc import Callable
 
 from simbridge.endpoint.backends.ros1.raw import RawMessageType
-from simbridge.endpoint.deferred import DeferredWrites, deferred_writes
+from simbridge.endpoint.speed.deferred import DeferredWrites, deferred_writes
 from simbridge.endpoint.speed.splice import MAX_BACKLOG, SINK_WAIT, unsent
 from simbridge.endpoint.speed.writev import SocketWriter
 from simbridge.protocol.tcpros import TcprosDecoder, TcprosError, encode_header

@@ -41,7 +41,7 @@ from dataclasses import dataclass
 from simbridge.endpoint.backends.base import BatchCallback, MessageCallback
 from simbridge.endpoint.backends.ros1.raw import RawMessageType
 from simbridge.endpoint.backends.ros1.tcpros_pub import connection_ids
-from simbridge.endpoint.deferred import DeferredWrites, deferred_writes
+from simbridge.endpoint.speed.deferred import DeferredWrites, deferred_writes
 from simbridge.protocol.tcpros import TcprosDecoder, TcprosError, encode_header
 
 __all__ = ["Sink", "SubscribedTopic"]

@@ -37,7 +37,7 @@ from rclpy.guard_condition import GuardCondition
 from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 
 from simbridge.endpoint.backends.loop_calls import call_soon_from_thread
-from simbridge.endpoint.deferred import deferred_writes
+from simbridge.endpoint.speed.deferred import deferred_writes
 
 __all__ = ["LoopTakes", "Takeable"]
 

@@ -1,7 +1,7 @@
 """Calls of ROS 2 services for the endpoint's clients: one rclpy client per registration.
 
 rclpy has no raw mode for services, so a request is decoded into the service's Request
-class and the response encoded back (ros2_cdr: an empty type in each side's spelling).
+class and the response encoded back (`cdr`: an empty type in each side's spelling).
 A TCP client's `__ros_service` gets a client of its own, destroyed when the registration
 is removed or the TCP client leaves, so the graph shows no caller that is gone.
 """
@@ -16,7 +16,7 @@ from typing import Any
 
 from simbridge.endpoint.backends.base import BackendServiceClient
 from simbridge.endpoint.backends.loop_calls import call_soon_from_thread
-from simbridge.endpoint.backends.ros2_cdr import from_client, to_client
+from simbridge.endpoint.backends.ros2.cdr import from_client, to_client
 from simbridge.errors import EndpointError, ServiceError
 
 __all__ = ["Ros2ServiceClient"]

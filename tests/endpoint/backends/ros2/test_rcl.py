@@ -1,4 +1,4 @@
-"""ros2_rcl: a bytearray published in place through rcl reaches a raw subscription intact.
+"""backends.ros2.rcl: a bytearray published in place through rcl reaches a raw subscription intact.
 
 Runs in a ROS 2 venv child (rclpy), publisher and subscription in one node.
 """
@@ -8,7 +8,6 @@ from __future__ import annotations
 import textwrap
 
 import pytest
-
 from tests.ros2support import Ros2Process
 
 pytestmark = [pytest.mark.ros2, pytest.mark.timeout(120)]
@@ -20,7 +19,7 @@ _SCRIPT = textwrap.dedent(
     from rclpy.qos import QoSProfile, ReliabilityPolicy
     from rclpy.serialization import deserialize_message
     from sensor_msgs.msg import Image
-    from simbridge.endpoint.backends.ros2_rcl import direct_publish
+    from simbridge.endpoint.backends.ros2.rcl import direct_publish
 
     def cdr_string(text):
         raw = text.encode() + b"\\0"
@@ -82,7 +81,7 @@ _TAKE_SCRIPT = textwrap.dedent(
     from rclpy.qos import QoSProfile, ReliabilityPolicy
     from rclpy.serialization import deserialize_message
     from sensor_msgs.msg import Image
-    from simbridge.endpoint.backends.ros2_rcl import direct_take
+    from simbridge.endpoint.backends.ros2.rcl import direct_take
 
     rclpy.init()
     node = rclpy.create_node("sb_rcl_take")

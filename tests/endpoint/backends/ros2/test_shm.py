@@ -10,9 +10,9 @@ import time
 from pathlib import Path
 
 import pytest
-
-from simbridge.endpoint.backends.ros2_env import clean_stale_shm
 from tests.ros2support import Ros2Process
+
+from simbridge.endpoint.backends.ros2 import clean_stale_shm
 
 pytestmark = [pytest.mark.ros2, pytest.mark.timeout(120)]
 

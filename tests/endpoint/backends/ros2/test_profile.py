@@ -6,9 +6,9 @@ import re
 import textwrap
 
 import pytest
-
-from simbridge.endpoint.backends.ros2_env import WRITER_ALLOCATED_SAMPLES
 from tests.ros2support import Ros2Process
+
+from simbridge.endpoint.backends.ros2.env import WRITER_ALLOCATED_SAMPLES
 
 pytestmark = [pytest.mark.ros2, pytest.mark.timeout(120)]
 

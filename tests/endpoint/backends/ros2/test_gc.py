@@ -1,4 +1,4 @@
-"""The ros2 backend leaves its startup objects out of garbage collection (gc_tuning).
+"""The ros2 backend leaves its startup objects out of garbage collection (`speed.gc_tuning`).
 
 Runs in a ROS 2 venv child: a started backend, then what a full collection would walk
 (`gc.get_objects()`, which leaves out the frozen generation) beside what is frozen.
@@ -9,7 +9,6 @@ from __future__ import annotations
 import textwrap
 
 import pytest
-
 from tests.ros2support import Ros2Process
 
 pytestmark = [pytest.mark.ros2, pytest.mark.timeout(120)]

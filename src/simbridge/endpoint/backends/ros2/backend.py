@@ -1,24 +1,24 @@
 """The ROS 2 backend: the endpoint is a real rclpy node (`/simbridge_endpoint`).
 
 Topics are relayed as raw CDR in both directions: `publisher.publish(bytes)` (a large
-payload in place through rcl, ros2_rcl) and `create_subscription(..., raw=True)`,
+payload in place through rcl, `rcl`) and `create_subscription(..., raw=True)`,
 nothing decoded on the hot path. Services
 have no raw mode in rclpy, so their requests and responses are decoded and
-encoded with the installed interface classes (calls in ros2_calls, one rclpy client per
+encoded with the installed interface classes (in `calls`, one rclpy client per
 `__ros_service`); so are action goals, feedback and results (the `actions` extension, in
-ros2_actions). A type without fields is the one payload rewritten on its way: a client
+`actions`). A type without fields is the one payload rewritten on its way: a client
 may send the CDR header alone (Unity does), which rclpy refuses, so ROS 2 gets rclpy's
-spelling and clients the header alone (ros2_cdr, `simbridge.messages.empty`).
+spelling and clients the header alone (`cdr`, `simbridge.messages.empty`).
 
 rclpy runs one SingleThreadedExecutor on a thread of its own for services, clients
 and actions. Publishers, subscriptions and clients are created from the endpoint's
 event loop (rclpy allows that with this executor; its EventsExecutor does not, and
 it cannot run the coroutine service callbacks a sim-implemented service needs).
 Subscribed messages are taken on the event loop itself, woken by a thread that only
-waits (ros2_takes). The process's ROS 2 settings (domain, discovery range, the Fast
-DDS profile) come from ros2_env and are logged; large buffers stay in the heap
-(malloc_tuning), and the objects made at startup are left out of garbage collections
-(gc_tuning).
+waits (`takes`). The process's ROS 2 settings (domain, discovery range, the Fast
+DDS profile) come from `env` and are logged; large buffers stay in the heap
+(`speed.malloc_tuning`), and the objects made at startup are left out of garbage collections
+(`speed.gc_tuning`).
 """
 
 from __future__ import annotations
@@ -52,21 +52,21 @@ from simbridge.endpoint.backends.base import (
     ServiceHandler,
     TopicInfo,
 )
-from simbridge.endpoint.backends.gc_tuning import freeze_startup_objects
-from simbridge.endpoint.backends.malloc_tuning import keep_large_buffers
-from simbridge.endpoint.backends.ros2_actions import Ros2Actions
-from simbridge.endpoint.backends.ros2_calls import Ros2ServiceClient
-from simbridge.endpoint.backends.ros2_cdr import (
+from simbridge.endpoint.backends.ros2.actions import Ros2Actions
+from simbridge.endpoint.backends.ros2.calls import Ros2ServiceClient
+from simbridge.endpoint.backends.ros2.cdr import (
     from_client,
     interface_name,
     is_empty_interface,
     to_client,
 )
-from simbridge.endpoint.backends.ros2_env import apply_ros2_env
-from simbridge.endpoint.backends.ros2_rcl import DirectTake, direct_publish, direct_take
-from simbridge.endpoint.backends.ros2_takes import LoopTakes
-from simbridge.endpoint.backends.ros2_types import Ros2Types, tcp_type_name
+from simbridge.endpoint.backends.ros2.env import apply_ros2_env
+from simbridge.endpoint.backends.ros2.msg_types import Ros2Types, tcp_type_name
+from simbridge.endpoint.backends.ros2.rcl import DirectTake, direct_publish, direct_take
+from simbridge.endpoint.backends.ros2.takes import LoopTakes
 from simbridge.endpoint.backends.subscriber_watch import SubscriberWatch
+from simbridge.endpoint.speed.gc_tuning import freeze_startup_objects
+from simbridge.endpoint.speed.malloc_tuning import keep_large_buffers
 from simbridge.endpoint.typecheck import TypeCheck
 from simbridge.errors import EndpointError, ServiceError
 from simbridge.messages.empty import CLIENT_EMPTY, ros2_empty
@@ -83,7 +83,7 @@ _TAKE_ROUND_BYTES = 4 * 1024 * 1024
 
 _LEND_FROM = 64 * 1024
 """A subscription lending its messages (`lends`) takes them through rcl into its own
-buffer (ros2_rcl.DirectTake) once one was at least this long, and through rclpy (bytes;
+buffer (`rcl.DirectTake`) once one was at least this long, and through rclpy (bytes;
 a ctypes call costs more than the copy of a small message) once one was shorter."""
 
 _ERROR_LOG_INTERVAL = 5.0
@@ -153,7 +153,7 @@ class Ros2Backend(Backend):
     """Bridges the endpoint's clients into a ROS 2 graph through rclpy."""
 
     name = "ros2"
-    lends_large_payloads = True  # published in place (ros2_rcl)
+    lends_large_payloads = True  # published in place (`rcl`)
     releases_lent_payloads = True  # rcl copies it into Fast DDS before returning
     protocol = "ROS2"
     extensions = (ACTIONS_EXTENSION,)
@@ -174,7 +174,7 @@ class Ros2Backend(Backend):
         self._takes: LoopTakes | None = None
         self.settings: dict[str, str] = {}
         self.counters: dict[str, int] = {"publish_errors": 0, "service_failures": 0}
-        self._actions = Ros2Actions(self)
+        self._actions = Ros2Actions(self, self._types)
 
     def type_check(self) -> TypeCheck:
         return Ros2TypeCheck(self._types)
@@ -264,7 +264,7 @@ class Ros2Backend(Backend):
         self, topic: str, msg_type: str, *, queue_size: int, latch: bool
     ) -> BackendPublisher:
         """A reliable publisher; `latch` is transient-local durability."""
-        loop = self._started()
+        loop = self.running_loop()
         cls = self._types.message(msg_type)
         qos = QoSProfile(
             history=HistoryPolicy.KEEP_LAST,
@@ -272,7 +272,7 @@ class Ros2Backend(Backend):
             reliability=ReliabilityPolicy.RELIABLE,
             durability=DurabilityPolicy.TRANSIENT_LOCAL if latch else DurabilityPolicy.VOLATILE,
         )
-        publisher = Ros2Publisher(self, topic, cls, qos, loop)
+        publisher = Ros2Publisher(self, topic, cls, qos, loop, live=self._live)
         _log.info("publishing %s [%s] for the sim (latch=%s)", topic, msg_type, latch)
         return publisher
 
@@ -280,11 +280,17 @@ class Ros2Backend(Backend):
         self, topic: str, msg_type: str, callback: MessageCallback
     ) -> BackendSubscription:
         """A raw subscription whose QoS matches the topic's publishers."""
-        self._started()
+        self.running_loop()
         cls = self._types.message(msg_type)
         assert self._takes is not None
         subscription = _Ros2Subscription(
-            self, topic, cls, self._adapted_qos(topic), takes=self._takes, callback=callback
+            self,
+            topic,
+            cls,
+            self._adapted_qos(topic),
+            takes=self._takes,
+            callback=callback,
+            live=self._live,
         )
         _log.info("subscribed to %s [%s] for the sim", topic, msg_type)
         return subscription
@@ -293,7 +299,7 @@ class Ros2Backend(Backend):
         """ROS 2 has no parameter server. By its convention (robot_state_publisher's) a
         robot description is a transient-local std_msgs/String topic, so
         `<ns>/robot_description` is published there; other parameters are refused."""
-        loop = self._started()
+        loop = self.running_loop()
         if name.rstrip("/").rsplit("/", 1)[-1] != "robot_description":
             raise EndpointError(
                 f"cannot set parameter {name!r}: ROS 2 has no global parameter server (node "
@@ -312,7 +318,9 @@ class Ros2Backend(Backend):
                 reliability=ReliabilityPolicy.RELIABLE,
                 durability=DurabilityPolicy.TRANSIENT_LOCAL,
             )
-            publisher = self._descriptions[name] = Ros2Publisher(self, name, cls, qos, loop)
+            publisher = self._descriptions[name] = Ros2Publisher(
+                self, name, cls, qos, loop, live=self._live
+            )
         publisher.publish(serialize_message(publisher.msg_class(data=value)))
         _log.info("published %s (std_msgs/String, transient local) for the sim", publisher.topic)
 
@@ -339,15 +347,15 @@ class Ros2Backend(Backend):
 
     def topics(self) -> list[TopicInfo]:
         """Every topic in the graph, types as `pkg/Type` (the first when there are several)."""
-        self._started()
+        self.running_loop()
         pairs = self.node.get_topic_names_and_types()
         return [TopicInfo(name, tcp_type_name(types[0])) for name, types in sorted(pairs) if types]
 
     # ---- services --------------------------------------------------------------------
 
     def service_client(self, service: str, srv_type: str) -> BackendServiceClient:
-        """An rclpy client of `service` for one TCP client's calls (ros2_calls)."""
-        loop = self._started()
+        """An rclpy client of `service` for one TCP client's calls (`calls`)."""
+        loop = self.running_loop()
         cls = self._types.service(srv_type)
         caller = Ros2ServiceClient(
             self.node,
@@ -380,7 +388,7 @@ class Ros2Backend(Backend):
         self, service: str, srv_type: str, handler: ServiceHandler
     ) -> BackendServiceServer:
         """Offer `service` to ROS 2; each request runs `handler` on the event loop."""
-        loop = self._started()
+        loop = self.running_loop()
         cls = self._types.service(srv_type)
         server = _Ros2ServiceServer(
             self,
@@ -389,6 +397,7 @@ class Ros2Backend(Backend):
             loop=loop,
             handler=handler,
             timeout=self._options.service_handler_timeout,
+            live=self._live,
         )
         _log.info("serving %s [%s] for the sim", service, srv_type)
         return server
@@ -396,7 +405,7 @@ class Ros2Backend(Backend):
     # ---- actions (the `actions` extension) -------------------------------------------
 
     async def action_server_ready(self, action: str, action_type: str) -> bool:
-        self._started()
+        self.running_loop()
         return await self._actions.server_ready(action, action_type)
 
     async def send_goal(
@@ -409,7 +418,7 @@ class Ros2Backend(Backend):
         on_status: Callable[[int], None],
         timeout: float,
     ) -> BackendActionGoal:
-        self._started()
+        self.running_loop()
         return await self._actions.send_goal(
             action,
             action_type,
@@ -420,10 +429,19 @@ class Ros2Backend(Backend):
             discovery_wait=self._options.discovery_wait,
         )
 
-    def _started(self) -> asyncio.AbstractEventLoop:
+    def running_loop(self) -> asyncio.AbstractEventLoop:
+        """The event loop the backend started on (EndpointError before start())."""
         if self._loop is None:
             raise EndpointError("the ROS 2 backend is not started: await start() first")
         return self._loop
+
+    def on_rclpy_thread(self, fn: Callable[[], Any]) -> None:
+        """Run `fn` on the rclpy thread, as a task of its executor."""
+        self._executor.create_task(fn)
+
+    def wake_rclpy(self) -> None:
+        """Wake the rclpy thread (a future one of its tasks awaits was set elsewhere)."""
+        self._executor.wake()
 
 
 class _SimServiceFailedError(Exception):
@@ -431,17 +449,18 @@ class _SimServiceFailedError(Exception):
 
 
 class _Entity:
-    """A node entity that close() destroys, once."""
+    """A node entity that close() destroys, once; `live` holds the backend's open ones."""
 
-    def __init__(self, backend: Ros2Backend) -> None:
+    def __init__(self, backend: Ros2Backend, live: set[_Entity]) -> None:
         self._backend = backend
+        self._live = live
         self.closed = False
-        backend._live.add(self)
+        live.add(self)
 
     def close(self) -> None:
         if not self.closed:
             self.closed = True
-            self._backend._live.discard(self)
+            self._live.discard(self)
             try:
                 self._destroy()
             except Exception as exc:  # the node may already be gone
@@ -461,6 +480,8 @@ class Ros2Publisher(_Entity, BackendPublisher):
         cls: Any,
         qos: QoSProfile,
         loop: asyncio.AbstractEventLoop,
+        *,
+        live: set[_Entity],
     ) -> None:
         self._subscribers = SubscriberWatch(loop, self.subscriber_count, lambda: self.closed)
         self._last_error_log = -math.inf  # the first failure is always logged
@@ -478,12 +499,12 @@ class Ros2Publisher(_Entity, BackendPublisher):
         self._publish_raw = _raw_publish(self._publisher)
         self._publish_lent = direct_publish(self._publisher) or self._publish_raw
         """Large payloads arrive as the bytearray they were received into (lent by the
-        session): published in place, without publish_raw's copy (ros2_rcl)."""
+        session): published in place, without publish_raw's copy (`rcl`)."""
         if is_empty_interface(cls):  # the CDR header alone (Unity) needs the placeholder
             self._publish_raw = self._publish_lent = _spelled_for_ros2(
                 self._publish_raw, interface_name(cls)
             )
-        super().__init__(backend)
+        super().__init__(backend, live)
 
     def publish(self, payload: bytes | bytearray) -> None:
         if self.closed:
@@ -547,7 +568,7 @@ def _raw_publish(publisher: Any) -> Callable[[bytes | bytearray], None]:
 
 
 class _Ros2Subscription(_Entity, BackendSubscription):
-    """A raw rclpy subscription whose CDR bytes the event loop takes (ros2_takes)."""
+    """A raw rclpy subscription whose CDR bytes the event loop takes (`takes`)."""
 
     def __init__(
         self,
@@ -558,6 +579,7 @@ class _Ros2Subscription(_Entity, BackendSubscription):
         *,
         takes: LoopTakes,
         callback: MessageCallback,
+        live: set[_Entity],
     ) -> None:
         self._callback = callback
         self._batch: BatchCallback | None = None
@@ -577,7 +599,7 @@ class _Ros2Subscription(_Entity, BackendSubscription):
             raise EndpointError(f"cannot subscribe to {topic!r}: {exc}") from exc
         self.topic: str = self._subscription.topic_name
         self.handle: Any = self._subscription.handle
-        super().__init__(backend)
+        super().__init__(backend, live)
         takes.add(self)
 
     def batches(self, callback: BatchCallback) -> bool:
@@ -707,6 +729,7 @@ class _Ros2ServiceServer(_Entity, BackendServiceServer):
         loop: asyncio.AbstractEventLoop,
         handler: ServiceHandler,
         timeout: float,
+        live: set[_Entity],
     ) -> None:
         self._service = service
         self._cls = cls
@@ -717,7 +740,7 @@ class _Ros2ServiceServer(_Entity, BackendServiceServer):
             self._server = backend.node.create_service(cls, service, self._on_request)
         except Exception as exc:
             raise EndpointError(f"cannot advertise service {service!r}: {exc}") from exc
-        super().__init__(backend)
+        super().__init__(backend, live)
 
     async def _run(self, request: bytes) -> bytes:
         return await asyncio.wait_for(self._handler(request), self._timeout)
@@ -729,7 +752,7 @@ class _Ros2ServiceServer(_Entity, BackendServiceServer):
                 f"service {self._service} is being removed; request dropped"
             )
         answer = RclpyFuture()
-        executor = self._backend._executor
+        backend = self._backend
         payload = to_client(request)
         call = asyncio.run_coroutine_threadsafe(self._run(payload), self._loop)
 
@@ -738,7 +761,7 @@ class _Ros2ServiceServer(_Entity, BackendServiceServer):
                 answer.set_result(done.result())
             except BaseException as exc:  # the handler's failure, for the rclpy task
                 answer.set_exception(exc)
-            executor.wake()
+            backend.wake_rclpy()
 
         call.add_done_callback(finished)
         try:

@@ -4,7 +4,7 @@ rclpy's ActionClient keeps its pending requests in plain dicts that its executor
 reads, so every call on it (create, send, cancel, get the result) runs on the rclpy thread
 (`executor.create_task`); answers hop back to the event loop. Goals arrive and leave as
 CDR: decoded into the action's Goal class with rclpy.serialization, feedback and results
-encoded back (ros2_cdr: an empty part in each side's spelling). One ActionClient per
+encoded back (`cdr`: an empty part in each side's spelling). One ActionClient per
 action and type serves every client of the endpoint.
 """
 
@@ -13,16 +13,18 @@ from __future__ import annotations
 import asyncio
 import logging
 import time
+import uuid
 from collections import deque
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any, TypeVar
+from typing import Any, Protocol, TypeVar
 
 from rclpy.action import ActionClient
 from rclpy.action.client import ClientGoalHandle
 
 from simbridge.endpoint.backends.base import BackendActionGoal, MessageCallback
 from simbridge.endpoint.backends.loop_calls import call_soon_from_thread
-from simbridge.endpoint.backends.ros2_cdr import from_client, to_client
+from simbridge.endpoint.backends.ros2.cdr import from_client, to_client
+from simbridge.endpoint.backends.ros2.msg_types import Ros2Types
 from simbridge.errors import EndpointError
 from simbridge.protocol import (
     STATUS_ABORTED,
@@ -33,10 +35,7 @@ from simbridge.protocol import (
     STATUS_SUCCEEDED,
 )
 
-if TYPE_CHECKING:
-    from simbridge.endpoint.backends.ros2 import Ros2Backend
-
-__all__ = ["MAX_ACTION_CLIENTS", "Ros2Actions"]
+__all__ = ["MAX_ACTION_CLIENTS", "RclpySide", "Ros2Actions"]
 
 _log = logging.getLogger(__name__)
 _T = TypeVar("_T")
@@ -81,11 +80,37 @@ class _StatusActionClient(ActionClient):  # type: ignore[misc]  # rclpy has no t
                 self._on_status(bytes(entry.goal_info.goal_id.uuid), int(entry.status))
 
 
-class Ros2Actions:
-    """The endpoint node's action clients and the goals sent through them."""
+class RclpySide(Protocol):
+    """What action handling needs of the ROS 2 backend: its node, the event loop it
+    started on, and a way onto the rclpy thread."""
 
-    def __init__(self, backend: Ros2Backend) -> None:
-        self._backend = backend
+    @property
+    def node(self) -> Any:
+        """The rclpy node (EndpointError before the backend started)."""
+        ...
+
+    def running_loop(self) -> asyncio.AbstractEventLoop:
+        """The endpoint's event loop (EndpointError before the backend started)."""
+        ...
+
+    def on_rclpy_thread(self, fn: Callable[[], Any]) -> None:
+        """Run `fn` on the rclpy thread, as a task of its executor."""
+
+
+def _random_goal_id(cls: Any) -> Any:
+    """A new goal id (the UUID message `cls`'s goal requests carry), made as rclpy makes
+    the id of a goal it sends."""
+    uuid_class = type(cls.Impl.SendGoalService.Request().goal_id)
+    return uuid_class(uuid=list(uuid.uuid4().bytes))
+
+
+class Ros2Actions:
+    """The endpoint node's action clients and the goals sent through them; `types`
+    gives each action type's rclpy class."""
+
+    def __init__(self, rclpy_side: RclpySide, types: Ros2Types) -> None:
+        self._rclpy = rclpy_side
+        self._types = types
         self._clients: dict[tuple[str, str], tuple[Any, Any]] = {}
         """(action, type) -> (ActionClient, action class); touched on the event loop only."""
         self.goals: dict[bytes, _Ros2Goal] = {}
@@ -97,7 +122,7 @@ class Ros2Actions:
 
     def on_rclpy(self, fn: Callable[[], _T]) -> asyncio.Future[_T]:
         """Run `fn` on the rclpy thread; its value (or exception) in an event loop future."""
-        loop = self._backend._started()
+        loop = self._rclpy.running_loop()
         future: asyncio.Future[_T] = loop.create_future()
 
         def settle(value: Any, error: BaseException | None) -> None:
@@ -116,7 +141,7 @@ class Ros2Actions:
             else:
                 call_soon_from_thread(loop, settle, value, None)
 
-        self._backend._executor.create_task(run)
+        self._rclpy.on_rclpy_thread(run)
         return future
 
     async def client(self, action: str, action_type: str) -> tuple[Any, Any]:
@@ -125,13 +150,13 @@ class Ros2Actions:
         found = self._clients.get(key)
         if found is not None:
             return found
-        cls = self._backend._types.action(action_type)
+        cls = self._types.action(action_type)
         if len(self._clients) >= MAX_ACTION_CLIENTS:
             raise EndpointError(
                 f"no client for action {action!r}: the endpoint already has "
                 f"{MAX_ACTION_CLIENTS} action clients (the limit)"
             )
-        node = self._backend.node
+        node = self._rclpy.node
         try:
             client = await self.on_rclpy(
                 lambda: _StatusActionClient(node, cls, action, on_status=self._status)
@@ -165,7 +190,7 @@ class Ros2Actions:
         dropped."""
         if id(client) in self._answered:
             return True
-        loop = self._backend._started()
+        loop = self._rclpy.running_loop()
         answered: asyncio.Future[None] = loop.create_future()
 
         def answer() -> None:
@@ -174,7 +199,7 @@ class Ros2Actions:
 
         def probe() -> None:  # rclpy thread
             accepted = cls.Impl.SendGoalService.Response(accepted=True)
-            unknown = ClientGoalHandle(client, client._generate_random_uuid(), accepted)
+            unknown = ClientGoalHandle(client, _random_goal_id(cls), accepted)
             unknown.get_result_async().add_done_callback(
                 lambda _f: call_soon_from_thread(loop, answer)
             )
@@ -184,7 +209,7 @@ class Ros2Actions:
             left = deadline - time.monotonic()
             if left <= 0:
                 return False
-            self._backend._executor.create_task(probe)
+            self._rclpy.on_rclpy_thread(probe)
             probes += 1
             try:
                 await asyncio.wait_for(asyncio.shield(answered), min(_PROBE_EVERY, left))
@@ -234,6 +259,7 @@ class Ros2Actions:
             self,
             client,
             action,
+            loop=self._rclpy.running_loop(),
             on_feedback=on_feedback,
             on_status=on_status,
             lost_after=discovery_wait,
@@ -301,6 +327,7 @@ class _Ros2Goal(BackendActionGoal):
         client: Any,
         action: str,
         *,
+        loop: asyncio.AbstractEventLoop,
         on_feedback: MessageCallback,
         on_status: Callable[[int], None],
         lost_after: float,
@@ -309,7 +336,7 @@ class _Ros2Goal(BackendActionGoal):
         self._action = action
         self._lost_after = lost_after
         self._client = client
-        self._loop = actions._backend._started()
+        self._loop = loop
         self._on_feedback = on_feedback
         self._on_status = on_status
         self._accepted: asyncio.Future[bool] = self._loop.create_future()

@@ -13,16 +13,16 @@ import sys
 import textwrap
 
 import pytest
-
-from simbridge.endpoint.backends.malloc_tuning import MMAP_THRESHOLD
 from tests.ros1support import require_ros, shared_master
+
+from simbridge.endpoint.speed.malloc_tuning import MMAP_THRESHOLD
 
 _SIZE = 4 * 1024 * 1024
 
 _CHILD = textwrap.dedent(
     """
     import ctypes, sys
-    from simbridge.endpoint.backends.malloc_tuning import keep_large_buffers
+    from simbridge.endpoint.speed.malloc_tuning import keep_large_buffers
 
     class Info(ctypes.Structure):
         _fields_ = [(name, ctypes.c_size_t) for name in (

@@ -123,7 +123,7 @@ def ros2_python() -> Path | None:
     given = os.environ.get("SIMBRIDGE_ROS2_PYTHON")
     if given:
         return Path(given) if Path(given).exists() else None
-    path = Path(__file__).resolve().parents[4] / ".venv-ros2" / "bin" / "python"
+    path = Path(__file__).resolve().parents[5] / ".venv-ros2" / "bin" / "python"
     return path if path.exists() else None
 
 

@@ -16,6 +16,8 @@ from typing import Any
 import numpy as np
 import pytest
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+from tests.endpoint.rawclient import RawClient
+from tests.ros2support import Ros2Process, require_ros2, start_endpoint
 
 from simbridge.protocol import (
     CommandReceived,
@@ -35,8 +37,6 @@ from simbridge.protocol import (
     TopicListRequest,
     UnityService,
 )
-from tests.endpoint.rawclient import RawClient
-from tests.ros2support import Ros2Process, require_ros2, start_endpoint
 
 pytestmark = [pytest.mark.ros2, pytest.mark.timeout(240)]
 

@@ -16,6 +16,8 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+from tests.endpoint.rawclient import RawClient
+from tests.ros2support import Ros2Process, require_ros2, start_endpoint
 
 from simbridge.connector import Connector, Ros2ActionClient, action_client
 from simbridge.messages import ROS2_STORE, MessageRegistry
@@ -37,12 +39,10 @@ from simbridge.protocol import (
     ErrorMessage,
     Handshake,
 )
-from tests.endpoint.rawclient import RawClient
-from tests.ros2support import Ros2Process, require_ros2, start_endpoint
 
 pytestmark = [pytest.mark.ros2, pytest.mark.timeout(240)]
 
-ASSETS = Path(__file__).parent.parent / "assets" / "ros2_actions"
+ASSETS = Path(__file__).parents[3] / "assets" / "ros2_actions"
 FIB = "test_msgs/Fibonacci"
 
 

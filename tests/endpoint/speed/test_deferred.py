@@ -1,4 +1,4 @@
-"""Writes deferred to the end of the read that caused them (endpoint/deferred.py)."""
+"""Writes deferred to the end of the read that caused them (endpoint/speed/deferred.py)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import logging
 
 import pytest
 
-from simbridge.endpoint.deferred import DeferredWrites, deferred_writes
+from simbridge.endpoint.speed.deferred import DeferredWrites, deferred_writes
 
 
 def test_inside_a_read_writes_wait_for_its_release_not_the_loop() -> None:

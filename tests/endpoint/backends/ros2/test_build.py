@@ -8,15 +8,15 @@ import textwrap
 from pathlib import Path
 
 import pytest
+from tests.ros2support import child_env, require_ros2
 
-from simbridge.endpoint.backends.ros2_build import (
+from simbridge.endpoint.backends.ros2.build import (
     InterfaceBuildError,
     build_packages,
     load_package,
     ros2_definition,
 )
 from simbridge.messages.registry import SHIPPED_DEFINITIONS
-from tests.ros2support import child_env, require_ros2
 
 
 def test_ros1_spellings_become_ros2_ones() -> None:

@@ -8,10 +8,10 @@ from __future__ import annotations
 from collections.abc import Iterator
 
 import pytest
-
-from simbridge.protocol import CommandReceived, ErrorMessage, Handshake, SetParam
 from tests.endpoint.rawclient import RawClient
 from tests.ros2support import Ros2Process, require_ros2, start_endpoint
+
+from simbridge.protocol import CommandReceived, ErrorMessage, Handshake, SetParam
 
 pytestmark = [pytest.mark.ros2, pytest.mark.timeout(240)]
 

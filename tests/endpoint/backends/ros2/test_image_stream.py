@@ -2,7 +2,7 @@
 receives the next image into the buffer the last one was published from
 (FrameDecoder.recycle). ROS 2 -> sim: each arrives intact although the endpoint takes the
 next large one into the buffer the last one was written to the client from
-(ros2_rcl.DirectTake), whether the client reads at once or stalls (then it is copied).
+(`backends.ros2.rcl.DirectTake`), whether the client reads at once or stalls (then it is copied).
 
 The endpoint is a subprocess (ROS 2 venv); CDR comes from rosbags' Jazzy type store.
 """
@@ -15,10 +15,10 @@ from typing import Any
 import numpy as np
 import pytest
 from rosbags.typesys import Stores, get_typestore
-
-from simbridge.protocol import MessageReceived, ProtocolConnection, Publish, Subscribe
 from tests.endpoint.rawclient import RawClient
 from tests.ros2support import Ros2Process, require_ros2, start_endpoint
+
+from simbridge.protocol import MessageReceived, ProtocolConnection, Publish, Subscribe
 
 pytestmark = [pytest.mark.ros2, pytest.mark.timeout(240)]
 
