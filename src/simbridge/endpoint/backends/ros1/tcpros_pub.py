@@ -4,7 +4,7 @@ Runs on the endpoint's event loop, so a publish is a few appends and one write p
 connection per read of the client's frames (everything one read brings in goes out in
 one `writev`, right at the end of that read: see `endpoint.speed.deferred`), with no thread
 hand-off. The sockets are the server's own, not asyncio transports: what the kernel
-does not take at once waits as the messages' own bytes (`endpoint.writev.SocketWriter`),
+does not take at once waits as the messages' own bytes (`endpoint.speed.writev.SocketWriter`),
 where a transport would copy the rest of each camera image into its buffer and copy it
 again as that buffer drains. A connection with more than `WRITE_HIGH_WATER` bytes
 waiting holds further messages in a queue bounded by the registration's `queue_size`
@@ -385,18 +385,18 @@ class _SubscriberConnection:
 
     def keeping_up(self) -> bool:
         """Little in the socket the subscriber has not taken: one behind reads copies
-        faster (`endpoint.splice.MAX_BACKLOG`); asked once per large message."""
+        faster (`endpoint.speed.splice.MAX_BACKLOG`); asked once per large message."""
         return unsent(self._fd) < MAX_BACKLOG
 
     @property
     def splice_wait(self) -> float:
-        """How long a relay waits for room in this socket (`endpoint.splice.SpliceSink`)."""
+        """How long a relay waits for room in this socket (`endpoint.speed.splice.SpliceSink`)."""
         topic = self._topic
         return SINK_WAIT if topic is not None and topic.queue_size == 0 else 0.0
 
     def splice_start(self, lost: Callable[[], None]) -> int | None:
         """The socket for a relay once what this read queued is sent, else None; messages
-        sent meanwhile are held (`endpoint.splice.SpliceSink`)."""
+        sent meanwhile are held (`endpoint.speed.splice.SpliceSink`)."""
         if not self.can_splice():
             return None
         self.flush()
