@@ -6,14 +6,19 @@ STAMP := $(VENV)/.installed
 export MUJOCO_GL ?= osmesa
 export PYOPENGL_PLATFORM ?= $(MUJOCO_GL)
 
-.PHONY: all demo test test-loaded lint typecheck pytest bench sysdeps constraints clean ros2 constraints-ros2
+.PHONY: all demo docs test test-loaded lint typecheck pytest bench sysdeps sysdeps-demo constraints clean ros2 constraints-ros2
 
 all: test
 
+# Everything the suite uses (ROS 1, Chromium, Xvfb, a compiler...), and the little the
+# local demo needs (OSMesa): `make demo` installs only that.
 sysdeps:
 	@bash scripts/install-system-deps.sh
 
-$(STAMP): pyproject.toml constraints.txt | sysdeps
+sysdeps-demo:
+	@bash scripts/install-system-deps.sh demo
+
+$(STAMP): pyproject.toml constraints.txt | sysdeps-demo
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install -q --upgrade pip
 	@# constraints.txt pins the versions the suite was last run with (regenerate with
@@ -42,7 +47,7 @@ constraints-ros2: $(STAMP_ROS2)
 	  $(VENV_ROS2)/bin/pip freeze --path $$($(VENV_ROS2)/bin/python -c "import site; print(site.getsitepackages()[0])") \
 	  | grep -v -e '^-e' -e '^#' -e '^simbridge' -e '^pip==' -e '^setuptools==' -e '==0.0.0$$'; } > constraints-ros2.txt
 
-demo: sysdeps $(STAMP)
+demo: sysdeps-demo $(STAMP)
 	$(BIN)/simbridge demo
 
 lint: $(STAMP)
@@ -59,7 +64,12 @@ test: sysdeps $(STAMP) ros2
 	$(BIN)/ruff check src tests benchmarks
 	$(BIN)/ruff format --check src tests benchmarks
 	$(BIN)/mypy
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict --quiet --site-dir build/site
 	$(BIN)/pytest
+
+# The documentation site (mkdocs-material) in site/; a broken link or page is an error.
+docs: $(STAMP)
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict --site-dir site
 
 # The suite again while stress-ng keeps every core busy: tests must wait on events, not on
 # the machine's speed.
@@ -67,7 +77,7 @@ test-loaded: sysdeps $(STAMP) ros2
 	@bash scripts/test-loaded.sh
 
 bench: sysdeps $(STAMP)
-	$(BIN)/python benchmarks/run.py --readme README.md
+	$(BIN)/python benchmarks/run.py --page docs/benchmarks.md
 
 constraints: $(STAMP)
 	$(BIN)/pip freeze --path $$($(BIN)/python -c "import site; print(site.getsitepackages()[0])") \

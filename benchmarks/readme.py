@@ -1,6 +1,7 @@
-"""Write benchmark tables into the README between its BENCH markers (`make bench`).
+"""Write benchmark tables into the documentation's benchmarks page between its BENCH
+markers (`make bench`).
 
-The README's figures are never edited by hand: `benchmarks/run.py --readme README.md`
+The page's figures are never edited by hand: `benchmarks/run.py --page docs/benchmarks.md`
 replaces everything between `<!-- BENCH:START -->` and `<!-- BENCH:END -->` with the
 tables of this run, headed by the machine they were measured on.
 """
@@ -12,7 +13,10 @@ import platform
 import time
 from pathlib import Path
 
-__all__ = ["END", "START", "machine_line", "write_tables"]
+__all__ = ["END", "PAGE", "START", "machine_line", "write_tables"]
+
+PAGE = Path(__file__).resolve().parents[1] / "docs" / "benchmarks.md"
+"""The page `make bench` writes its tables into."""
 
 START = "<!-- BENCH:START -->"
 END = "<!-- BENCH:END -->"
@@ -45,12 +49,12 @@ def machine_line(load: tuple[float, float, float] | None = None) -> str:
     )
 
 
-def write_tables(readme: Path, body: str) -> None:
-    """Replace what lies between the markers in `readme` with `body`."""
-    text = readme.read_text(encoding="utf-8")
+def write_tables(page: Path, body: str) -> None:
+    """Replace what lies between the markers in `page` with `body`."""
+    text = page.read_text(encoding="utf-8")
     start, end = text.find(START), text.find(END)
     if start < 0 or end < start:
-        msg = f"{readme}: no {START} ... {END} section to write the benchmark tables into"
+        msg = f"{page}: no {START} ... {END} section to write the benchmark tables into"
         raise ValueError(msg)
     head = text[: start + len(START)]
-    readme.write_text(f"{head}\n{body.strip()}\n{text[end:]}", encoding="utf-8")
+    page.write_text(f"{head}\n{body.strip()}\n{text[end:]}", encoding="utf-8")

@@ -1,5 +1,5 @@
 """Run every benchmark and print its table; `--markdown` for Markdown, `--only NAME`;
-`--readme README.md` also writes the tables between the README's BENCH markers."""
+`--page docs/benchmarks.md` also writes the tables between that page's BENCH markers."""
 
 from __future__ import annotations
 
@@ -43,7 +43,7 @@ TITLES = {
     "urdf": "URDF import: example-robot-data load time per robot, cold and warm mesh cache",
     "view": "Live view (`--view`): real-time factor flat out, without and with the view",
 }
-"""README heading of each suite that returns a single table."""
+"""Benchmarks page heading of each suite that returns a single table."""
 
 NOTES = f"""Notes:
 - **Machine and load:** the line above says where and under what load this run was taken;
@@ -65,7 +65,11 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--markdown", action="store_true")
     parser.add_argument("--only", action="append", choices=sorted(SUITES), default=[])
-    parser.add_argument("--readme", type=Path, help="write the tables into this README")
+    parser.add_argument(
+        "--page",
+        type=Path,
+        help="write the tables between this page's BENCH markers (make bench: docs/benchmarks.md)",
+    )
     args = parser.parse_args()
     names = args.only or list(SUITES)
     machine = machine_line()
@@ -98,11 +102,11 @@ def main() -> int:
                 print(f"### {title}\n")
             print(format_table(table, markdown=args.markdown) + ("\n" if title else ""))
             heading = title or TITLES.get(name, name)
-            sections.append(f"### {heading}\n\n{format_table(table, markdown=True)}")
+            sections.append(f"## {heading}\n\n{format_table(table, markdown=True)}")
         print(f"\n({time.perf_counter() - start:.0f} s)", flush=True)
-    if args.readme is not None:
-        write_tables(args.readme, "\n\n".join([*sections, NOTES]))
-        print(f"\nwrote the tables into {args.readme}")
+    if args.page is not None:
+        write_tables(args.page, "\n\n".join([*sections, NOTES]))
+        print(f"\nwrote the tables into {args.page}")
     print(
         f"\nbench: {len(ran)} suites in {elapsed(time.perf_counter() - began)}"
         + (f"; skipped {', '.join(skipped)}" if skipped else ""),

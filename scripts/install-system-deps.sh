@@ -1,7 +1,12 @@
 #!/usr/bin/env bash
 # Install the Debian packages simbridge needs (ROS 1 from Debian, OSMesa for
 # headless rendering). Does nothing when they are all present already.
+# Usage: scripts/install-system-deps.sh [demo]
+#   demo: only what the local demo needs (`make demo`): OSMesa, for the cameras and videos
+#   rendered without a display. No argument: everything the test suite uses (`make test`).
 set -euo pipefail
+
+DEMO_PACKAGES=(libosmesa6)
 
 PACKAGES=(
   ros-core rosbash python3-rospy python3-rostopic python3-rosservice python3-genpy
@@ -28,6 +33,13 @@ PACKAGES=(
   # reads the screenshot from Xvfb's framebuffer file (-fbdir); nothing else is needed
   rviz xvfb
 )
+
+if [ "${1:-}" = demo ]; then
+  PACKAGES=("${DEMO_PACKAGES[@]}")
+elif [ -n "${1:-}" ]; then
+  echo "usage: $0 [demo]" >&2
+  exit 2
+fi
 
 missing=()
 for p in "${PACKAGES[@]}"; do

@@ -1,4 +1,5 @@
-"""`make bench` writes the README's tables itself: the writer, on a temporary README."""
+"""`make bench` writes the benchmarks page's tables itself: the writer, on a temporary page;
+the page it writes is the docs' benchmarks page, not the README."""
 
 from __future__ import annotations
 
@@ -6,7 +7,19 @@ import os
 from pathlib import Path
 
 import pytest
-from benchmarks.readme import END, START, machine_line, write_tables
+from benchmarks.readme import END, PAGE, START, machine_line, write_tables
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def test_make_bench_writes_the_benchmarks_page_and_the_readme_links_it() -> None:
+    page = PAGE.read_text()
+    assert page.count(START) == page.count(END) == 1
+    assert PAGE == ROOT / "docs" / "benchmarks.md"
+    assert "run.py --page docs/benchmarks.md" in (ROOT / "Makefile").read_text()
+    readme = (ROOT / "README.md").read_text()
+    assert START not in readme  # the tables left the README
+    assert "docs/benchmarks.md" in readme
 
 
 def test_tables_replace_only_the_marked_section(tmp_path: Path) -> None:
