@@ -32,6 +32,8 @@ PACKAGES=(
   # RViz for ROS 1 (`simbridge rviz`), drawn under Xvfb in tests/e2e/test_rviz.py, which
   # reads the screenshot from Xvfb's framebuffer file (-fbdir); nothing else is needed
   rviz xvfb
+  # a CPU hog beside the suite: used by `make test-loaded` (scripts/test-loaded.sh)
+  stress-ng
 )
 
 if [ "${1:-}" = demo ]; then
