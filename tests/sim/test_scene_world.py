@@ -17,6 +17,7 @@ import simbridge.sim.world.pacer as pacer_module
 import simbridge.sim.world.world as world_module
 from simbridge.assets import robot_urdf
 from simbridge.errors import SimError
+from simbridge.sim.control import Trajectory, TrajectoryFollower
 from simbridge.sim.scene import build_scene, load_scene, parse_scene
 from simbridge.sim.sensors import RateSchedule
 from simbridge.sim.urdf import MjcfDocument, forward_kinematics, parse_urdf
@@ -222,11 +223,48 @@ def test_step_callbacks_run_at_their_period(tmp_path: Path) -> None:
     world.step(50)  # 0.1 s
     assert times == pytest.approx([0.01 * k for k in range(1, 11)])
     assert len(every) == 50
-    world.remove_step_callback(cb)
+    cb.remove()
     world.step(10)
     assert len(times) == 10
     with pytest.raises(SimError, match="period must be > 0"):
         world.add_step_callback(lambda w: None, period=0)
+
+
+def test_handles_take_callbacks_scopes_and_followers_out(tmp_path: Path) -> None:
+    """Whatever `add_*` registers, its handle's `remove()` takes out: no more calls after
+    steps or resets, no scope entered, no follower driven (a second remove is harmless)."""
+    world = arm_world(tmp_path)  # 2 ms steps
+    world.batch_window = 0  # scopes left after each step's callbacks
+    log: list[str] = []
+    follower = TrajectoryFollower(world.drives)
+    handles = [
+        world.add_step_callback(lambda w: log.append("step")),
+        world.add_step_callback(lambda w: log.append("tick"), period=0.004),
+        world.add_reset_callback(lambda w: log.append("reset")),
+        world.add_callback_scope(_Scope(world, log)),
+        world.add_follower(follower),
+    ]
+    trajectory = Trajectory.from_lists(["elbow"], [1.0], [[0.8]])
+    follower.start(trajectory, world.time)
+    world.step(2)
+    world.reset()
+    assert log == ["enter 1", "step", "exit 1", "enter 2", "step", "tick", "exit 2", "reset"]
+    assert follower.active is None  # the reset cancelled it
+    follower.start(trajectory, world.time)
+    world.step(1)
+    assert world.drives.target("elbow").velocity > 0  # driven before the step
+    for handle in handles:
+        handle.remove()
+        handle.remove()
+        assert not handle.registered
+    log.clear()
+    world.step(4)
+    world.reset()
+    follower.start(trajectory, world.time)
+    world.step(1)
+    assert log == []
+    assert follower.active is not None  # not cancelled by the reset
+    assert world.drives.target("elbow").velocity == 0.0  # nor driven
 
 
 class _Clock:
@@ -463,7 +501,7 @@ def test_callback_scopes_wrap_the_callbacks_of_each_step_call(tmp_path: Path) ->
     world.batch_window = 10.0  # within one step call they stay entered across steps
     world.step(10)
     assert log == ["enter 15", "cb 15", "cb 20", "exit 20"]
-    world.remove_callback_scope(scope)
+    scope.remove()
     log.clear()
     world.step(5)
     assert log == ["cb 25"]

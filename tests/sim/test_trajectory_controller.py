@@ -14,11 +14,12 @@ import numpy as np
 import pytest
 
 from simbridge.connector import ActionClient, Connector, ConnectorOptions
-from simbridge.endpoint import Node, NodeActionClient
+from simbridge.endpoint import EndpointOptions, EndpointThread, Node, NodeActionClient
 from simbridge.errors import SimError
 from simbridge.messages import default_registry
 from simbridge.messages.actionlib import ABORTED, ACTIVE, PREEMPTED, REJECTED, SUCCEEDED
-from simbridge.sim.ros import SimRosBridge
+from simbridge.sim.control import Trajectory
+from simbridge.sim.ros import JointTrajectoryController, SimRosBridge
 from simbridge.sim.scene import load_scene
 from simbridge.sim.world import World
 from tests.sim.bridged import BridgedWorld
@@ -222,3 +223,29 @@ def test_malformed_goals_are_rejected_not_fatal(rig: Rig) -> None:
     fine = rig.client.send_goal(_goal(["elbow"], [(0.2, [0.1])]))
     assert fine.wait(5)
     assert fine.status == SUCCEEDED
+
+
+def test_a_closed_controller_no_longer_runs_on_reset_or_step(tmp_path: Path) -> None:
+    """Closing takes the controller's follower, step and reset callbacks out of the world:
+    a reset no longer stops its trajectory (nor aborts a goal), a step no longer follows."""
+    world = World.from_scene(load_scene(_scene(tmp_path)))
+    with (
+        EndpointThread(EndpointOptions(port=0)) as endpoint,
+        Connector("127.0.0.1", endpoint.port, ConnectorOptions()).connect(wait=5) as sim,
+    ):
+        bridge = SimRosBridge(world, sim).start()
+        controller = bridge.robots["arm_left"].controllers["arm_controller"]
+        assert isinstance(controller, JointTrajectoryController)
+        elbow = controller.joints[1]
+        trajectory = Trajectory.from_lists([elbow], [1.0], [[0.8]])
+        controller.follower.start(trajectory, world.time)
+        world.step(1)
+        assert world.drives.target(elbow).velocity > 0  # followed while open
+        world.reset()
+        assert controller.follower.active is None
+        bridge.close()
+        controller.follower.start(trajectory, world.time)
+        world.step(1)
+        assert world.drives.target(elbow).velocity == 0.0  # no longer followed
+        world.reset()
+        assert controller.follower.active is not None  # nothing of it ran on the reset

@@ -2,10 +2,8 @@
 
 from __future__ import annotations
 
-import math
-
 from simbridge.sim.control.drive_bank import Actuators, DriveBank
-from simbridge.sim.control.trajectory import Trajectory, Vector
+from simbridge.sim.control.trajectory import Trajectory
 
 __all__ = ["TrajectoryFollower"]
 
@@ -18,8 +16,6 @@ class TrajectoryFollower:
         self._active: Trajectory | None = None
         self._start = 0.0
         self._actuators: Actuators = slice(0, 0)
-        self.desired: tuple[Vector, Vector] | None = None
-        """The positions and velocities the last `update` aimed at (None before any)."""
 
     @property
     def active(self) -> Trajectory | None:
@@ -35,7 +31,6 @@ class TrajectoryFollower:
         self._active = trajectory.starting_from(current)
         self._actuators = self.drives.actuators(trajectory.joints)
         self._start = now
-        self.desired = None
 
     def cancel(self) -> None:
         """Stop following; drives keep their last targets."""
@@ -48,9 +43,7 @@ class TrajectoryFollower:
             return False
         t = now - self._start
         done = t >= traj.duration
-        # At the end, hold the last point at rest (sampling exactly at the end time would
-        # give the last segment's velocity, and the drives would keep chasing it).
-        self.desired = positions, velocities = traj.sample(math.inf if done else t)
+        positions, velocities = traj.aim(t)
         self.drives.set_targets(self._actuators, positions, velocities)
         if done:
             self._active = None

@@ -92,6 +92,12 @@ class Trajectory:
         """Positions and velocities at time `t` after the start (held at the ends)."""
         return self._table.sample(t)
 
+    def aim(self, t: float) -> tuple[Vector, Vector]:
+        """What a follower aims at, `t` after the start: the sample, and from the end on
+        the last point at rest (sampling exactly at the end would give the last segment's
+        velocity, and the drives would keep chasing it)."""
+        return self._table.sample(math.inf if t >= self.duration else t)
+
     @staticmethod
     def from_lists(
         joints: Sequence[str],

@@ -10,6 +10,7 @@ from simbridge.sim.ros.publishers import StatePublisher
 from simbridge.sim.ros.robot_link import RobotRosLink
 from simbridge.sim.ros.services import ControlServices
 from simbridge.sim.scene.model import RosSettings
+from simbridge.sim.world.callbacks import CallbackHandle
 from simbridge.sim.world.world import World
 
 __all__ = ["SimRosBridge"]
@@ -61,7 +62,7 @@ class SimRosBridge:
         self.services = ControlServices(
             world, connector, self.settings.services_prefix, self.registry
         )
-        self._scope: int | None = None
+        self._scope: CallbackHandle | None = None
 
     def start(self) -> SimRosBridge:
         """Register every topic and service; state is published as the world steps, each
@@ -81,7 +82,7 @@ class SimRosBridge:
     def close(self) -> None:
         """Unregister everything (the connector stays open)."""
         if self._scope is not None:
-            self.world.remove_callback_scope(self._scope)
+            self._scope.remove()
             self._scope = None
         self.state.close()
         if self.diff_drive is not None:

@@ -13,6 +13,7 @@ from simbridge.sim.control.follower import TrajectoryFollower
 from simbridge.sim.ros.convert import trajectory_from_message
 from simbridge.sim.ros.names import RobotNames, resolve_name
 from simbridge.sim.scene.model import CommandTopics, RosSettings
+from simbridge.sim.world.callbacks import CallbackHandle
 from simbridge.sim.world.world import World
 
 __all__ = ["CommandSubscriber"]
@@ -23,9 +24,10 @@ _log = logging.getLogger("simbridge.sim.ros")
 class CommandSubscriber:
     """Subscribes to the command topics; each message is applied on the simulation thread.
 
-    Scene-wide (`settings`), or for one namespaced robot (`robot`: its names, namespace and
-    topics; it then drives only that robot's joints, with a trajectory follower of its own
-    so robots do not cancel each other's trajectories).
+    Scene-wide (`settings`: trajectories go to the world's own follower), or for one
+    namespaced robot (`robot`: its names, namespace and topics; it then drives only that
+    robot's joints, with a follower of its own that the world updates beside its own, so
+    robots do not cancel each other's trajectories).
     """
 
     def __init__(
@@ -42,7 +44,7 @@ class CommandSubscriber:
         self.topics: CommandTopics = settings.commands
         self.namespace = "/"
         self.follower = world.follower
-        self._follower_callback: int | None = None
+        self._follower_handle: CallbackHandle | None = None
         if robot is not None:
             ros = robot.robot.built.spec.ros
             assert ros is not None
@@ -64,13 +66,7 @@ class CommandSubscriber:
         """Subscribe to every configured command topic."""
         topics = self.topics
         if self.follower is not self.world.follower:
-            follower, world = self.follower, self.world
-
-            def follow(w: World) -> None:
-                follower.update(w.time)
-
-            self._follower_callback = world.add_step_callback(follow)
-            world.add_reset_callback(lambda _w: follower.cancel())
+            self._follower_handle = self.world.add_follower(self.follower)
         wanted = [
             (topics.trajectory, "trajectory_msgs/JointTrajectory", self._on_trajectory),
             (topics.position, "std_msgs/Float64MultiArray", self._on_position),
@@ -84,10 +80,10 @@ class CommandSubscriber:
                 self._topics.append(name)
 
     def close(self) -> None:
-        """Unsubscribe."""
-        if self._follower_callback is not None:
-            self.world.remove_step_callback(self._follower_callback)
-            self._follower_callback = None
+        """Unsubscribe (and stop a follower of its own)."""
+        if self._follower_handle is not None:
+            self._follower_handle.remove()
+            self._follower_handle = None
         for topic in self._topics:
             self.connector.unsubscribe(topic)
         self._topics.clear()

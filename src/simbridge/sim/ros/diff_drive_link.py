@@ -17,6 +17,7 @@ from simbridge.sim.control.diff_drive import (
 )
 from simbridge.sim.control.drive import DriveMode
 from simbridge.sim.urdf.mjcf import COLLISION_GROUP
+from simbridge.sim.world.callbacks import CallbackHandle
 from simbridge.sim.world.world import World
 
 __all__ = ["DiffDriveLink", "measure_wheels"]
@@ -81,7 +82,7 @@ class DiffDriveLink:
         self.controller = DiffDriveController(self.kinematics, config.limits, config.cmd_timeout)
         self.errors: list[str] = []
         """Commands rejected so far (also logged), newest last."""
-        self._callback: int | None = None
+        self._callbacks: list[CallbackHandle] = []
 
     def start(self) -> None:
         """Switch the wheels to velocity drives, subscribe, and update after every step."""
@@ -90,8 +91,10 @@ class DiffDriveLink:
             drives.set_spec(joint, drives.spec(joint).with_changes(mode=DriveMode.VELOCITY))
             drives.set_velocity(joint, 0.0)
         self.connector.subscribe(self.config.topic, "geometry_msgs/Twist", self._receive)
-        self._callback = self.world.add_step_callback(lambda world: self.update())
-        self.world.add_reset_callback(lambda world: self.controller.reset())
+        self._callbacks = [
+            self.world.add_step_callback(lambda world: self.update()),
+            self.world.add_reset_callback(lambda world: self.controller.reset()),
+        ]
 
     def _receive(self, msg: Any) -> None:
         linear, angular = float(msg.linear.x), float(msg.angular.z)
@@ -112,10 +115,12 @@ class DiffDriveLink:
         self.world.drives.set_velocity(self.config.right_joint, right)
 
     def close(self) -> None:
-        """Stop updating, unsubscribe, and aim the wheels at standstill."""
-        if self._callback is not None:
-            self.world.remove_step_callback(self._callback)
-            self._callback = None
+        """Stop updating (after steps and resets), unsubscribe, and aim the wheels at
+        standstill."""
+        if self._callbacks:
+            for callback in self._callbacks:
+                callback.remove()
+            self._callbacks.clear()
             self.connector.unsubscribe(self.config.topic)
             self.world.post(self._stop_wheels)
 

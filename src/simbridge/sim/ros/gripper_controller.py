@@ -13,6 +13,7 @@ from simbridge.messages.actionlib import ServerGoal
 from simbridge.sim.control.drive import DriveMode, DriveSpec
 from simbridge.sim.ros.names import RobotNames, resolve_name
 from simbridge.sim.scene.model import GripperControllerSpec
+from simbridge.sim.world.callbacks import CallbackHandle
 from simbridge.sim.world.world import World
 
 __all__ = ["GripperActionController"]
@@ -39,7 +40,7 @@ class GripperActionController:
         self._target = 0.0
         self._last_movement = 0.0
         self._server: ActionServer | None = None
-        self._callbacks: list[int] = []
+        self._callbacks: list[CallbackHandle] = []
 
     def start(self) -> GripperActionController:
         """Serve the action; check the goal after every step."""
@@ -63,7 +64,7 @@ class GripperActionController:
     def close(self) -> None:
         """Stop serving (the connector stays open)."""
         for callback in self._callbacks:
-            self.world.remove_step_callback(callback)
+            callback.remove()
         self._callbacks.clear()
         if self._server is not None:
             self._server.close()

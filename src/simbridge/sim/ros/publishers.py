@@ -20,6 +20,7 @@ from simbridge.sim.ros.joint_state_encoder import JointStateEncoder, stamp_parts
 from simbridge.sim.ros.names import RobotNames
 from simbridge.sim.scene.model import RosSettings
 from simbridge.sim.urdf.transforms import Transform
+from simbridge.sim.world.callbacks import CallbackHandle
 from simbridge.sim.world.world import World
 
 __all__ = ["StatePublisher"]
@@ -42,7 +43,7 @@ class StatePublisher:
         self._stamps = StampMaker(registry or connector.registry)
         self._static_registry: MessageRegistry | None = None
         """The registry /tf_static was last published with (re-sent when it changes)."""
-        self._callbacks: list[int] = []
+        self._callbacks: list[CallbackHandle] = []
         self._topics: list[str] = []
         self._pubs: dict[str, Publisher] = {}
         self._wire_cache: tuple[object, str, tuple[WireFormat, bool]] | None = None
@@ -98,8 +99,8 @@ class StatePublisher:
 
     def close(self) -> None:
         """Stop the callbacks and unadvertise."""
-        for cb in self._callbacks:
-            self.world.remove_step_callback(cb)
+        for callback in self._callbacks:
+            callback.remove()
         for topic in self._topics:
             self.connector.unregister_publisher(topic)
         self._callbacks.clear()

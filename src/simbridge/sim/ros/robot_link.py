@@ -24,6 +24,7 @@ from simbridge.sim.scene.model import (
     RosSettings,
     TrajectoryControllerSpec,
 )
+from simbridge.sim.world.callbacks import CallbackHandle
 from simbridge.sim.world.robot import RobotHandle
 from simbridge.sim.world.world import World
 
@@ -95,8 +96,7 @@ class RobotRosLink:
                     topic=resolve_name(ros.namespace, drive.topic),
                 ),
             )
-        self._callback: int | None = None
-        self._scope: int | None = None
+        self._callbacks: list[CallbackHandle] = []
         self._encoder: JointStateEncoder | None = None
 
     def start(self) -> RobotRosLink:
@@ -117,22 +117,22 @@ class RobotRosLink:
         self.connector.register_publisher(
             self.joint_states_topic, "sensor_msgs/JointState", queue_size=10
         )
-        self._callback = self.world.add_step_callback(
-            lambda _w: self.publish_joint_states(), 1.0 / self.ros.joint_states_rate
-        )
-        # a robot on a connection of its own sends each step's messages at once too
-        self._scope = self.world.add_callback_scope(self.connector.batch())
+        self._callbacks = [
+            self.world.add_step_callback(
+                lambda _w: self.publish_joint_states(), 1.0 / self.ros.joint_states_rate
+            ),
+            # a robot on a connection of its own sends each step's messages at once too
+            self.world.add_callback_scope(self.connector.batch()),
+        ]
         return self
 
     def close(self) -> None:
         """Stop publishing and unsubscribe (the connector stays open)."""
-        if self._callback is not None:
-            self.world.remove_step_callback(self._callback)
+        if self._callbacks:
+            for callback in self._callbacks:
+                callback.remove()
+            self._callbacks.clear()
             self.connector.unregister_publisher(self.joint_states_topic)
-            self._callback = None
-        if self._scope is not None:
-            self.world.remove_callback_scope(self._scope)
-            self._scope = None
         for controller in self.controllers.values():
             controller.close()
         if self.diff_drive is not None:

@@ -21,6 +21,7 @@ from simbridge.connector import Connector, Publisher
 from simbridge.messages import Translator, WireFormat, default_registry
 from simbridge.sim.ros.sensor_wire import SensorWire
 from simbridge.sim.sensors import Publication, SensorSuite
+from simbridge.sim.world.callbacks import CallbackHandle
 from simbridge.sim.world.world import World
 
 __all__ = ["SensorObserver", "SensorPublisher"]
@@ -53,7 +54,7 @@ class SensorPublisher:
     ) -> None:
         self.world, self.connector, self.suite = world, connector, suite
         self.shared = frozenset(shared)
-        self._callback: int | None = None
+        self._callbacks: list[CallbackHandle] = []
         self._lazy: dict[str, Publisher] = {}
         self._translator: Translator | None = None
         self._wire = SensorWire()
@@ -77,8 +78,10 @@ class SensorPublisher:
             )
             if lazy:
                 self._lazy[topic] = publisher
-        self._callback = self.world.add_step_callback(lambda world: self.poll())
-        self.world.add_reset_callback(lambda world: self._restart())
+        self._callbacks = [
+            self.world.add_step_callback(lambda world: self.poll()),
+            self.world.add_reset_callback(lambda world: self._restart()),
+        ]
 
     def _restart(self) -> None:
         self.suite.reset()
@@ -137,10 +140,10 @@ class SensorPublisher:
         return self._translator.translate
 
     def close(self) -> None:
-        """Stop polling, unadvertise and release the sensors."""
-        if self._callback is not None:
-            self.world.remove_step_callback(self._callback)
-            self._callback = None
+        """Stop polling (after steps and resets), unadvertise and release the sensors."""
+        for callback in self._callbacks:
+            callback.remove()
+        self._callbacks.clear()
         for topic in self._lazy:
             self.connector.unregister_publisher(topic)
         self._lazy.clear()

@@ -23,6 +23,7 @@ from simbridge.sim.control.trajectory import Trajectory, Vector
 from simbridge.sim.ros.convert import StampMaker, duration_seconds, trajectory_from_message
 from simbridge.sim.ros.names import RobotNames, resolve_name
 from simbridge.sim.scene.model import TrajectoryControllerSpec
+from simbridge.sim.world.callbacks import CallbackHandle
 from simbridge.sim.world.world import World
 
 __all__ = ["JointTrajectoryController"]
@@ -77,14 +78,15 @@ class JointTrajectoryController:
         self._goal_check: _Check | None = None
         self._stamps = StampMaker(connector.registry)
         self._server: ActionServer | None = None
-        self._callbacks: list[int] = []
+        self._callbacks: list[CallbackHandle] = []
         self.state_topic = f"{self.prefix}/state"
         self.command_topic = f"{self.prefix}/command"
 
     # ---- lifecycle ------------------------------------------------------------------------
 
     def start(self) -> JointTrajectoryController:
-        """Register the action, command and state topics; follow from every step."""
+        """Register the action, command and state topics; follow before every step and
+        check the goal after it."""
         world = self.world
         self.connector.register_publisher(
             self.state_topic, "control_msgs/JointTrajectoryControllerState", queue_size=10
@@ -103,6 +105,7 @@ class JointTrajectoryController:
             clock=lambda: world.time,
         )
         self._callbacks = [
+            world.add_follower(self.follower),
             world.add_step_callback(lambda _w: self._update()),
             world.add_step_callback(
                 lambda _w: self._publish_feedback(), 1.0 / self.spec.action_monitor_rate
@@ -110,14 +113,15 @@ class JointTrajectoryController:
             world.add_step_callback(
                 lambda _w: self._publish_state(), 1.0 / self.spec.state_publish_rate
             ),
+            world.add_reset_callback(lambda _w: self._stop()),
         ]
-        world.add_reset_callback(lambda _w: self._stop())
         return self
 
     def close(self) -> None:
-        """Unregister everything (the connector stays open)."""
+        """Unregister everything (the connector stays open); nothing of it runs on later
+        steps or resets."""
         for callback in self._callbacks:
-            self.world.remove_step_callback(callback)
+            callback.remove()
         self._callbacks.clear()
         if self._server is not None:
             self._server.close()
@@ -252,15 +256,13 @@ class JointTrajectoryController:
             return
         t = self.world.time - self._start
         duration = trajectory.duration
-        self.follower.update(self.world.time)
         goal = self._goal
         if goal is None:
             if t >= duration:
                 self._trajectory = None
             return
-        # What the follower just aimed at (the last point, at rest, from the end on).
-        assert self.follower.desired is not None
-        errors = self.follower.desired[0] - self.world.data.qpos[self._qpos]
+        # What the follower aims at now (the last point, at rest, from the end on).
+        errors = trajectory.aim(t)[0] - self.world.data.qpos[self._qpos]
         if t < duration:
             path = self._path_check
             if path is not None:

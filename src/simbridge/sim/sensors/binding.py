@@ -24,8 +24,8 @@ class SteppedWorld(Protocol):
         """Bring derived quantities (poses, velocities) up to the current state."""
         ...
 
-    def add_step_callback(self, fn: Callable[[Any], None], period: float | None = None) -> int:
-        """Call `fn(world)` after every step."""
+    def add_step_callback(self, fn: Callable[[Any], None], period: float | None = None) -> object:
+        """Call `fn(world)` after every step (what it returns takes the callback out)."""
         ...
 
 

@@ -2,11 +2,16 @@
 
 from __future__ import annotations
 
+from simbridge.sim.world.callbacks import CallbackHandle
+from simbridge.sim.world.crossthread import CrossThreadControl
 from simbridge.sim.world.pacer import Pacer
 from simbridge.sim.world.robot import JointSlot, RobotHandle
+from simbridge.sim.world.state import WorldState
 from simbridge.sim.world.world import ModelExtension, RunStats, StepCallback, World
 
 __all__ = [
+    "CallbackHandle",
+    "CrossThreadControl",
     "JointSlot",
     "ModelExtension",
     "Pacer",
@@ -14,4 +19,5 @@ __all__ = [
     "RunStats",
     "StepCallback",
     "World",
+    "WorldState",
 ]
