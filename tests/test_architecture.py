@@ -252,3 +252,66 @@ def test_shared_leaves_import_nothing_of_the_endpoint() -> None:
     graph = _endpoint_graph()
     leaning = {leaf: graph[leaf] for leaf in SHARED_LEAVES if graph[leaf]}
     assert not leaning
+
+
+# ---- inside sim/ ------------------------------------------------------------------------
+#
+# As inside endpoint/, every import counts (TYPE_CHECKING and function-local ones too).
+
+SIM = "sim"
+
+SIM_LEVELS: list[set[str]] = [
+    {"sim.urdf"},
+    {"sim.control", "sim.sensors"},
+    {"sim.scene"},
+    {"sim.world"},
+    {"sim.ros", "sim.record", "sim.view"},
+]
+"""The parts of sim/, lowest first: a part imports itself and the parts of lower levels,
+never a sibling on its own level nor anything above (the face `sim` may import them all)."""
+
+SIM_PENDING = {("sim.ros.session", "sim.record"), ("sim.ros.session", "sim.view")}
+"""The sim's top-level runner still lives in ros/ (SimulationSession, run_scene) and
+imports record and view; it moves above them."""
+
+
+def _sim_graph() -> dict[str, set[str]]:
+    """Each sim module's imports of other sim modules."""
+    return {
+        name: {t for t in _module_imports(name) if _within(t, SIM)}
+        for name in MODULES
+        if _within(name, SIM)
+    }
+
+
+def _sim_level(name: str) -> tuple[int, str] | None:
+    """(level, part) of a sim module; None for the face."""
+    for level, parts in enumerate(SIM_LEVELS):
+        for part in parts:
+            if _within(name, part):
+                return level, part
+    return None
+
+
+def test_sim_has_no_import_circles() -> None:
+    circles = _circles(_sim_graph())
+    assert not circles, "\n".join(" <-> ".join(group) for group in circles)
+
+
+def test_every_sim_module_has_a_level() -> None:
+    unplaced = [name for name in _sim_graph() if name != SIM and _sim_level(name) is None]
+    assert not unplaced
+
+
+def test_sim_parts_import_only_lower_levels() -> None:
+    violations = []
+    for name, targets in sorted(_sim_graph().items()):
+        mine = _sim_level(name)
+        if mine is None:
+            continue
+        for target in sorted(targets):
+            theirs = _sim_level(target)
+            pending = any(_within(name, a) and _within(target, b) for a, b in SIM_PENDING)
+            if theirs is None or (theirs[1] != mine[1] and theirs[0] >= mine[0] and not pending):
+                violations.append(f"{name} imports {target}")
+    assert not violations, "\n".join(violations)
