@@ -94,7 +94,7 @@ def test_each_robot_publishes_its_own_joint_states(rig: BridgedWorld) -> None:
         )
     # Every robot has its own block: no scene-wide /joint_states is advertised.
     assert rig.bridge.state.shared_joints == []
-    assert "/joint_states" not in rig.bridge.state._topics
+    assert "/joint_states" not in rig.bridge.state.topics
 
 
 def _edges(msg: Any) -> dict[str, tuple[str, Any]]:

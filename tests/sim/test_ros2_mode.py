@@ -88,7 +88,9 @@ def test_every_topic_in_ros2_layouts_and_cmd_vel_drives(
             assert session.connector is not None
             assert session.connector.protocol == "ROS2"
             assert session.sensors is not None
-            publishers = session.sensors._lazy.values()
+            sensors = session.sensors
+            lazy = [t for t in sensors.suite.outputs if t not in sensors.shared]
+            publishers = [sensors.publisher(t) for t in lazy]
             deadline = time.monotonic() + 5
             while any(p.subscriber_count != 1 for p in publishers) and time.monotonic() < deadline:
                 time.sleep(0.01)

@@ -90,6 +90,11 @@ class StatePublisher:
             self._every(1.0 / s.clock_rate, self.publish_clock)
 
     @property
+    def topics(self) -> tuple[str, ...]:
+        """The topics advertised (by `start`, until `close`)."""
+        return tuple(self._topics)
+
+    @property
     def stamps(self) -> StampMaker:
         """Message builder for the registry in use (follows the connector's protocol)."""
         registry = self._registry or self.connector.registry
