@@ -104,7 +104,7 @@ def test_every_robot_has_its_own_namespaced_topics_frames_and_actions() -> None:
         ) as session,
         Node(bus, "/probe") as probe,
     ):
-        assert set(session.robot_links) == set(ROBOTS)  # each on its own connection
+        assert set(session.robot_bridges) == set(ROBOTS)  # each on its own connection
         names: dict[str, list[str]] = {}
         frames: set[str] = set()
         lock = threading.Lock()

@@ -221,7 +221,7 @@ def test_own_connection_keeps_one_robot_going_when_the_others_connection_drops(
             with SimulationSession(path, address, connect_timeout=5) as session:
                 assert session.bridge is not None
                 assert set(session.bridge.robots) == {"arm_left"}
-                link = session.robot_links["arm_right"]
+                link = session.robot_bridges["arm_right"]
                 assert link.connector is not session.connector
                 runner = threading.Thread(target=session.run, kwargs={"realtime_factor": 1.0})
                 runner.start()

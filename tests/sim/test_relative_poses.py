@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from simbridge.assets import robot_urdf
-from simbridge.sim.ros.publishers import relative_poses
+from simbridge.sim.ros.state_publisher import relative_poses
 from simbridge.sim.scene import parse_scene
 from simbridge.sim.world import World
 

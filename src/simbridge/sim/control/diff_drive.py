@@ -3,7 +3,7 @@
 Kinematics (REP 103 base frame, x forward, z up; wheels spin positively when rolling
 forward): v = r (wl + wr) / 2 and w = r (wr - wl) / L for wheel radius r and wheel
 separation L. The controller is pure: it is fed commands and the time, and returns
-wheel velocity targets; `simbridge.sim.ros.diff_drive_link` connects it to /cmd_vel.
+wheel velocity targets; `simbridge.sim.ros.cmd_vel_controller` connects it to /cmd_vel.
 """
 
 from __future__ import annotations

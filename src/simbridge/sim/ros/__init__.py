@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from simbridge.sim.ros.bridge import SimRosBridge
+from simbridge.sim.ros.cmd_vel_controller import CmdVelController, measure_wheels
 from simbridge.sim.ros.commands import CommandSubscriber
 from simbridge.sim.ros.convert import (
     StampMaker,
@@ -11,27 +12,26 @@ from simbridge.sim.ros.convert import (
     tf_message,
     trajectory_from_message,
 )
-from simbridge.sim.ros.diff_drive_link import DiffDriveLink, measure_wheels
 from simbridge.sim.ros.gripper_controller import GripperActionController
 from simbridge.sim.ros.group_controller import GroupCommandController
 from simbridge.sim.ros.names import RobotNames, resolve_name
-from simbridge.sim.ros.publishers import StatePublisher
-from simbridge.sim.ros.robot_link import RobotRosLink
-from simbridge.sim.ros.sensor_link import SensorPublisher
+from simbridge.sim.ros.robot_bridge import RobotBridge
+from simbridge.sim.ros.sensor_publisher import SensorPublisher
 from simbridge.sim.ros.services import STEP_SRV, ControlServices
 from simbridge.sim.ros.session import SimulationSession, parse_endpoint, run_scene
+from simbridge.sim.ros.state_publisher import StatePublisher
 from simbridge.sim.ros.trajectory_controller import JointTrajectoryController
 
 __all__ = [
     "STEP_SRV",
+    "CmdVelController",
     "CommandSubscriber",
     "ControlServices",
-    "DiffDriveLink",
     "GripperActionController",
     "GroupCommandController",
     "JointTrajectoryController",
+    "RobotBridge",
     "RobotNames",
-    "RobotRosLink",
     "SensorPublisher",
     "SimRosBridge",
     "SimulationSession",

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 from simbridge.connector import Connector
 from simbridge.messages import MessageRegistry
+from simbridge.sim.ros.cmd_vel_controller import CmdVelController
 from simbridge.sim.ros.commands import CommandSubscriber
-from simbridge.sim.ros.diff_drive_link import DiffDriveLink
-from simbridge.sim.ros.publishers import StatePublisher
-from simbridge.sim.ros.robot_link import RobotRosLink
+from simbridge.sim.ros.robot_bridge import RobotBridge
 from simbridge.sim.ros.services import ControlServices
+from simbridge.sim.ros.state_publisher import StatePublisher
 from simbridge.sim.scene.model import RosSettings
 from simbridge.sim.world.callbacks import CallbackHandle
 from simbridge.sim.world.world import World
@@ -31,15 +31,16 @@ class SimRosBridge:
         registry: MessageRegistry | None = None,
         elsewhere: frozenset[str] = frozenset(),
     ) -> None:
-        """`elsewhere`: names of namespaced robots served by links of their own (on their
-        own connections); this bridge leaves their joint states and commands alone."""
+        """`elsewhere`: names of namespaced robots served by robot bridges of their own
+        (on their own connections); this bridge leaves their joint states and commands
+        alone."""
         self.world = world
         self.connector = connector
         self.settings = settings or world.scene.ros
         self.registry = registry
         self.state = StatePublisher(world, connector, self.settings, self.registry)
         self.robots = {
-            name: RobotRosLink(world, connector, robot, self.settings, self.registry)
+            name: RobotBridge(world, connector, robot, self.settings, self.registry)
             for name, robot in world.robots.items()
             if robot.built.spec.ros is not None and name not in elsewhere
         }
@@ -58,7 +59,7 @@ class SimRosBridge:
         """The scene-wide command topics, for robots without a `ros:` block (None when
         every robot has its own)."""
         drive = self.settings.diff_drive
-        self.diff_drive = DiffDriveLink(world, connector, drive) if drive is not None else None
+        self.diff_drive = CmdVelController(world, connector, drive) if drive is not None else None
         self.services = ControlServices(
             world, connector, self.settings.services_prefix, self.registry
         )

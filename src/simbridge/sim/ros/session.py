@@ -14,8 +14,8 @@ from simbridge.progress import Ticker
 from simbridge.sim.record import Recorder, RecordOptions
 from simbridge.sim.ros.bridge import SimRosBridge
 from simbridge.sim.ros.names import resolve_name
-from simbridge.sim.ros.robot_link import RobotRosLink
-from simbridge.sim.ros.sensor_link import SensorPublisher
+from simbridge.sim.ros.robot_bridge import RobotBridge
+from simbridge.sim.ros.sensor_publisher import SensorPublisher
 from simbridge.sim.scene.loader import load_scene
 from simbridge.sim.scene.model import Scene
 from simbridge.sim.sensors import SensorSuite
@@ -89,8 +89,8 @@ class SimulationSession:
         self.bridge: SimRosBridge | None = None
         self.sensors: SensorPublisher | None = None
         self.recorder: Recorder | None = None
-        self.robot_links: dict[str, RobotRosLink] = {}
-        """Robots with `own_connection`: their links, each on a connector of its own."""
+        self.robot_bridges: dict[str, RobotBridge] = {}
+        """Robots with `own_connection`: their bridges, each on a connector of its own."""
         self._record = record
         self._endpoint = parse_endpoint(endpoint) if endpoint else None
         self._options = connector_options
@@ -119,7 +119,7 @@ class SimulationSession:
             connector = Connector(host, port, self._options).connect(wait=self._connect_timeout)
             if self.recorder is not None:
                 self.recorder.attach(connector)
-            self.robot_links[name] = RobotRosLink(
+            self.robot_bridges[name] = RobotBridge(
                 self.world, connector, self.world.robots[name], self.scene.ros
             ).start()
         if self.scene.sensors:
@@ -179,10 +179,10 @@ class SimulationSession:
             self.sensors.close()
         if self.bridge is not None:
             self.bridge.close()
-        for link in self.robot_links.values():
-            link.close()
-            link.connector.close()
-        self.robot_links.clear()
+        for robot in self.robot_bridges.values():
+            robot.close()
+            robot.connector.close()
+        self.robot_bridges.clear()
         if self.connector is not None:
             self.connector.close()
         if self.recorder is not None:

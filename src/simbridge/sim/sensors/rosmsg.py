@@ -3,7 +3,7 @@
 Messages are instances of the message registry's classes (rosbags noetic dataclasses
 plus shipped packages such as tf2_msgs), built directly for speed, so a reading goes
 straight to the codec. Type names are ROS 1 canonical (`pkg/Type`). Against a ROS 2
-endpoint, `sim/ros/sensor_link.py` translates them to the ROS 2 layouts on the way out.
+endpoint, `sim/ros/sensor_publisher.py` translates them to the ROS 2 layouts on the way out.
 """
 
 from __future__ import annotations

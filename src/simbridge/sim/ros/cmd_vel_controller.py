@@ -20,7 +20,7 @@ from simbridge.sim.urdf.mjcf import COLLISION_GROUP
 from simbridge.sim.world.callbacks import CallbackHandle
 from simbridge.sim.world.world import World
 
-__all__ = ["DiffDriveLink", "measure_wheels"]
+__all__ = ["CmdVelController", "measure_wheels"]
 
 _log = logging.getLogger("simbridge.sim.ros")
 _ROUND = {int(mujoco.mjtGeom.mjGEOM_CYLINDER), int(mujoco.mjtGeom.mjGEOM_SPHERE)}
@@ -62,7 +62,7 @@ def measure_wheels(world: World, left: str, right: str) -> DiffDriveKinematics:
     return DiffDriveKinematics(radius, separation)
 
 
-class DiffDriveLink:
+class CmdVelController:
     """Subscribes to the Twist topic and sets the wheel velocity targets after every step.
 
     Commands are applied on the simulation thread and stamped with the sim time, so the

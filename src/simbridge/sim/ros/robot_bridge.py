@@ -10,9 +10,9 @@ from dataclasses import replace
 from simbridge.connector import Connector
 from simbridge.errors import SimError
 from simbridge.messages import MessageRegistry, WireFormat
+from simbridge.sim.ros.cmd_vel_controller import CmdVelController
 from simbridge.sim.ros.commands import CommandSubscriber
 from simbridge.sim.ros.convert import StampMaker, joint_state_message
-from simbridge.sim.ros.diff_drive_link import DiffDriveLink
 from simbridge.sim.ros.gripper_controller import GripperActionController
 from simbridge.sim.ros.group_controller import GroupCommandController
 from simbridge.sim.ros.joint_state_encoder import JointStateEncoder
@@ -28,7 +28,7 @@ from simbridge.sim.world.callbacks import CallbackHandle
 from simbridge.sim.world.robot import RobotHandle
 from simbridge.sim.world.world import World
 
-__all__ = ["RobotRosLink"]
+__all__ = ["RobotBridge"]
 
 _log = logging.getLogger("simbridge.sim.ros")
 
@@ -49,7 +49,7 @@ def _controller(
     return JointTrajectoryController(world, connector, names, namespace, spec)
 
 
-class RobotRosLink:
+class RobotBridge:
     """Joint states and commands of one robot with a `ros:` block."""
 
     def __init__(
@@ -83,10 +83,10 @@ class RobotRosLink:
             self.controllers[spec.name] = _controller(
                 world, connector, self.names, ros.namespace, spec
             )
-        self.diff_drive: DiffDriveLink | None = None
+        self.diff_drive: CmdVelController | None = None
         if ros.diff_drive is not None:
             drive = ros.diff_drive
-            self.diff_drive = DiffDriveLink(
+            self.diff_drive = CmdVelController(
                 world,
                 connector,
                 replace(
@@ -99,7 +99,7 @@ class RobotRosLink:
         self._callbacks: list[CallbackHandle] = []
         self._encoder: JointStateEncoder | None = None
 
-    def start(self) -> RobotRosLink:
+    def start(self) -> RobotBridge:
         """Subscribe to the commands and publish joint states at the robot's rate."""
         self.commands.start()
         if self.controllers and (self._registry or self.connector.registry).protocol != "ROS1":

@@ -7,7 +7,7 @@ that cannot report counts every output stays on.
 Sensors build ROS 1 (noetic) messages; against a ROS 2 endpoint each one is translated
 to the ROS 2 layout (Header without seq, CameraInfo `d k r p`) on its way out. IMU,
 laser-scan and odometry messages skip that and the generic encoder: precompiled writers
-serialize them for either generation (`sensor_wire.py`).
+serialize them for either generation (`sensor_encoder.py`).
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ import mujoco
 
 from simbridge.connector import Connector, Publisher
 from simbridge.messages import Translator, WireFormat, default_registry
-from simbridge.sim.ros.sensor_wire import SensorWire
+from simbridge.sim.ros.sensor_encoder import SensorEncoder
 from simbridge.sim.sensors import Publication, SensorSuite
 from simbridge.sim.world.callbacks import CallbackHandle
 from simbridge.sim.world.world import World
@@ -57,7 +57,7 @@ class SensorPublisher:
         self._callbacks: list[CallbackHandle] = []
         self._lazy: dict[str, Publisher] = {}
         self._translator: Translator | None = None
-        self._wire = SensorWire()
+        self._wire = SensorEncoder()
         """Precompiled writers for the hot kinds (IMU, laser scans, odometry and its TF)."""
         self.always_on = False
         """Measure every output even without subscribers (set while recording)."""

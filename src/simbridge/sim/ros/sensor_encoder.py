@@ -17,7 +17,7 @@ from simbridge.messages import WireFormat
 from simbridge.messages.fastwire import ImuWriter, LaserScanWriter, OdometryWriter, TFWriter
 from simbridge.sim.sensors.rosmsg import Publication
 
-__all__ = ["SensorWire"]
+__all__ = ["SensorEncoder"]
 
 Wire = tuple[WireFormat, bool]
 """(wire format, the Header has ROS 1's seq)."""
@@ -31,7 +31,7 @@ def _xyzw(q: Any) -> tuple[float, float, float, float]:
     return q.x, q.y, q.z, q.w
 
 
-class SensorWire:
+class SensorEncoder:
     """One writer per topic, rebuilt when the wire, a frame id or a size changes."""
 
     def __init__(self) -> None:

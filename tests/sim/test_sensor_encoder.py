@@ -11,8 +11,8 @@ from simbridge.assets import robot_urdf
 from simbridge.connector import Connector
 from simbridge.endpoint import EndpointOptions, EndpointThread
 from simbridge.messages import Translator, default_registry, ros2_registry
-from simbridge.sim.ros.sensor_link import SensorPublisher
-from simbridge.sim.ros.sensor_wire import SensorWire
+from simbridge.sim.ros.sensor_encoder import SensorEncoder
+from simbridge.sim.ros.sensor_publisher import SensorPublisher
 from simbridge.sim.scene import parse_scene
 from simbridge.sim.sensors import (
     Imu,
@@ -70,7 +70,7 @@ def test_imu_scan_odometry_and_its_tf_match_the_codec(generation: str) -> None:
     model = mujoco.MjModel.from_xml_string(SCENE)
     data = mujoco.MjData(model)
     sensors = _sensors(model)
-    wire = SensorWire()
+    encoder = SensorEncoder()
     fmt = ("ros1", True) if generation == "ROS1" else ("cdr", False)
     kinds: set[str] = set()
     for _ in range(3):  # the writers' buffers are reused; seq counts up in ROS 1
@@ -79,7 +79,7 @@ def test_imu_scan_odometry_and_its_tf_match_the_codec(generation: str) -> None:
         mujoco.mj_forward(model, data)
         for sensor in sensors:
             for publication in sensor.measure(model, data):
-                got = wire.encode(publication, fmt)  # type: ignore[arg-type]
+                got = encoder.encode(publication, fmt)  # type: ignore[arg-type]
                 assert got is not None, publication.msgtype
                 assert got == _generic(publication, generation), publication.topic
                 kinds.add(publication.msgtype)
@@ -94,7 +94,8 @@ def test_imu_scan_odometry_and_its_tf_match_the_codec(generation: str) -> None:
 def test_other_kinds_are_left_to_the_codec() -> None:
     message = default_registry().new("std_msgs/String", data="x")
     assert (
-        SensorWire().encode(Publication("/s", "std_msgs/String", message), ("ros1", True)) is None
+        SensorEncoder().encode(Publication("/s", "std_msgs/String", message), ("ros1", True))
+        is None
     )
 
 
