@@ -31,7 +31,7 @@ def robot_view() -> Iterator[tuple[SimulationSession, LiveView]]:
             SCENE_PATH,
             f"127.0.0.1:{endpoint.port}",
             ConnectorOptions(reconnect_initial=0.2),
-            connect_timeout=5.0,
+            connect_timeout=60.0,  # generous: a loaded machine may take long to connect
         ) as session,
     ):
         assert session.sensors is not None
