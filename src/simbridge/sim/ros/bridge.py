@@ -1,4 +1,5 @@
-"""Connect a `World` to ROS through a `Connector`: state out, commands in, control services."""
+"""Connect a `World` to ROS through a `Connector`: state and sensors out, commands in, control
+services."""
 
 from __future__ import annotations
 
@@ -7,9 +8,12 @@ from simbridge.messages import MessageRegistry
 from simbridge.sim.ros.cmd_vel_controller import CmdVelController
 from simbridge.sim.ros.commands import CommandSubscriber
 from simbridge.sim.ros.robot_bridge import RobotBridge
+from simbridge.sim.ros.sensor_publisher import SensorPublisher
 from simbridge.sim.ros.services import ControlServices
 from simbridge.sim.ros.state_publisher import StatePublisher
 from simbridge.sim.scene.model import RosSettings
+from simbridge.sim.sensors import SensorSuite
+from simbridge.sim.sensors.odometry import Odometry
 from simbridge.sim.world.callbacks import CallbackHandle
 from simbridge.sim.world.world import World
 
@@ -29,11 +33,15 @@ class SimRosBridge:
         connector: Connector,
         settings: RosSettings | None = None,
         registry: MessageRegistry | None = None,
+        *,
         elsewhere: frozenset[str] = frozenset(),
+        sensors: SensorSuite | None = None,
+        measure_all: bool = False,
     ) -> None:
         """`elsewhere`: names of namespaced robots served by robot bridges of their own
         (on their own connections); this bridge leaves their joint states and commands
-        alone."""
+        alone. `sensors`: published on the same connector, their frames on /tf_static;
+        `measure_all`: every sensor output measured even without subscribers (recording)."""
         self.world = world
         self.connector = connector
         self.settings = settings or world.scene.ros
@@ -63,6 +71,19 @@ class SimRosBridge:
         self.services = ControlServices(
             world, connector, self.settings.services_prefix, self.registry
         )
+        self.sensors: SensorPublisher | None = None
+        """The sensors' publisher (None without sensors)."""
+        if sensors is not None:
+            tf = {"/tf"} if self.settings.tf else set()
+            self.sensors = SensorPublisher(world, connector, sensors, tf)
+            self.sensors.always_on = measure_all
+            self.state.extra_static.extend(sensors.static_transforms(world.model))
+            # Odometry that broadcasts odom -> base owns the base's parent (REP 105).
+            self.state.parented_elsewhere.update(
+                s.child_frame_id
+                for s in sensors.sensors
+                if isinstance(s, Odometry) and s.config.publish_tf
+            )
         self._scope: CallbackHandle | None = None
 
     def start(self) -> SimRosBridge:
@@ -70,6 +91,8 @@ class SimRosBridge:
         step's messages (state, and sensors on the same connector) sent as one batch."""
         if self._scope is None:
             self._scope = self.world.add_callback_scope(self.connector.batch())
+        if self.sensors is not None:
+            self.sensors.start()
         self.services.start()
         if self.commands is not None:
             self.commands.start()
@@ -82,6 +105,8 @@ class SimRosBridge:
 
     def close(self) -> None:
         """Unregister everything (the connector stays open)."""
+        if self.sensors is not None:
+            self.sensors.close()
         if self._scope is not None:
             self._scope.remove()
             self._scope = None

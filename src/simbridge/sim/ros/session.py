@@ -19,7 +19,6 @@ from simbridge.sim.ros.sensor_publisher import SensorPublisher
 from simbridge.sim.scene.loader import load_scene
 from simbridge.sim.scene.model import Scene
 from simbridge.sim.sensors import SensorSuite
-from simbridge.sim.sensors.odometry import Odometry
 from simbridge.sim.urdf.description import robot_description
 from simbridge.sim.view import LiveView, ViewOptions
 from simbridge.sim.world.world import ModelExtension, RunStats, World
@@ -87,7 +86,6 @@ class SimulationSession:
         self.world = World.from_scene(self.scene, extensions)
         self.connector: Connector | None = None
         self.bridge: SimRosBridge | None = None
-        self.sensors: SensorPublisher | None = None
         self.recorder: Recorder | None = None
         self.robot_bridges: dict[str, RobotBridge] = {}
         """Robots with `own_connection`: their bridges, each on a connector of its own."""
@@ -114,7 +112,19 @@ class SimulationSession:
             for name, robot in self.world.robots.items()
             if robot.built.spec.ros is not None and robot.built.spec.ros.own_connection
         )
-        self.bridge = SimRosBridge(self.world, self.connector, self.scene.ros, elsewhere=own)
+        suite = (
+            SensorSuite.from_config(self.world.model, self.scene.sensors)
+            if self.scene.sensors
+            else None
+        )
+        self.bridge = SimRosBridge(
+            self.world,
+            self.connector,
+            self.scene.ros,
+            elsewhere=own,
+            sensors=suite,
+            measure_all=self.recorder is not None,  # the bag listens to all
+        )
         for name in sorted(own):
             connector = Connector(host, port, self._options).connect(wait=self._connect_timeout)
             if self.recorder is not None:
@@ -122,21 +132,13 @@ class SimulationSession:
             self.robot_bridges[name] = RobotBridge(
                 self.world, connector, self.world.robots[name], self.scene.ros
             ).start()
-        if self.scene.sensors:
-            suite = SensorSuite.from_config(self.world.model, self.scene.sensors)
-            shared = {"/tf"} if self.scene.ros.tf else set()
-            self.sensors = SensorPublisher(self.world, self.connector, suite, shared)
-            self.sensors.always_on = self.recorder is not None  # the bag listens to all
-            self.bridge.state.extra_static.extend(suite.static_transforms(self.world.model))
-            # Odometry that broadcasts odom -> base owns the base's parent (REP 105).
-            self.bridge.state.parented_elsewhere.update(
-                s.child_frame_id
-                for s in suite.sensors
-                if isinstance(s, Odometry) and s.config.publish_tf
-            )
-            self.sensors.start()
         self.bridge.start()
         return self
+
+    @property
+    def sensors(self) -> SensorPublisher | None:
+        """The scene's sensors on the session's connector (None without sensors or ROS)."""
+        return self.bridge.sensors if self.bridge is not None else None
 
     def run(
         self,
@@ -175,8 +177,6 @@ class SimulationSession:
 
     def close(self) -> None:
         """Unregister and disconnect."""
-        if self.sensors is not None:
-            self.sensors.close()
         if self.bridge is not None:
             self.bridge.close()
         for robot in self.robot_bridges.values():
