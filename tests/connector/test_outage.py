@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import time
 
 import pytest
@@ -16,11 +17,13 @@ from tests.waiting import wait_for
 def test_call_during_endpoint_outage_names_the_unreachable_endpoint() -> None:
     endpoint = EndpointThread(EndpointOptions(port=0)).start()
     port = endpoint.port
-    conn = Connector("127.0.0.1", port, FAST).connect()
+    # the call's own 0.5 s ends it, not the default service timeout (far beyond any delay)
+    options = dataclasses.replace(FAST, service_timeout=600.0)
+    conn = Connector("127.0.0.1", port, options).connect()
     try:
         conn.register_ros_service("/reset", "std_srvs/Trigger")
         endpoint.stop()  # outage: nothing listens on the port any more
-        assert wait_for(lambda: not conn.connected, 5)
+        assert wait_for(lambda: not conn.connected, 30)
         t0 = time.monotonic()
         with pytest.raises(ServiceError) as info:
             conn.call("/reset", b"", timeout=0.5)
@@ -28,6 +31,6 @@ def test_call_during_endpoint_outage_names_the_unreachable_endpoint() -> None:
         assert f"endpoint at 127.0.0.1:{port} was unreachable" in text
         assert "/reset was never sent" in text
         assert "srv_id 0" not in text
-        assert time.monotonic() - t0 < 2.0
+        assert time.monotonic() - t0 < 60  # generous: a loaded machine
     finally:
         conn.close()
