@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 import yaml
 
+from simbridge.assets import robot_urdf
 from simbridge.connector import Connector, ConnectorOptions
 from simbridge.endpoint import EndpointOptions, EndpointThread, LocalBus, Node
 from simbridge.errors import SimError
@@ -250,7 +251,7 @@ def test_own_connection_keeps_one_robot_going_when_the_others_connection_drops(
 
 
 def test_each_robot_has_its_own_diff_drive(tmp_path: Path) -> None:
-    diffbot = Path(__file__).resolve().parents[2] / "src/simbridge/assets/robots/diffbot.urdf"
+    diffbot = robot_urdf("diffbot")
     wheels = {"mode": "velocity", "damping": 2, "force_limit": 2}
     drives = {
         "joints": {
