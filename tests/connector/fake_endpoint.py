@@ -188,10 +188,10 @@ class FakeEndpoint:
         with self.lock:
             return list(self.conns[conn_index].events) if self.conns else []
 
-    def wait_for(self, predicate: Callable[[], bool], timeout: float = 10.0) -> bool:
+    def wait_for(self, predicate: Callable[[], bool], timeout: float = 60.0) -> bool:
         return wait_for(predicate, timeout)
 
-    def wait_conns(self, count: int, timeout: float = 10.0) -> bool:
+    def wait_conns(self, count: int, timeout: float = 60.0) -> bool:
         return self.wait_for(lambda: len(self.conns) >= count, timeout)
 
     def stop(self) -> None:

@@ -119,9 +119,7 @@ def test_silent_endpoint_is_detected_and_reconnected(make_connector):
         conn = make_connector(ep.port).connect()
         assert ep.wait_for(lambda: conn.handshake is not None)
         ep.silent = True
-        t0 = time.monotonic()
-        assert ep.wait_for(lambda: not conn.connected, timeout=5.0)
-        assert time.monotonic() - t0 < FAST.dead_timeout + 2.0  # slack for a busy box
+        assert ep.wait_for(lambda: not conn.connected, timeout=60.0)
         ep.silent = False
         assert ep.wait_conns(2)
         assert conn.wait_connected(3.0)
@@ -137,9 +135,9 @@ def test_slow_announced_keepalive_stretches_the_dead_timeout(make_connector):
         assert len(ep.conns) == 1
         ep.silent = True
         t0 = time.monotonic()
-        assert ep.wait_for(lambda: not conn.connected, timeout=5.0)
-        # two announced periods (1 s), not dead_timeout (0.3 s); slack for a busy box
-        assert 0.4 <= time.monotonic() - t0 < 1.0 + 2.0
+        assert ep.wait_for(lambda: not conn.connected, timeout=60.0)
+        # two announced periods (1 s), not dead_timeout (0.3 s): a timer never fires early
+        assert time.monotonic() - t0 >= 0.4
 
 
 def test_original_endpoint_without_keepalives_is_not_dropped(make_connector):
@@ -218,22 +216,22 @@ def test_error_with_srv_id_fails_that_call_at_once(make_connector):
     with FakeEndpoint(keepalive=0.2, service_answer=lambda _s, _p: None) as ep:
         conn = make_connector(ep.port).connect()
         conn.register_ros_service("/broken", "std_srvs/Trigger")
-        t0 = time.monotonic()
-        future = conn.call_service("/broken", b"", timeout=30.0)
+        # at once: the call's own timeout (600 s) would outlast result()'s 60 s wait
+        future = conn.call_service("/broken", b"", timeout=600.0)
         with pytest.raises(ServiceError, match="/broken failed"):
-            future.result(10.0)
-        assert time.monotonic() - t0 < 5.0  # at once, not at the call's timeout
+            future.result(60.0)
         assert conn.stats().errors_received == 1
 
 
 def test_unanswered_call_times_out(make_connector):
     with FakeEndpoint(keepalive=0.2) as ep:
-        conn = make_connector(ep.port).connect()
+        conn = make_connector(ep.port, dataclasses.replace(FAST, service_timeout=600.0)).connect()
         conn.register_ros_service("/slow", "std_srvs/Trigger")
         t0 = time.monotonic()
         with pytest.raises(ServiceError, match="did not answer"):
             conn.call("/slow", b"", timeout=0.3)
-        assert 0.25 <= time.monotonic() - t0 < 2.0  # its own timeout, not service_timeout (3 s)
+        # its own timeout, not service_timeout (600 s); a timer never fires early
+        assert 0.25 <= time.monotonic() - t0 < 60.0
 
 
 def test_pending_call_fails_when_the_connection_drops(make_connector):
@@ -503,7 +501,7 @@ def test_connect_timeout_raises_and_cleans_up():
         t0 = time.monotonic()
         with pytest.raises(ConnectorError, match=f"127.0.0.1:{port} within 0.5 s"):
             conn.connect(wait=0.5)
-        assert time.monotonic() - t0 < 1.5
+        assert time.monotonic() - t0 < 30.0  # gave up: did not keep retrying
         assert not conn.connected
 
 
@@ -588,7 +586,7 @@ def test_registrations_wait_for_the_handshake_or_go_on_without(make_connector):
         assert conn.handshake is None
 
 
-def test_reconnect_backoff_doubles_up_to_the_maximum(monkeypatch, make_connector):
+def test_reconnect_backoff_doubles_up_to_the_maximum(monkeypatch, caplog, make_connector):
     import simbridge.connector.engine as module
 
     attempts: list[float] = []
@@ -599,12 +597,20 @@ def test_reconnect_backoff_doubles_up_to_the_maximum(monkeypatch, make_connector
 
     monkeypatch.setattr(module, "open_link", refuse)
     options = dataclasses.replace(FAST, reconnect_initial=0.1, reconnect_max=0.4)
-    conn = make_connector(1, options).connect(wait=None)
-    assert wait_for(lambda: len(attempts) >= 6)
-    conn.close()
+    with caplog.at_level(logging.DEBUG, logger="simbridge.connector"):
+        conn = make_connector(1, options).connect(wait=None)
+        assert wait_for(lambda: len(attempts) >= 6, timeout=60)
+        conn.close()
+    announced = [
+        float(r.getMessage().rsplit("retrying in ", 1)[1].split()[0])
+        for r in caplog.records
+        if "retrying in" in r.getMessage()
+    ][:5]
+    assert announced == [0.1, 0.2, 0.4, 0.4, 0.4]
+    # and each wait really lasted at least what was announced (a busy box only adds)
     gaps = [b - a for a, b in itertools.pairwise(attempts)][:5]
-    for gap, expected in zip(gaps, [0.1, 0.2, 0.4, 0.4, 0.4], strict=True):
-        assert expected - 0.02 <= gap <= expected + 0.25
+    for gap, expected in zip(gaps, announced, strict=True):
+        assert gap >= expected - 0.02
 
 
 def test_many_threads_publish_concurrently(endpoint: FakeEndpoint, make_connector):

@@ -51,7 +51,7 @@ class RawClient:
                 raise AssertionError(f"no matching event within {timeout} s; got {got}")
             self.poll()
 
-    def stats(self, timeout: float = 5.0) -> dict[str, Any]:
+    def stats(self, timeout: float = 60.0) -> dict[str, Any]:
         """The endpoint's `__stats` reply; also a barrier: every earlier frame was handled."""
         self.send(StatsRequest().encode())
         reply = self.expect(
