@@ -30,7 +30,7 @@ from simbridge.apps.pick_and_place import run_pick_and_place
 from simbridge.connector import ConnectorOptions
 from simbridge.endpoint import EndpointOptions, EndpointThread, LocalBus, Node, NodeActionClient
 from simbridge.planning import JointTrajectory, robot_trajectory_message
-from simbridge.sim.ros import SimulationSession
+from simbridge.sim.runner import SimulationSession
 
 __all__ = ["SEEDS", "run", "scene_rtf"]
 

@@ -32,7 +32,7 @@ from simbridge.apps.summary import SUMMARY_KEYS
 from simbridge.cli import main as cli_main
 from simbridge.connector import ConnectorOptions
 from simbridge.endpoint import EndpointOptions, EndpointThread, LocalBus, Node
-from simbridge.sim.ros import SimulationSession
+from simbridge.sim.runner import SimulationSession
 from tests.waiting import wait_for
 
 ROBOTS = (*ARMS, CONVEYOR)

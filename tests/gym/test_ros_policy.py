@@ -14,7 +14,7 @@ from simbridge.connector import Connector
 from simbridge.endpoint import EndpointOptions, EndpointThread
 from simbridge.gym import Observation, Policy, RosPolicyRunner, SceneEnv
 from simbridge.gym.tasks import NAV_SCENE, REACH_SCENE
-from simbridge.sim.ros import SimulationSession
+from simbridge.sim.runner import SimulationSession
 
 
 def reach_policy(obs: Observation) -> np.ndarray:

@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from simbridge.sim.ros import SimulationSession
+from simbridge.sim.runner import SimulationSession
 from tests.ros2support import Ros2Process, start_endpoint
 from tests.sim.urdf_samples import GRAVITY_ARM
 

@@ -16,7 +16,7 @@ import pytest
 import yaml
 
 from simbridge.endpoint import EndpointOptions, EndpointThread, LocalBus, Node
-from simbridge.sim.ros import SimulationSession
+from simbridge.sim.runner import SimulationSession
 from tests.sim.urdf_samples import GRAVITY_ARM
 from tests.waiting import wait_for
 

@@ -19,7 +19,7 @@ from simbridge.apps.mobile_robot import runner as mobile_robot
 from simbridge.cli import main
 from simbridge.endpoint import EndpointOptions, EndpointThread, LocalBus, Node
 from simbridge.messages import default_registry
-from simbridge.sim.ros import SimulationSession
+from simbridge.sim.runner import SimulationSession
 from tests.sim.urdf_samples import GRAVITY_ARM
 
 MOBILE_SCENE = Path(mobile_robot.__file__).parent / "scene.yaml"

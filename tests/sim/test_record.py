@@ -23,7 +23,7 @@ from simbridge.endpoint import EndpointOptions, EndpointThread, LocalBus, Node
 from simbridge.errors import SimError
 from simbridge.messages import default_registry, registry_for
 from simbridge.sim.record import PlayOptions, Recorder, RecordOptions, play
-from simbridge.sim.ros import SimulationSession
+from simbridge.sim.runner import SimulationSession
 from tests.sim.urdf_samples import GRAVITY_ARM
 
 REG = default_registry()

@@ -120,7 +120,7 @@ def test_every_documented_example_loads_and_runs_stably(tmp_path: Path) -> None:
 
 
 def test_run_scene_headless_without_endpoint(tmp_path: Path) -> None:
-    from simbridge.sim.ros import run_scene
+    from simbridge.sim.runner import run_scene
     from tests.sim.urdf_samples import GRAVITY_ARM
 
     (tmp_path / "arm.urdf").write_text(GRAVITY_ARM)

@@ -16,7 +16,7 @@ import pytest
 from simbridge.apps.mobile_robot.runner import SCENE_PATH
 from simbridge.connector import ConnectorOptions
 from simbridge.endpoint import EndpointOptions, EndpointThread, LocalBus
-from simbridge.sim.ros import SimulationSession
+from simbridge.sim.runner import SimulationSession
 from simbridge.sim.view import LIDAR_RGB, LiveView, ViewOptions
 from tests.sim.browser import CHROMIUM, keep_screenshot, open_page
 

@@ -20,7 +20,7 @@ import yaml
 from simbridge.apps.mobile_robot.runner import SCENE_PATH as MOBILE_ROBOT_SCENE
 from simbridge.apps.pick_and_place.scene import SCENE_PATH as PICK_AND_PLACE_SCENE
 from simbridge.errors import AppError
-from simbridge.sim.ros.session import description_params
+from simbridge.sim.ros import description_params
 from simbridge.sim.ros.state_publisher import WORLD_FRAME
 from simbridge.sim.scene.loader import load_scene
 from simbridge.sim.scene.model import Scene

@@ -121,7 +121,7 @@ def run_urdf(args: argparse.Namespace) -> int:
 def run_sim(args: argparse.Namespace) -> int:
     from simbridge.errors import ConnectorError
     from simbridge.sim.record import RecordOptions
-    from simbridge.sim.ros import run_scene
+    from simbridge.sim.runner import run_scene
     from simbridge.sim.scene import load_scene, with_overrides
     from simbridge.sim.view import ViewOptions
 

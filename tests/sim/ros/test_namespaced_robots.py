@@ -178,7 +178,7 @@ def test_ros2_endpoint_gets_namespaced_joint_states_and_skips_controllers(
     tmp_path: Path, caplog: pytest.LogCaptureFixture
 ) -> None:
     from simbridge.messages import ros2_registry
-    from simbridge.sim.ros import SimulationSession
+    from simbridge.sim.runner import SimulationSession
 
     path = two_arm_scene(tmp_path)
     scene = yaml.safe_load(path.read_text())
@@ -206,7 +206,7 @@ def test_ros2_endpoint_gets_namespaced_joint_states_and_skips_controllers(
 def test_own_connection_keeps_one_robot_going_when_the_others_connection_drops(
     tmp_path: Path,
 ) -> None:
-    from simbridge.sim.ros import SimulationSession
+    from simbridge.sim.runner import SimulationSession
 
     path = two_arm_scene(tmp_path)
     scene = yaml.safe_load(path.read_text())

@@ -10,7 +10,7 @@ from urllib.parse import unquote, urlparse
 
 import yaml
 
-from simbridge.sim.ros.session import description_params
+from simbridge.sim.ros import description_params
 from simbridge.sim.scene import load_scene
 from simbridge.sim.urdf import load_urdf
 from simbridge.sim.urdf.description import robot_description

@@ -19,7 +19,7 @@ import yaml
 from simbridge.apps.mobile_robot import SCENE_PATH
 from simbridge.endpoint import EndpointOptions, EndpointThread, LocalBus, Node
 from simbridge.messages import ros2_registry
-from simbridge.sim.ros import SimulationSession
+from simbridge.sim.runner import SimulationSession
 
 REG2 = ros2_registry()
 TOPICS = {

@@ -182,7 +182,7 @@ def test_trajectory_message_conversion() -> None:
 def test_session_serves_scene_with_sensors(tmp_path: Path) -> None:
     import yaml
 
-    from simbridge.sim.ros import SimulationSession
+    from simbridge.sim.runner import SimulationSession
 
     (tmp_path / "arm.urdf").write_text(GRAVITY_ARM)
     (tmp_path / "scene.yaml").write_text(
@@ -223,7 +223,7 @@ def test_session_serves_scene_with_sensors(tmp_path: Path) -> None:
 @pytest.mark.parametrize("text", ["localhost", "host:0", "host:http", ":99999"])
 def test_bad_endpoint_text(text: str) -> None:
     from simbridge.errors import SimError
-    from simbridge.sim.ros import parse_endpoint
+    from simbridge.sim.runner import parse_endpoint
 
     with pytest.raises(SimError, match="is not host:port"):
         parse_endpoint(text)
@@ -233,7 +233,7 @@ def test_bad_endpoint_text(text: str) -> None:
 def test_sensors_nobody_subscribes_to_cost_nothing(tmp_path: Path) -> None:
     import yaml
 
-    from simbridge.sim.ros import SimulationSession
+    from simbridge.sim.runner import SimulationSession
 
     (tmp_path / "arm.urdf").write_text(GRAVITY_ARM)
     imu = {"type": "imu", "body": "fore", "rate": 50}

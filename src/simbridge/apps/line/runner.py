@@ -45,7 +45,7 @@ from simbridge.endpoint import (
 from simbridge.endpoint.backends.ros1 import unique_node_name
 from simbridge.errors import AppError, SimbridgeError
 from simbridge.sim.record import RecordOptions
-from simbridge.sim.ros import SimulationSession
+from simbridge.sim.runner import SimulationSession
 from simbridge.sim.view import LiveView, ViewOptions
 from simbridge.sim.world import World
 

@@ -31,8 +31,7 @@ from simbridge.endpoint.backends.ros1 import unique_node_name
 from simbridge.errors import AppError
 from simbridge.sim import World
 from simbridge.sim.record import Recorder, RecordOptions
-from simbridge.sim.ros import StatePublisher
-from simbridge.sim.ros.session import description_params
+from simbridge.sim.ros import StatePublisher, description_params
 from simbridge.sim.scene import RosSettings
 from simbridge.sim.view import LiveView, ViewOptions
 

@@ -15,10 +15,10 @@ from simbridge.sim.ros.convert import (
 from simbridge.sim.ros.gripper_controller import GripperActionController
 from simbridge.sim.ros.group_controller import GroupCommandController
 from simbridge.sim.ros.names import RobotNames, resolve_name
+from simbridge.sim.ros.params import description_params
 from simbridge.sim.ros.robot_bridge import RobotBridge
 from simbridge.sim.ros.sensor_publisher import SensorPublisher
 from simbridge.sim.ros.services import STEP_SRV, ControlServices
-from simbridge.sim.ros.session import SimulationSession, parse_endpoint, run_scene
 from simbridge.sim.ros.state_publisher import StatePublisher
 from simbridge.sim.ros.trajectory_controller import JointTrajectoryController
 
@@ -34,15 +34,13 @@ __all__ = [
     "RobotNames",
     "SensorPublisher",
     "SimRosBridge",
-    "SimulationSession",
     "StampMaker",
     "StatePublisher",
+    "description_params",
     "duration_seconds",
     "joint_state_message",
     "measure_wheels",
-    "parse_endpoint",
     "resolve_name",
-    "run_scene",
     "tf_message",
     "trajectory_from_message",
 ]

@@ -1,4 +1,5 @@
-"""A simulation with its ROS side: what `simbridge sim SCENE.yaml --endpoint host:port` runs."""
+"""The sim's top-level runner: a scene's world with its ROS side, recording and live view;
+what `simbridge sim SCENE.yaml [--endpoint host:port]` runs."""
 
 from __future__ import annotations
 
@@ -13,19 +14,18 @@ from simbridge.errors import SimError
 from simbridge.progress import Ticker
 from simbridge.sim.record import Recorder, RecordOptions
 from simbridge.sim.ros.bridge import SimRosBridge
-from simbridge.sim.ros.names import resolve_name
+from simbridge.sim.ros.params import description_params
 from simbridge.sim.ros.robot_bridge import RobotBridge
 from simbridge.sim.ros.sensor_publisher import SensorPublisher
 from simbridge.sim.scene.loader import load_scene
 from simbridge.sim.scene.model import Scene
 from simbridge.sim.sensors import SensorSuite
-from simbridge.sim.urdf.description import robot_description
 from simbridge.sim.view import LiveView, ViewOptions
 from simbridge.sim.world.world import ModelExtension, RunStats, World
 
-__all__ = ["SimulationSession", "description_params", "parse_endpoint", "run_scene"]
+__all__ = ["SimulationSession", "parse_endpoint", "run_scene"]
 
-_log = logging.getLogger("simbridge.sim.ros")
+_log = logging.getLogger("simbridge.sim.runner")
 
 
 def parse_endpoint(text: str) -> tuple[str, int]:
@@ -38,26 +38,6 @@ def parse_endpoint(text: str) -> tuple[str, int]:
     if not sep or not 0 < port < 65536:
         raise SimError(f"endpoint '{text}' is not host:port (e.g. 127.0.0.1:10000)")
     return host or "127.0.0.1", port
-
-
-def description_params(world: World) -> dict[str, str]:
-    """The `robot_description` parameter of every robot in `world`: `<ns>/robot_description`
-    for a robot with a `ros:` namespace, `/robot_description` for the robot of a scene
-    without one (`/<robot name>/robot_description` each when several share the root)."""
-    params: dict[str, str] = {}
-    plain = [r for r in world.robots.values() if r.built.spec.ros is None]
-    for robot in world.robots.values():
-        ros = robot.built.spec.ros
-        if ros is not None:
-            name = resolve_name(ros.namespace, "robot_description")
-        elif len(plain) == 1:
-            name = "/robot_description"
-        else:
-            name = f"/{robot.name}/robot_description"
-        if name in params:
-            _log.warning("robots share the namespace of %s; RViz sees only one of them", name)
-        params[name] = robot_description(robot.robot)
-    return params
 
 
 class SimulationSession:
