@@ -22,6 +22,7 @@ LAYERS = [
     "apps",
     "gym",
     "planning",
+    "perception",
     "sim",
     "connector",
     "endpoint",
@@ -31,12 +32,23 @@ LAYERS = [
 ALLOWED: dict[str, set[str]] = {
     "cli": set(LAYERS),
     # Ray runs beside apps and gym and drives them (only it and cli know Ray exists).
-    "cluster": {"cluster", "gym", "planning", "sim", "connector", "messages"},
-    "apps": {"apps", "planning", "sim", "connector", "endpoint", "protocol", "messages"},
+    "cluster": {"cluster", "gym", "planning", "perception", "sim", "connector", "messages"},
+    "apps": {
+        "apps",
+        "planning",
+        "perception",
+        "sim",
+        "connector",
+        "endpoint",
+        "protocol",
+        "messages",
+    },
     # Learning envs sit beside apps: scenes from sim (apps' scene files by path only), the
     # connector for the policy node on the ROS side.
     "gym": {"gym", "planning", "sim", "connector", "messages"},
     "planning": {"planning", "sim", "messages"},
+    # Datasets of labelled images: scenes posed and rendered by sim, nothing above it.
+    "perception": {"perception", "sim"},
     "sim": {"sim", "connector", "protocol", "messages"},
     "connector": {"connector", "protocol", "messages"},
     "endpoint": {"endpoint", "protocol", "messages"},

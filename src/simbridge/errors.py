@@ -12,6 +12,7 @@ __all__ = [
     "EndpointError",
     "GymError",
     "MessageError",
+    "PerceptionError",
     "PlanningError",
     "ProtocolError",
     "ServiceError",
@@ -72,6 +73,10 @@ class AppError(SimbridgeError):
 
 class GymError(SimbridgeError):
     """A learning environment (simbridge.gym) was configured or used wrongly."""
+
+
+class PerceptionError(SimbridgeError):
+    """Perception data (simbridge.perception) was configured or written wrongly."""
 
 
 class ClusterError(SimbridgeError):

@@ -260,6 +260,7 @@ def _robot(section: _Section, base_dir: Path) -> RobotSpec:
         armature=section.get("armature", _non_negative, RobotSpec.armature),
         effort_limits=section.get("effort_limits", _choice(EFFORT_POLICIES), "urdf"),
         collada_up_axis=section.get("collada_up_axis", _choice(("ignore", "honour")), "ignore"),
+        label=section.optional("label", _str),
     )
     section.done(
         (
@@ -277,6 +278,7 @@ def _robot(section: _Section, base_dir: Path) -> RobotSpec:
             "effort_limits",
             "collada_up_axis",
             "ros",
+            "label",
         )
     )
     if not spec.urdf.is_file():
@@ -466,11 +468,24 @@ def _object(section: _Section, base_dir: Path) -> ObjectSpec:
         rgba=(r, g, b, a),
         mesh=section.optional("mesh", _path(base_dir)),
         mesh_scale=section.get("scale", _vec3, (1.0, 1.0, 1.0)),
+        label=section.optional("label", _str),
     )
     if shape == "mesh" and spec.mesh is None:
         raise section.where.error("a mesh object needs key 'mesh' (a file)")
     section.done(
-        ("name", "type", "size", "pose", "dynamic", "mass", "friction", "rgba", "mesh", "scale")
+        (
+            "name",
+            "type",
+            "size",
+            "pose",
+            "dynamic",
+            "mass",
+            "friction",
+            "rgba",
+            "mesh",
+            "scale",
+            "label",
+        )
     )
     return spec
 
@@ -622,7 +637,10 @@ def parse_scene(data: object, base_dir: Path, source: Path | None = None) -> Sce
     Errors name the entry, and the file and line when `data` came from `load_scene`."""
     root = _Section(data, Where("", str(source) if source is not None else None, None))
     locations: dict[str, Where] = {}
-    root.done(("physics", "robots", "objects", "lights", "ros", "sensors", "strict"))
+    root.done(("physics", "robots", "objects", "lights", "ros", "sensors", "strict", "perception"))
+    perception = root.data.get("perception")
+    if perception is not None and not isinstance(perception, Mapping):
+        raise root.key("perception").error(f"expected a mapping of keys, got {_kind(perception)}")
     scene = Scene(
         physics=_physics(root.sub("physics")),
         robots=tuple(_robot(s, base_dir) for s in root.items("robots")),
@@ -632,6 +650,7 @@ def parse_scene(data: object, base_dir: Path, source: Path | None = None) -> Sce
         sensors=tuple(_sensor(s, locations) for s in root.items("sensors")),
         source=source,
         strict=root.get("strict", _bool, False),
+        perception=perception,
         locations=locations,
     )
     _unique(root, "objects", [o.name for o in scene.objects])

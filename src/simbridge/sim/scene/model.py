@@ -84,6 +84,8 @@ class RobotSpec:
     ros: RobotRos | None = None
     """The robot's own ROS interface (namespace, frame prefix, topics); None: the robot is
     served by the scene-wide `ros:` section as before."""
+    label: str | None = None
+    """Class name for perception data (simbridge.perception): the robot is one instance."""
 
 
 @dataclass(frozen=True)
@@ -104,6 +106,8 @@ class ObjectSpec:
     rgba: tuple[float, float, float, float] = (0.6, 0.6, 0.6, 1.0)
     mesh: Path | None = None
     mesh_scale: Vec3 = (1.0, 1.0, 1.0)
+    label: str | None = None
+    """Class name for perception data (simbridge.perception); None: not labelled."""
 
 
 @dataclass(frozen=True)
@@ -242,6 +246,8 @@ class Scene:
     strict: bool = False
     """Refuse what is otherwise tolerated with a warning (duplicate URDF definitions,
     out-of-range initial positions...)."""
+    perception: Mapping[str, Any] | None = field(default=None, compare=False)
+    """The raw `perception:` section (line-aware); `simbridge.perception` interprets it."""
     locations: Mapping[str, Where] = field(default_factory=dict, compare=False)
     """Entries checked only when the scene is built (`sensors[1].body`: a sensor's mount
     body) -> where they stand in the file, for the error."""

@@ -1,0 +1,162 @@
+"""Making one labelled frame: put the scene back as compiled, apply the randomisers (seeded
+by the dataset seed and the frame index only), render every camera, label what it sees."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import mujoco
+import numpy as np
+from numpy.typing import NDArray
+
+from simbridge.errors import PerceptionError
+from simbridge.perception.annotate import ViewLabels, annotate
+from simbridge.perception.camera import CameraView
+from simbridge.perception.config import PerceptionConfig, parse_perception
+from simbridge.perception.labels import LabelTable
+from simbridge.perception.randomizers import (
+    Baseline,
+    DistractorsRandomizer,
+    FrameState,
+    frame_rng,
+)
+from simbridge.perception.render import Rendered, ViewRenderer
+from simbridge.perception.shapes import ShapeCache
+from simbridge.sim import Scene, World, load_scene
+from simbridge.sim.urdf.document import MjcfDocument
+
+__all__ = ["Frame", "FrameMaker", "View"]
+
+_SEGMENTATION_LABELERS = {"semantic", "instance", "boxes_2d", "keypoints"}
+
+
+@dataclass
+class View:
+    """One camera's images and labels in a frame."""
+
+    camera: CameraView
+    rgb: NDArray[np.uint8] | None
+    depth: NDArray[np.float32] | None
+    labels: ViewLabels
+
+
+@dataclass
+class Frame:
+    """A labelled frame: one view per camera, in the order the cameras are declared."""
+
+    index: int
+    views: list[View]
+
+
+class FrameMaker:
+    """A scene built once for making frames; `make(i)` is a function of (seed, i) alone."""
+
+    def __init__(self, scene: Scene | str | Path, seed: int = 0) -> None:
+        if not isinstance(scene, Scene):
+            scene = load_scene(scene)
+        self.scene = scene
+        self.seed = seed
+        self.config: PerceptionConfig = parse_perception(scene)
+
+        def extend(document: MjcfDocument) -> None:
+            for randomizer in self.config.randomizers:
+                randomizer.extend(document)
+
+        # The physics never runs: no ROS, no sensors; the world is posed, not stepped.
+        self.world = World.from_scene(replace(scene, sensors=()), [extend])
+        for randomizer in self.config.randomizers:
+            randomizer.bind(self.world)
+        self.baseline = Baseline(self.world.model)
+        distractors = [
+            (name, label, self.world.model.body(name).id)
+            for r in self.config.randomizers
+            if isinstance(r, DistractorsRandomizer)
+            for name, label in r.labelled_slots()
+        ]
+        self.table = LabelTable.build(
+            self.world.model,
+            scene,
+            robot_bodies={n: list(r.bodies.values()) for n, r in self.world.robots.items()},
+            rules=self.config.rules,
+            distractors=distractors,
+            classes=self.config.classes,
+        )
+        self.shapes = ShapeCache(self.world.model)
+        # MuJoCo bakes part of the model into a GL context when it makes one (each plane's
+        # grid from its geom and its material's texture repeat): every renderer is made now,
+        # from the model as compiled, so no frame depends on which one a process drew first.
+        self._renderers = {
+            size: ViewRenderer(self.world.model, size[0], size[1], self.config.render)
+            for size in sorted({(c.width, c.height) for c in self.config.cameras})
+        }
+        labelers = self.config.labelers
+        image_steps = [r for r in self.config.randomizers if r.image_step]
+        self._want_seg = bool(labelers & _SEGMENTATION_LABELERS) or any(
+            r.needs_segmentation for r in image_steps
+        )
+
+    def _renderer(self, width: int, height: int) -> ViewRenderer:
+        renderer = self._renderers.get((width, height))
+        if renderer is None:
+            raise PerceptionError(
+                f"no renderer of {width}x{height}: views keep their camera's declared size"
+            )
+        return renderer
+
+    def pose(self, index: int) -> FrameState:
+        """Frame `index`'s scene: the baseline, then each scene randomiser in order."""
+        self.baseline.restore()
+        self.world.restore_initial()
+        views = {spec.name: spec.view() for spec in self.config.cameras}
+        state = FrameState(self.world, views, index)
+        for k, randomizer in enumerate(self.config.randomizers):
+            if not randomizer.image_step:
+                randomizer.apply(state, frame_rng(self.seed, index, k))
+        mujoco.mj_forward(self.world.model, self.world.data)
+        return state
+
+    def render(self, view: CameraView, *, labelled: bool = True) -> Rendered:
+        """The images of one view of the posed scene (`labelled=False`: RGB alone)."""
+        labelers = self.config.labelers
+        renderer = self._renderer(view.width, view.height)
+        return renderer.render(
+            self.world.data,
+            view,
+            rgb="rgb" in labelers or not labelled,
+            depth=labelled and "depth" in labelers,
+            segmentation=labelled and self._want_seg,
+        )
+
+    def make(self, index: int) -> Frame:
+        """Frame `index`, rendered and labelled."""
+        state = self.pose(index)
+        views = []
+        for c, spec in enumerate(self.config.cameras):
+            view = state.views[spec.name]
+            rendered = self.render(view)
+            labels = annotate(
+                self.world.model,
+                self.world.data,
+                view,
+                rendered,
+                table=self.table,
+                shapes=self.shapes,
+                labelers=self.config.labelers,
+                near=self._renderer(view.width, view.height).near,
+            )
+            rgb = rendered.rgb
+            if rgb is not None:
+                for k, step in enumerate(self.config.randomizers):
+                    if step.image_step:
+                        rgb = step.post(
+                            rgb, rendered.segmentation, frame_rng(self.seed, index, k, c)
+                        )
+            views.append(View(view, rgb, rendered.depth, labels))
+        return Frame(index, views)
+
+    def close(self) -> None:
+        """Free the renderers."""
+        for renderer in self._renderers.values():
+            renderer.close()
+        self._renderers.clear()
