@@ -14,13 +14,18 @@ from tests.connector.fake_endpoint import FakeEndpoint
 
 FAST = ConnectorOptions(
     keepalive_interval=0.2,
-    dead_timeout=0.6,
+    dead_timeout=10.0,
     connect_timeout=1.0,
     reconnect_initial=0.1,
     reconnect_max=0.4,
-    service_timeout=3.0,
-    request_timeout=3.0,
+    service_timeout=30.0,
+    request_timeout=30.0,
 )
+"""Quick keepalives and reconnects; generous bounds for what a loaded machine can stretch
+(a dead peer, a service answer). Tests of the bounds themselves set short ones of their own."""
+
+QUICK_DEAD = 0.6
+"""The dead timeout of tests that wait for a silent peer to be noticed."""
 
 WORKERS = {"simbridge-connector-1", "simbridge-connector-2"}
 """The names of a connector's two dispatcher workers (they read and run callbacks)."""

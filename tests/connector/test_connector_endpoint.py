@@ -22,7 +22,7 @@ from simbridge.connector import Connector, ConnectorOptions
 from simbridge.endpoint import EndpointOptions, EndpointThread, LocalBus, Node
 from simbridge.errors import ServiceError
 from simbridge.messages import MessageRegistry, default_registry, registry_for
-from tests.connector.conftest import FAST
+from tests.connector.conftest import FAST, QUICK_DEAD
 from tests.waiting import wait_for
 
 REG = default_registry()
@@ -267,7 +267,7 @@ def test_traffic_resumes_after_endpoint_restart_without_reregistering():
 
 def test_a_silent_endpoint_is_detected_by_the_dead_timeout(make_connector):
     with EndpointThread(EndpointOptions(port=0, keepalive_interval=0.2)) as ep:
-        options = dataclasses.replace(FAST, dead_timeout=0.6)
+        options = dataclasses.replace(FAST, dead_timeout=QUICK_DEAD)
         sim = make_connector(ep.port, options).connect()
         assert wait_for(lambda: sim.handshake is not None)
         assert sim.handshake is not None

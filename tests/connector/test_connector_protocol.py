@@ -34,7 +34,7 @@ from simbridge.protocol import (
     UnityService,
     WarnMessage,
 )
-from tests.connector.conftest import FAST, WORKERS
+from tests.connector.conftest import FAST, QUICK_DEAD, WORKERS
 from tests.connector.fake_endpoint import FakeEndpoint
 from tests.waiting import wait_for
 
@@ -116,7 +116,8 @@ def test_no_keepalive_while_busy(endpoint: FakeEndpoint, make_connector):
 
 def test_silent_endpoint_is_detected_and_reconnected(make_connector):
     with FakeEndpoint(keepalive=0.2) as ep:
-        conn = make_connector(ep.port).connect()
+        conn = make_connector(ep.port, dataclasses.replace(FAST, dead_timeout=QUICK_DEAD))
+        conn.connect()
         assert ep.wait_for(lambda: conn.handshake is not None)
         ep.silent = True
         assert ep.wait_for(lambda: not conn.connected, timeout=60.0)
@@ -142,9 +143,10 @@ def test_slow_announced_keepalive_stretches_the_dead_timeout(make_connector):
 
 def test_original_endpoint_without_keepalives_is_not_dropped(make_connector):
     with FakeEndpoint(keepalive=None) as ep:
-        conn = make_connector(ep.port).connect()
+        conn = make_connector(ep.port, dataclasses.replace(FAST, dead_timeout=QUICK_DEAD))
+        conn.connect()
         assert ep.wait_for(lambda: conn.handshake is not None)
-        time.sleep(FAST.dead_timeout * 2)
+        time.sleep(QUICK_DEAD * 2)
         assert conn.connected
         assert len(ep.conns) == 1
 
