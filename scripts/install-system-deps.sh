@@ -20,14 +20,14 @@ PACKAGES=(
   # robot_state_publisher and tf2 buffers: the sim's /tf against RSP fed its /joint_states
   # (tests/e2e/test_ros1_robot_state_publisher.py)
   ros-robot-state-publisher python3-tf2-ros
-  # `rosbag info` of the sim's ROS 1 recordings (tests/sim/test_record.py)
+  # `rosbag info` of the sim's ROS 1 recordings (tests/sim/record/test_record.py)
   python3-rosbag
   # ROS 2 interface packages are compiled into .venv-ros2 (`simbridge msg build`); the
   # localhost-only test runs DDS in a private network namespace (unshare, ip)
   gcc g++ util-linux iproute2
   # real actionlib clients against the sim's controllers (tests/e2e/test_ros1_actionlib.py)
   python3-actionlib python3-actionlib-msgs
-  # headless Chromium opens the live view (`simbridge sim --view`) in tests/sim/test_view.py
+  # headless Chromium opens the live view (`simbridge sim --view`) in tests/sim/view/test_view.py
   chromium
   # RViz for ROS 1 (`simbridge rviz`), drawn under Xvfb in tests/e2e/test_rviz.py, which
   # reads the screenshot from Xvfb's framebuffer file (-fbdir); nothing else is needed

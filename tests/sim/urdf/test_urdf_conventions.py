@@ -12,7 +12,7 @@ from simbridge.errors import UrdfError
 from simbridge.sim.urdf import UrdfWarning, load_urdf, robot_to_mjcf
 
 # A joint defined twice with the same parent and child: a true duplicate (a joint name
-# reused for another child is another joint: tests/sim/test_urdf_reused_joint_name.py).
+# reused for another child is another joint: tests/sim/urdf/test_urdf_reused_joint_name.py).
 DUPLICATE_JOINT = """<robot name="dup">
   <link name="hand"><inertial><mass value="1"/>
     <inertia ixx="0.01" iyy="0.01" izz="0.01"/></inertial></link>

@@ -25,7 +25,7 @@ from simbridge.sim.urdf import (
     robot_to_mjcf,
 )
 
-ASSET = Path(__file__).parent / "assets" / "unity_niryo_shape.urdf"
+ASSET = Path(__file__).parents[1] / "assets" / "unity_niryo_shape.urdf"
 ARM = [f"joint_{i}" for i in range(1, 7)]
 FINGERS = ["left_gripper_joint", "right_gripper_joint"]
 

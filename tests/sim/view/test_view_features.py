@@ -17,7 +17,7 @@ from simbridge.errors import SimError
 from simbridge.sim.scene import load_scene
 from simbridge.sim.view import LiveView, ViewOptions, free_bodies
 from simbridge.sim.world import World
-from tests.sim.test_view import ARM
+from tests.sim.view.test_view import ARM
 
 pytest.importorskip("viser")
 
