@@ -287,7 +287,7 @@ def test_package_uri_with_three_slashes_resolves(tmp_path: Path) -> None:
 def test_vanishing_inertia_is_replaced(tmp_path: Path) -> None:
     # iCub's ankle: principal moments of 1e-20 kg m^2, which MuJoCo refuses
     from simbridge.sim.urdf import inertial_problem
-    from simbridge.sim.urdf.model import Inertial
+    from simbridge.sim.urdf.robot import Inertial
 
     problem = inertial_problem(Inertial(0.746, ixx=2.7e-20, iyy=5.4e-20, izz=1.4e-20))
     assert problem is not None

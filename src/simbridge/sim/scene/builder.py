@@ -18,7 +18,7 @@ from simbridge.sim.urdf.inertia import inertial_from_collisions
 from simbridge.sim.urdf.loader import load_urdf
 from simbridge.sim.urdf.meshes import MeshCache
 from simbridge.sim.urdf.mjcf import MjcfOptions, RobotMjcf, add_robot
-from simbridge.sim.urdf.model import (
+from simbridge.sim.urdf.robot import (
     Box,
     Collision,
     Cylinder,

@@ -10,7 +10,7 @@ import numpy as np
 
 from simbridge.errors import SimError
 from simbridge.sim.urdf.kinematics import JointValue, forward_kinematics
-from simbridge.sim.urdf.model import Inertial, JointType, Robot
+from simbridge.sim.urdf.robot import Inertial, JointType, Robot
 from simbridge.sim.urdf.transforms import Transform, Vec3
 
 __all__ = ["EFFORT_POLICIES", "SCALE_MARGIN", "effort_limits", "gravity_torques"]

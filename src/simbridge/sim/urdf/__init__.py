@@ -17,7 +17,17 @@ from simbridge.sim.urdf.mjcf import (
     add_robot,
     robot_to_mjcf,
 )
-from simbridge.sim.urdf.model import (
+from simbridge.sim.urdf.parser import parse_urdf
+from simbridge.sim.urdf.report import (
+    check_report,
+    fk_poses,
+    parse_joint_assignments,
+    parse_xacro_args,
+    urdf_check,
+    urdf_fk,
+)
+from simbridge.sim.urdf.resources import ResourceResolver
+from simbridge.sim.urdf.robot import (
     Box,
     Collision,
     Cylinder,
@@ -36,16 +46,6 @@ from simbridge.sim.urdf.model import (
     Sphere,
     Visual,
 )
-from simbridge.sim.urdf.parser import parse_urdf
-from simbridge.sim.urdf.report import (
-    check_report,
-    fk_poses,
-    parse_joint_assignments,
-    parse_xacro_args,
-    urdf_check,
-    urdf_fk,
-)
-from simbridge.sim.urdf.resources import ResourceResolver
 from simbridge.sim.urdf.transforms import Transform
 
 __all__ = [

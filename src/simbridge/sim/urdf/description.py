@@ -14,7 +14,7 @@ import logging
 import re
 from xml.sax.saxutils import quoteattr
 
-from simbridge.sim.urdf.model import Mesh, Robot
+from simbridge.sim.urdf.robot import Mesh, Robot
 
 __all__ = ["robot_description"]
 

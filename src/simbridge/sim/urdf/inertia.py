@@ -10,7 +10,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from simbridge.sim.urdf.meshes import MeshCache
-from simbridge.sim.urdf.model import Box, Collision, Cylinder, Inertial, Link, Mesh, Origin, Sphere
+from simbridge.sim.urdf.robot import Box, Collision, Cylinder, Inertial, Link, Mesh, Origin, Sphere
 
 __all__ = ["InertiaPolicy", "inertial_from_collisions", "inertial_problem", "resolve_inertial"]
 

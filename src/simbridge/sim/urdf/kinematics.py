@@ -9,7 +9,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from simbridge.errors import UrdfError
-from simbridge.sim.urdf.model import Joint, JointType, Robot
+from simbridge.sim.urdf.robot import Joint, JointType, Robot
 from simbridge.sim.urdf.transforms import Transform, axis_angle_matrix, quat_wxyz_to_matrix
 
 __all__ = ["JointValue", "forward_kinematics", "joint_motion", "plane_basis"]

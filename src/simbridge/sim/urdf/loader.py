@@ -11,9 +11,9 @@ import xacro
 from xacro import substitution_args
 
 from simbridge.errors import UrdfError
-from simbridge.sim.urdf.model import Robot
 from simbridge.sim.urdf.parser import parse_urdf
 from simbridge.sim.urdf.resources import ResourceResolver
+from simbridge.sim.urdf.robot import Robot
 
 __all__ = ["expand_xacro", "is_xacro", "load_urdf", "load_urdf_string"]
 

@@ -20,7 +20,7 @@ from simbridge.sim.urdf.document import MjcfDocument, fmt
 from simbridge.sim.urdf.inertia import InertiaPolicy, resolve_inertial
 from simbridge.sim.urdf.kinematics import plane_basis
 from simbridge.sim.urdf.meshes import MeshCache, MeshPart
-from simbridge.sim.urdf.model import (
+from simbridge.sim.urdf.robot import (
     Box,
     Cylinder,
     Geometry,

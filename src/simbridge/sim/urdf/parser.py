@@ -20,7 +20,8 @@ from pathlib import Path
 
 from simbridge.errors import UrdfError
 from simbridge.sim.urdf.diagnostics import UrdfWarning
-from simbridge.sim.urdf.model import (
+from simbridge.sim.urdf.resources import ResourceResolver
+from simbridge.sim.urdf.robot import (
     Box,
     Collision,
     Cylinder,
@@ -39,7 +40,6 @@ from simbridge.sim.urdf.model import (
     Sphere,
     Visual,
 )
-from simbridge.sim.urdf.resources import ResourceResolver
 from simbridge.sim.urdf.transforms import Vec3
 from simbridge.sim.urdf.xmllines import SourceTree, parse_with_lines
 

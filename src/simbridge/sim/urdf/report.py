@@ -12,7 +12,7 @@ from simbridge.sim.urdf.diagnostics import UrdfWarning
 from simbridge.sim.urdf.kinematics import JointValue, forward_kinematics
 from simbridge.sim.urdf.loader import load_urdf
 from simbridge.sim.urdf.mjcf import robot_to_mjcf
-from simbridge.sim.urdf.model import Joint, JointType, Robot
+from simbridge.sim.urdf.robot import Joint, JointType, Robot
 
 __all__ = [
     "check_report",

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import mujoco
 
 from simbridge.sim.scene.builder import BuiltRobot
-from simbridge.sim.urdf.model import Joint, JointType, Robot
+from simbridge.sim.urdf.robot import Joint, JointType, Robot
 
 __all__ = ["JointSlot", "RobotHandle"]
 
