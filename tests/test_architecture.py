@@ -8,6 +8,7 @@ import pkgutil
 from pathlib import Path
 
 import pytest
+from scripts.import_graph import circles, graph, module_names, within
 
 import simbridge
 
@@ -140,122 +141,34 @@ ENDPOINT_PARTS: dict[str, set[str]] = {
 """The most specific entry that contains a module applies (so ros1 and ros2 never import
 each other)."""
 
-
-def _module_names() -> dict[str, Path]:
-    """Every module of simbridge by dotted name below `simbridge.` (a package by its own)."""
-    names: dict[str, Path] = {}
-    for path in sorted(SRC.rglob("*.py")):
-        parts = list(path.relative_to(SRC).with_suffix("").parts)
-        if parts[-1] == "__init__":
-            parts.pop()
-        if parts:
-            names[".".join(parts)] = path
-    return names
-
-
-MODULES = _module_names()
-
-
-def _resolve(name: str) -> str | None:
-    """The module `simbridge.NAME` imports: NAME itself, or the deepest module above it
-    (`pkg.mod.Class` is `pkg.mod`)."""
-    while name and name not in MODULES:
-        name = name.rpartition(".")[0]
-    return name or None
-
-
-def _module_imports(name: str) -> set[str]:
-    """The simbridge modules `name` imports, anywhere in its source."""
-    path = MODULES[name]
-    package = name if path.name == "__init__.py" else name.rpartition(".")[0]
-    found: set[str] = set()
-    for node in ast.walk(ast.parse(path.read_text())):
-        targets: list[str] = []
-        if isinstance(node, ast.Import):
-            targets = [alias.name for alias in node.names]
-        elif isinstance(node, ast.ImportFrom):
-            base = node.module or ""
-            if node.level:
-                anchor = "simbridge." + package
-                for _ in range(node.level - 1):
-                    anchor = anchor.rpartition(".")[0]
-                base = f"{anchor}.{base}" if base else anchor
-            targets = [base, *(f"{base}.{alias.name}" for alias in node.names)]
-        for target in targets:
-            if target.startswith("simbridge."):
-                resolved = _resolve(target.removeprefix("simbridge."))
-                if resolved is not None and resolved != name:
-                    found.add(resolved)
-    return found
-
-
-def _within(name: str, part: str) -> bool:
-    return name == part or name.startswith(part + ".")
+MODULES = module_names(SRC)
+"""Every module of simbridge by dotted name below `simbridge.`."""
 
 
 def _endpoint_graph() -> dict[str, set[str]]:
     """Each endpoint module's imports of other endpoint modules."""
-    return {
-        name: {t for t in _module_imports(name) if _within(t, ENDPOINT)}
-        for name in MODULES
-        if _within(name, ENDPOINT)
-    }
-
-
-def _circles(graph: dict[str, set[str]]) -> list[list[str]]:
-    """The strongly connected groups of more than one module (Tarjan's algorithm)."""
-    index: dict[str, int] = {}
-    low: dict[str, int] = {}
-    stack: list[str] = []
-    on_stack: set[str] = set()
-    found: list[list[str]] = []
-
-    def visit(node: str) -> None:
-        index[node] = low[node] = len(index)
-        stack.append(node)
-        on_stack.add(node)
-        for target in sorted(graph.get(node, ())):
-            if target not in index:
-                visit(target)
-                low[node] = min(low[node], low[target])
-            elif target in on_stack:
-                low[node] = min(low[node], index[target])
-        if low[node] == index[node]:
-            group = []
-            while True:
-                member = stack.pop()
-                on_stack.discard(member)
-                group.append(member)
-                if member == node:
-                    break
-            if len(group) > 1:
-                found.append(sorted(group))
-
-    for node in sorted(graph):
-        if node not in index:
-            visit(node)
-    return found
+    return graph(MODULES, ENDPOINT)
 
 
 def test_endpoint_has_no_import_circles() -> None:
-    circles = _circles(_endpoint_graph())
-    assert not circles, "\n".join(" <-> ".join(group) for group in circles)
+    found = circles(_endpoint_graph())
+    assert not found, "\n".join(" <-> ".join(group) for group in found)
 
 
 def test_circles_are_found() -> None:
-    assert _circles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
-    assert _circles({"a": {"b"}, "b": set()}) == []
+    assert circles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
+    assert circles({"a": {"b"}, "b": set()}) == []
 
 
 def test_endpoint_parts_import_only_what_lies_below_them() -> None:
     violations = []
     for name, targets in sorted(_endpoint_graph().items()):
-        parts = [part for part in ENDPOINT_PARTS if _within(name, part)]
+        parts = [part for part in ENDPOINT_PARTS if within(name, part)]
         if not parts:
             continue
         allowed = ENDPOINT_PARTS[max(parts, key=len)]
         for target in sorted(targets - SHARED_LEAVES):
-            if not any(_within(target, part) for part in allowed):
+            if not any(within(target, part) for part in allowed):
                 violations.append(f"{name} imports {target}")
     assert not violations, "\n".join(violations)
 
@@ -287,25 +200,21 @@ The top-level runner (SimulationSession, run_scene) sits above ROS, recording an
 
 def _sim_graph() -> dict[str, set[str]]:
     """Each sim module's imports of other sim modules."""
-    return {
-        name: {t for t in _module_imports(name) if _within(t, SIM)}
-        for name in MODULES
-        if _within(name, SIM)
-    }
+    return graph(MODULES, SIM)
 
 
 def _sim_level(name: str) -> tuple[int, str] | None:
     """(level, part) of a sim module; None for the face."""
     for level, parts in enumerate(SIM_LEVELS):
         for part in parts:
-            if _within(name, part):
+            if within(name, part):
                 return level, part
     return None
 
 
 def test_sim_has_no_import_circles() -> None:
-    circles = _circles(_sim_graph())
-    assert not circles, "\n".join(" <-> ".join(group) for group in circles)
+    found = circles(_sim_graph())
+    assert not found, "\n".join(" <-> ".join(group) for group in found)
 
 
 def test_every_sim_module_has_a_level() -> None:

@@ -1,0 +1,1 @@
+"""Developer scripts; a package so the architecture test can use import_graph's graph code."""
