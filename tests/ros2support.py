@@ -22,6 +22,7 @@ import subprocess
 import tempfile
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -31,6 +32,7 @@ from simbridge.endpoint.backends.ros2 import clean_stale_shm, ros2_env, ros2_pyt
 
 __all__ = [
     "NODE_SCRIPT",
+    "ActionDriver",
     "Ros2Process",
     "child_env",
     "domain_id",
@@ -39,6 +41,7 @@ __all__ = [
 ]
 
 NODE_SCRIPT = Path(__file__).parent / "ros2" / "ros2_node.py"
+DRIVER_SCRIPT = Path(__file__).parent / "ros2" / "action_driver.py"
 
 _DOMAIN: int | None = None
 _DOMAIN_LOCK: int | None = None
@@ -90,10 +93,13 @@ def child_env() -> dict[str, str]:
 class Ros2Process:
     """A child process run with the ROS 2 venv's Python; stdout lines are collected."""
 
-    def __init__(self, args: list[str], *, env: dict[str, str] | None = None) -> None:
+    def __init__(
+        self, args: list[str], *, env: dict[str, str] | None = None, interactive: bool = False
+    ) -> None:
         python = require_ros2()
         self.proc = subprocess.Popen(
             [str(python), *args],
+            stdin=subprocess.PIPE if interactive else None,
             stdout=subprocess.PIPE,
             stderr=subprocess.STDOUT,
             env=env or child_env(),
@@ -108,6 +114,12 @@ class Ros2Process:
     def node(cls, *args: str) -> Ros2Process:
         """A helper node (see tests/ros2/ros2_node.py for the modes)."""
         return cls([str(NODE_SCRIPT), *args])
+
+    def send(self, obj: object) -> None:
+        """One JSON line to the child's stdin (an `interactive` one)."""
+        assert self.proc.stdin is not None, "not started interactive"
+        self.proc.stdin.write(json.dumps(obj) + "\n")
+        self.proc.stdin.flush()
 
     def _read(self) -> None:
         assert self.proc.stdout is not None
@@ -160,6 +172,48 @@ class Ros2Process:
 
     def __exit__(self, *exc: object) -> None:
         self.stop()
+
+
+class ActionDriver:
+    """tests/ros2/action_driver.py: plain rclpy ActionClients driven over stdin. Every JSON
+    line it printed is kept, so replies are found by key and tag in any order."""
+
+    def __init__(self) -> None:
+        self.proc = Ros2Process([str(DRIVER_SCRIPT)], interactive=True)
+        self.seen: list[dict[str, Any]] = []
+
+    def send(self, **command: Any) -> None:
+        self.proc.send(command)
+
+    def expect(self, test: Callable[[dict[str, Any]], bool], timeout: float = 60.0) -> Any:
+        """The first line (seen or coming) that passes `test`, taken out of `seen`."""
+        deadline = time.monotonic() + timeout
+        while True:
+            for i, obj in enumerate(self.seen):
+                if test(obj):
+                    return self.seen.pop(i)
+            left = deadline - time.monotonic()
+            if left <= 0 or self.proc.proc.poll() is not None:
+                raise AssertionError(
+                    f"no matching line in {timeout} s; output:\n" + "".join(self.proc.output[-30:])
+                )
+            try:
+                line = self.proc.lines.get(timeout=min(left, 0.2))
+            except queue.Empty:
+                continue
+            if line.startswith("{"):
+                self.seen.append(json.loads(line))
+
+    def reply(self, key: str, tag: str) -> Any:
+        return self.expect(lambda o: o.get(key) == tag)
+
+    def wait_ready(self, action: str, action_type: str) -> None:
+        self.send(op="wait", action=action, type=action_type)
+        assert self.reply("ready", action)["ok"] is True
+
+    def goal(self, tag: str, values: dict[str, Any], *, action: str, kind: str) -> None:
+        """Send a goal (`kind` pkg/action/Type, fields as JSON) tagged `tag`."""
+        self.send(op="goal", tag=tag, action=action, type=kind, goal=values)
 
 
 def start_endpoint(*extra: str) -> tuple[Ros2Process, int]:

@@ -12,12 +12,19 @@ from simbridge.connector.calls import ServiceHandler
 from simbridge.connector.connector import Connector
 from simbridge.connector.handles import MessageCallback, MessageTap, Publisher, Subscription
 from simbridge.connector.options import ConnectorOptions
+from simbridge.connector.ros2_action_server import (
+    AnyServerGoal,
+    Ros2ActionServer,
+    Ros2ServerGoal,
+    action_server,
+)
 from simbridge.connector.ros2_actions import Ros2ActionClient, Ros2ClientGoal, action_client
 from simbridge.connector.stats import ConnectorStats
 
 __all__ = [
     "ActionClient",
     "ActionServer",
+    "AnyServerGoal",
     "Connector",
     "ConnectorOptions",
     "ConnectorStats",
@@ -25,8 +32,11 @@ __all__ = [
     "MessageTap",
     "Publisher",
     "Ros2ActionClient",
+    "Ros2ActionServer",
     "Ros2ClientGoal",
+    "Ros2ServerGoal",
     "ServiceHandler",
     "Subscription",
     "action_client",
+    "action_server",
 ]

@@ -21,10 +21,12 @@ from simbridge.connector.calls import PendingCall, ServiceHandler, ServiceImpl
 from simbridge.connector.codec import is_raw
 from simbridge.connector.engine import ConnectorEngine
 from simbridge.connector.handles import MessageCallback, MessageTap, Publisher, Subscription
+from simbridge.connector.served import ServedHandler
 from simbridge.connector.stats import ConnectorStats
 from simbridge.connector.writer import OutTopic
 from simbridge.errors import ConnectorError, ServiceError
 from simbridge.protocol import (
+    ACTION_SERVERS_EXTENSION,
     MAX_COMMAND_SIZE,
     Command,
     RemovePublisher,
@@ -32,10 +34,12 @@ from simbridge.protocol import (
     RemoveSubscriber,
     RemoveUnityService,
     RosService,
+    ServeAction,
     SetParam,
     StatsRequest,
     TopicListRequest,
     UnityService,
+    UnserveAction,
 )
 
 if TYPE_CHECKING:
@@ -489,3 +493,26 @@ class Connector(ConnectorEngine):
         with self._lock:
             if self._unity_services.pop(service, None) is not None:
                 self._send_command(RemoveUnityService(service))
+
+    # ---- served ROS 2 actions (the `action_servers` extension) ---------------------------
+
+    def serve_action(self, action: str, handler: ServedHandler) -> None:
+        """Serve ROS 2 action `action` through the endpoint, now and after every reconnection;
+        its goal and cancel requests go to `handler` as callbacks (`Ros2ActionServer`)."""
+        _check_name(action, "action")
+        self._served.add(action, handler)
+        with self._lock:
+            if self._link is not None and ACTION_SERVERS_EXTENSION in self._extensions:
+                self._out.put_control(
+                    self._framer.command(ServeAction(action, handler.action_type))
+                )
+
+    def unserve_action(self, action: str, handler: ServedHandler) -> None:
+        """Stop serving `action` (if `handler` serves it); the endpoint aborts its goals."""
+        if self._served.remove(action, handler):
+            self.send_served(UnserveAction(action))
+
+    def send_served(self, command: Command) -> None:
+        """Send one of a served action's commands (answer, feedback, result); dropped while
+        not connected, as the endpoint aborted that connection's goals."""
+        self._send_served(command)

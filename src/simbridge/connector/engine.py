@@ -33,10 +33,12 @@ from simbridge.connector.handles import MessageTap, Publisher, Subscription
 from simbridge.connector.link import Link, open_link
 from simbridge.connector.options import ConnectorOptions
 from simbridge.connector.reader import FrameReader, Received
+from simbridge.connector.served import ServedRouter
 from simbridge.connector.stats import StatsCounters
 from simbridge.connector.writer import FrameWriter, OutTopic
 from simbridge.errors import ConnectorError
 from simbridge.protocol import (
+    ACTION_SERVERS_EXTENSION,
     DEFAULT_SUBSCRIBE_QUEUE,
     KEEPALIVE,
     Command,
@@ -148,6 +150,8 @@ class ConnectorEngine:
         """simbridge protocol extensions the current endpoint announced."""
         self._goals = GoalRouter()
         """ROS 2 action goals in flight (the `actions` extension)."""
+        self._served = ServedRouter(self._send_served)
+        """ROS 2 actions served from here (the `action_servers` extension)."""
         self._handshaken = False
         self.handshake: Handshake | None = None
         """The endpoint's latest handshake (version and metadata)."""
@@ -273,6 +277,8 @@ class ConnectorEngine:
                 frames.append(framer.command(RosService(service, srv_type)))
             for service, impl in self._unity_services.items():
                 frames.append(framer.command(UnityService(service, impl.srv_type)))
+            if ACTION_SERVERS_EXTENSION in self._extensions:
+                frames.extend(framer.command(c) for c in self._served.registrations())
             if self._params and "set_param" in self._extensions:
                 frames.extend(framer.command(SetParam(k, v)) for k, v in self._params.items())
             elif self._params:
@@ -323,8 +329,10 @@ class ConnectorEngine:
         )
         if self._closing.is_set():
             lost()
+            self._served.lost()
         else:
             self._dispatcher.submit(lost)  # after the frames already queued for the goals
+            self._dispatcher.submit(self._served.lost)
 
     def _expire(self, now: float) -> None:
         expired: list[PendingCall] = []
@@ -506,8 +514,18 @@ class ConnectorEngine:
                 return
             self._out.put_control(frame)
 
+    def _send_served(self, command: Command) -> None:
+        """Send an `action_servers` command; dropped (logged) while not connected: the
+        endpoint aborted the goals of the connection that is gone."""
+        try:
+            self._send_extension(command, ACTION_SERVERS_EXTENSION)
+        except ConnectorError as exc:
+            _log.debug("%s not sent: %s", command.NAME, exc)
+
     def _on_command(self, command: Command) -> None:
-        if self._goals.takes(command):
+        if self._served.takes(command):
+            self._dispatcher.submit(functools.partial(self._served.handle, command))
+        elif self._goals.takes(command):
             if isinstance(command, ErrorMessage):
                 self._counters.errors_received += 1
                 _log.warning("endpoint: %s", command.text)

@@ -78,9 +78,20 @@ from simbridge.protocol.framing import (
     encode_frame,
     frame_header,
 )
+from simbridge.protocol.served_actions import (
+    ACTION_SERVERS_EXTENSION,
+    ServeAction,
+    ServedAccept,
+    ServedCancelRequest,
+    ServedFeedback,
+    ServedGoalRequest,
+    ServedResult,
+    UnserveAction,
+)
 
 __all__ = [
     "ACTIONS_EXTENSION",
+    "ACTION_SERVERS_EXTENSION",
     "DEFAULT_MAX_FRAME_SIZE",
     "DEFAULT_SUBSCRIBE_QUEUE",
     "EXTENSIONS",
@@ -126,6 +137,12 @@ __all__ = [
     "RemoveUnityService",
     "Role",
     "RosService",
+    "ServeAction",
+    "ServedAccept",
+    "ServedCancelRequest",
+    "ServedFeedback",
+    "ServedGoalRequest",
+    "ServedResult",
     "ServiceFailure",
     "ServiceRequestHeader",
     "ServiceRequestReceived",
@@ -139,6 +156,7 @@ __all__ = [
     "TopicListReply",
     "TopicListRequest",
     "UnityService",
+    "UnserveAction",
     "WarnMessage",
     "decode_command",
     "encode_frame",

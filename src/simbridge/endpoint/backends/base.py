@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Any, Literal
 from simbridge.errors import EndpointError
 
 if TYPE_CHECKING:
+    from simbridge.endpoint.backends.served import BackendActionServer, ServedGoalSink
     from simbridge.endpoint.speed.splice import SpliceSink
     from simbridge.endpoint.typecheck import TypeCheck
 
@@ -266,6 +267,15 @@ class Backend(abc.ABC):
         is unknown or the server rejects the goal. Cancelling the waiting coroutine cancels
         the goal once accepted."""
         raise EndpointError(f"the {self.name} backend has no ROS 2 actions (try --backend ros2)")
+
+    def serve_action(
+        self, action: str, action_type: str, sink: ServedGoalSink
+    ) -> BackendActionServer:
+        """Host an action server for `action` (`pkg/Action`) whose goals go to `sink`
+        (backends with "action_servers")."""
+        raise EndpointError(
+            f"the {self.name} backend cannot serve ROS 2 actions ({action!r}; try --backend ros2)"
+        )
 
     @abc.abstractmethod
     def topics(self) -> list[TopicInfo]:

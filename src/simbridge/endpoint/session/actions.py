@@ -16,6 +16,11 @@ from typing import Any, Protocol
 
 from simbridge.endpoint.backends.base import Backend, BackendActionGoal
 from simbridge.endpoint.options import EndpointOptions
+from simbridge.endpoint.session.served_actions import (
+    SERVED_COMMANDS,
+    ServedCommand,
+    SessionServedActions,
+)
 from simbridge.endpoint.session.stats import SessionStats
 from simbridge.errors import SimbridgeError
 from simbridge.protocol import (
@@ -31,11 +36,13 @@ from simbridge.protocol import (
     shorten,
 )
 
-__all__ = ["ActionClient", "ActionCommand", "SessionActions"]
+__all__ = ["ACTION_COMMANDS", "ActionClient", "ActionCommand", "SessionActions"]
 
 log = logging.getLogger("simbridge.endpoint")
 
-ActionCommand = ActionGoal | ActionCancel | ActionServerQuery
+ActionCommand = ActionGoal | ActionCancel | ActionServerQuery | ServedCommand
+ACTION_COMMANDS = (ActionGoal, ActionCancel, ActionServerQuery, *SERVED_COMMANDS)
+"""The client commands of the `actions` and `action_servers` extensions."""
 
 
 def _too_big(frame: bytes, name: str) -> bool:
@@ -93,13 +100,17 @@ class SessionActions:
         self._timeout = options.service_timeout
         self._goals: dict[int, _Goal] = {}
         self._queries: set[asyncio.Task[None]] = set()
+        self.served = SessionServedActions(client, backend, options)
+        """The actions the client serves (`action_servers`)."""
 
     def __len__(self) -> int:
         return len(self._goals)
 
     def handle(self, command: ActionCommand) -> None:
-        """Act on one of the extension's client commands."""
-        if isinstance(command, ActionGoal):
+        """Act on one of the extensions' client commands."""
+        if isinstance(command, SERVED_COMMANDS):
+            self.served.handle(command)
+        elif isinstance(command, ActionGoal):
             self._start(command)
         elif isinstance(command, ActionCancel):
             self._cancel(command.goal_id)
@@ -113,7 +124,9 @@ class SessionActions:
             self._spawn(self._queries, self._query(command))
 
     def close(self) -> None:
-        """The client left: cancel its goals on the server and stop following them."""
+        """The client left: cancel its goals on the server and stop following them; abort
+        the goals of the actions it served and stop serving them."""
+        self.served.close()
         goals, self._goals = self._goals, {}
         for goal in goals.values():
             if goal.backend_goal is not None:

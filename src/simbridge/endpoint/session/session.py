@@ -17,7 +17,7 @@ from simbridge.endpoint.backends.base import (
     BackendServiceServer,
     BackendSubscription,
 )
-from simbridge.endpoint.session.actions import SessionActions
+from simbridge.endpoint.session.actions import ACTION_COMMANDS, SessionActions
 from simbridge.endpoint.session.output import ClientOutput, Outbox
 from simbridge.endpoint.session.pushback import ReadGate, ReadPushback, pushback_limit
 from simbridge.endpoint.session.services import SessionServices
@@ -28,9 +28,6 @@ from simbridge.endpoint.speed.splice import SpliceRelay, can_splice
 from simbridge.errors import EndpointError, SimbridgeError
 from simbridge.protocol import (
     EXTENSIONS,
-    ActionCancel,
-    ActionGoal,
-    ActionServerQuery,
     CommandReceived,
     ErrorMessage,
     Event,
@@ -525,7 +522,7 @@ class ClientSession(asyncio.BufferedProtocol):
             self.send_control(reply.encode())
         elif isinstance(command, ServiceFailure):
             self.services.failed(command)
-        elif isinstance(command, ActionGoal | ActionCancel | ActionServerQuery):
+        elif isinstance(command, ACTION_COMMANDS):
             self.actions.handle(command)
         elif isinstance(command, SetParam):
             self.services.set_param(command)

@@ -8,8 +8,13 @@ from __future__ import annotations
 
 from typing import Any
 
-from simbridge.connector import ActionServer, Connector
-from simbridge.messages.actionlib import ServerGoal
+from simbridge.connector import (
+    ActionServer,
+    AnyServerGoal,
+    Connector,
+    Ros2ActionServer,
+    action_server,
+)
 from simbridge.sim.control.drive import DriveMode, DriveSpec
 from simbridge.sim.ros.names import RobotNames, resolve_name
 from simbridge.sim.scene.model import GripperControllerSpec
@@ -36,16 +41,16 @@ class GripperActionController:
         self.joint = names.world_joint(spec.joint)
         self._configured: DriveSpec = world.drives.spec(self.joint)  # SimError if undriven
         self.action_name = f"{resolve_name(namespace, spec.name)}/gripper_cmd"
-        self._goal: ServerGoal | None = None
+        self._goal: AnyServerGoal | None = None
         self._target = 0.0
         self._last_movement = 0.0
-        self._server: ActionServer | None = None
+        self._server: ActionServer | Ros2ActionServer | None = None
         self._callbacks: list[CallbackHandle] = []
 
     def start(self) -> GripperActionController:
         """Serve the action; check the goal after every step."""
         world = self.world
-        self._server = ActionServer(
+        self._server = action_server(
             self.connector,
             self.action_name,
             ACTION,
@@ -79,7 +84,7 @@ class GripperActionController:
             reached_goal=reached,
         )
 
-    def _on_goal(self, goal: ServerGoal) -> None:
+    def _on_goal(self, goal: AnyServerGoal) -> None:
         if self._goal is not None:
             self._goal.canceled(self._message("Result"), text="preempted by a new goal")
         command = goal.goal.command
@@ -94,7 +99,7 @@ class GripperActionController:
         goal.accept()
         self._goal = goal
 
-    def _on_cancel(self, goal: ServerGoal) -> None:
+    def _on_cancel(self, goal: AnyServerGoal) -> None:
         if goal is self._goal:
             self._goal = None
             position = self.world.joint_positions([self.joint])[self.joint]

@@ -10,6 +10,7 @@ from dataclasses import replace
 from simbridge.connector import Connector
 from simbridge.errors import SimError
 from simbridge.messages import MessageRegistry, WireFormat
+from simbridge.protocol import ACTION_SERVERS_EXTENSION
 from simbridge.sim.ros.cmd_vel_controller import CmdVelController
 from simbridge.sim.ros.commands import CommandSubscriber
 from simbridge.sim.ros.convert import StampMaker, joint_state_message
@@ -28,11 +29,17 @@ from simbridge.sim.world.callbacks import CallbackHandle
 from simbridge.sim.world.robot import RobotHandle
 from simbridge.sim.world.world import World
 
-__all__ = ["RobotBridge"]
-
 _log = logging.getLogger("simbridge.sim.ros")
 
+__all__ = ["RobotBridge"]
+
+
 Controller = JointTrajectoryController | GripperActionController | GroupCommandController
+
+
+def _serves_action(controller: Controller) -> bool:
+    """Whether the controller is an action server (FollowJointTrajectory, GripperCommand)."""
+    return isinstance(controller, JointTrajectoryController | GripperActionController)
 
 
 def _controller(
@@ -102,14 +109,21 @@ class RobotBridge:
     def start(self) -> RobotBridge:
         """Subscribe to the commands and publish joint states at the robot's rate."""
         self.commands.start()
-        if self.controllers and (self._registry or self.connector.registry).protocol != "ROS1":
+        served = [n for n, c in self.controllers.items() if _serves_action(c)]
+        if (
+            served
+            and self.connector.protocol == "ROS2"
+            and ACTION_SERVERS_EXTENSION not in self.connector.extensions
+        ):
             _log.warning(
-                "robot %r: controllers %s use ROS 1 actionlib and control_msgs layouts; not "
-                "started on a ROS 2 endpoint",
+                "robot %r: controllers %s not started: the ROS 2 endpoint cannot host their "
+                "action servers (no %r extension; simbridge's --backend ros2 endpoint has it)",
                 self.names.robot.name,
-                ", ".join(self.controllers),
+                ", ".join(served),
+                ACTION_SERVERS_EXTENSION,
             )
-            self.controllers.clear()
+            for name in served:
+                del self.controllers[name]
         for controller in self.controllers.values():
             controller.start()
         if self.diff_drive is not None:

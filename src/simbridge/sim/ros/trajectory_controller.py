@@ -14,9 +14,14 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from simbridge.connector import ActionServer, Connector
+from simbridge.connector import (
+    ActionServer,
+    AnyServerGoal,
+    Connector,
+    Ros2ActionServer,
+    action_server,
+)
 from simbridge.errors import SimError
-from simbridge.messages.actionlib import ServerGoal
 from simbridge.sim.control.drive import DriveMode
 from simbridge.sim.control.follower import TrajectoryFollower
 from simbridge.sim.control.trajectory import Trajectory, Vector
@@ -62,7 +67,7 @@ class JointTrajectoryController:
         self.follower = TrajectoryFollower(world.drives)
         self._trajectory: Trajectory | None = None
         self._start = 0.0
-        self._goal: ServerGoal | None = None
+        self._goal: AnyServerGoal | None = None
         self._path_tol: dict[str, float] = {}
         self._goal_tol: dict[str, float] = {}
         self._goal_time = spec.goal_time
@@ -77,7 +82,7 @@ class JointTrajectoryController:
         self._actuators = world.drives.actuators(self.joints)
         self._goal_check: _Check | None = None
         self._stamps = StampMaker(connector.registry)
-        self._server: ActionServer | None = None
+        self._server: ActionServer | Ros2ActionServer | None = None
         self._callbacks: list[CallbackHandle] = []
         self.state_topic = f"{self.prefix}/state"
         self.command_topic = f"{self.prefix}/command"
@@ -96,7 +101,7 @@ class JointTrajectoryController:
             "trajectory_msgs/JointTrajectory",
             lambda msg: world.post(lambda: self._on_command(msg)),
         )
-        self._server = ActionServer(
+        self._server = action_server(
             self.connector,
             f"{self.prefix}/follow_joint_trajectory",
             ACTION,
@@ -201,7 +206,7 @@ class JointTrajectoryController:
         else:
             self._follow(trajectory)
 
-    def _on_goal(self, goal: ServerGoal) -> None:
+    def _on_goal(self, goal: AnyServerGoal) -> None:
         msg = goal.goal
         try:
             trajectory = self._trajectory_of(msg.trajectory)
@@ -242,7 +247,7 @@ class JointTrajectoryController:
                 tolerances[world_name] = float(tol.position)
         return tolerances
 
-    def _on_cancel(self, goal: ServerGoal) -> None:
+    def _on_cancel(self, goal: AnyServerGoal) -> None:
         if goal is self._goal:
             self._goal = None
             self._hold()

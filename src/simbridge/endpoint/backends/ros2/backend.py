@@ -57,12 +57,14 @@ from simbridge.endpoint.backends.ros2.entities import (
 )
 from simbridge.endpoint.backends.ros2.env import apply_ros2_env
 from simbridge.endpoint.backends.ros2.msg_types import Ros2Types, tcp_type_name
+from simbridge.endpoint.backends.ros2.served import Ros2ServedActions
 from simbridge.endpoint.backends.ros2.takes import LoopTakes
+from simbridge.endpoint.backends.served import BackendActionServer, ServedGoalSink
 from simbridge.endpoint.speed.gc_tuning import freeze_startup_objects
 from simbridge.endpoint.speed.malloc_tuning import keep_large_buffers
 from simbridge.endpoint.typecheck import TypeCheck
 from simbridge.errors import EndpointError, ServiceError
-from simbridge.protocol import ACTIONS_EXTENSION
+from simbridge.protocol import ACTION_SERVERS_EXTENSION, ACTIONS_EXTENSION
 
 __all__ = ["Ros2Backend", "Ros2Options", "Ros2TypeCheck", "ros2_cli_args"]
 
@@ -135,7 +137,7 @@ class Ros2Backend(Backend):
     lends_large_payloads = True  # published in place (`rcl`)
     releases_lent_payloads = True  # rcl copies it into Fast DDS before returning
     protocol = "ROS2"
-    extensions = (ACTIONS_EXTENSION,)
+    extensions = (ACTIONS_EXTENSION, ACTION_SERVERS_EXTENSION)
 
     def __init__(self, options: Ros2Options | None = None) -> None:
         self._options = options or Ros2Options()
@@ -154,6 +156,7 @@ class Ros2Backend(Backend):
         self.settings: dict[str, str] = {}
         self.counters: dict[str, int] = {"publish_errors": 0, "service_failures": 0}
         self._actions = Ros2Actions(self, self._types)
+        self._served = Ros2ServedActions(self, self._types, self.counters)
 
     def type_check(self) -> TypeCheck:
         return Ros2TypeCheck(self._types)
@@ -216,6 +219,7 @@ class Ros2Backend(Backend):
             entity.close()
         for caller in list(self._callers):
             caller.close()
+        await self._served.close()
         await self._actions.close()
         if self._takes is not None:
             await self._takes.close()
@@ -406,6 +410,15 @@ class Ros2Backend(Backend):
             on_status=on_status,
             timeout=timeout,
             discovery_wait=self._options.discovery_wait,
+        )
+
+    def serve_action(
+        self, action: str, action_type: str, sink: ServedGoalSink
+    ) -> BackendActionServer:
+        """Host an rclpy ActionServer for `action`; its goals go to `sink` (the client)."""
+        self.running_loop()
+        return self._served.serve(
+            action, action_type, sink, timeout=self._options.service_handler_timeout
         )
 
     def running_loop(self) -> asyncio.AbstractEventLoop:

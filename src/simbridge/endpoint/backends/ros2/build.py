@@ -41,6 +41,7 @@ __all__ = [
 _log = logging.getLogger(__name__)
 
 SHIPPED_ROS2_PACKAGES = (
+    "control_msgs",
     "object_recognition_msgs",
     "tf2_msgs",
     "moveit_msgs",

@@ -1,0 +1,231 @@
+"""The sim's FollowJointTrajectory and GripperCommand controllers from a plain rclpy
+ActionClient, through `simbridge endpoint --backend ros2` (the `action_servers` extension).
+
+The sim runs here (its connector takes ROS 2 from the handshake and serves the controllers'
+actions through the endpoint); the endpoint and the action client (tests/ros2/action_driver.py)
+are processes of the ROS 2 venv. Trajectories are a second or so of sim time, run in real time.
+"""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from simbridge.sim.runner import SimulationSession
+from tests.ros2support import ActionDriver, start_endpoint
+from tests.sim.worlds import arm_scene
+
+pytestmark = [pytest.mark.ros2, pytest.mark.timeout(300)]
+
+FOLLOW = "control_msgs/action/FollowJointTrajectory"
+GRIPPER = "control_msgs/action/GripperCommand"
+ARM = "/arm_left/arm_controller/follow_joint_trajectory"
+GRIP = "/arm_left/gripper_controller/gripper_cmd"
+SUCCEEDED, CANCELED, ABORTED = 4, 5, 6
+WAIT = 60.0
+
+
+def arm_goal(driver: ActionDriver, tag: str, values: dict[str, Any]) -> None:
+    driver.goal(tag, values, action=ARM, kind=FOLLOW)
+
+
+def _duration(t: float) -> dict[str, int]:
+    return {"sec": int(t), "nanosec": round((t - int(t)) * 1e9)}
+
+
+def _trajectory(
+    names: list[str],
+    points: list[tuple[float, list[float]]],
+    goal_tolerance: dict[str, float] | None = None,
+    path_tolerance: dict[str, float] | None = None,
+    goal_time: float = 0.0,
+) -> dict[str, Any]:
+    """A FollowJointTrajectory goal as the driver's JSON."""
+    return {
+        "trajectory": {
+            "joint_names": names,
+            "points": [{"positions": q, "time_from_start": _duration(t)} for t, q in points],
+        },
+        "goal_tolerance": [{"name": n, "position": v} for n, v in (goal_tolerance or {}).items()],
+        "path_tolerance": [{"name": n, "position": v} for n, v in (path_tolerance or {}).items()],
+        "goal_time_tolerance": _duration(goal_time),
+    }
+
+
+def _scene(tmp_path: Path) -> Path:
+    robot = {
+        "urdf": "arm.urdf",
+        "ros": {
+            "namespace": "/arm_left",
+            "frame_prefix": "arm_left/",
+            "controllers": {
+                "arm_controller": {
+                    "type": "joint_trajectory_controller",
+                    "joints": ["shoulder", "elbow", "wrist"],
+                    "constraints": {"goal_time": 0.5, "elbow": {"goal": 0.01}},
+                },
+                "gripper_controller": {
+                    "type": "gripper_action_controller",
+                    "joint": "grip_a",
+                    "stall_timeout": 0.2,
+                    "goal_tolerance": 0.002,
+                },
+            },
+        },
+    }
+    scene = {"physics": {"timestep": 0.002, "gravity": [0, 0, 0]}, "robots": [robot]}
+    return arm_scene(tmp_path, scene)
+
+
+class Sim:
+    """A simulation session on the endpoint, stepping in real time on a thread."""
+
+    def __init__(self, scene: Path, port: int) -> None:
+        self.session = SimulationSession(scene, f"127.0.0.1:{port}", connect_timeout=30)
+        self.session.__enter__()
+        self.runner = threading.Thread(target=self.session.run, kwargs={"realtime_factor": 1.0})
+        self.runner.start()
+
+    def close(self) -> None:
+        self.session.world.stop()
+        self.runner.join(30)
+        self.session.__exit__(None, None, None)
+
+
+@pytest.fixture(scope="module")
+def endpoint() -> Iterator[int]:
+    proc, port = start_endpoint("--idle-timeout", "0")
+    try:
+        yield port
+    finally:
+        proc.stop()
+
+
+@pytest.fixture(scope="module")
+def driver(endpoint: int) -> Iterator[ActionDriver]:
+    made = ActionDriver()
+    try:
+        made.expect(lambda o: o.get("up") is True)
+        yield made
+    finally:
+        made.proc.stop()
+
+
+@pytest.fixture
+def sim(tmp_path: Path, endpoint: int, driver: ActionDriver) -> Iterator[Sim]:
+    running = Sim(_scene(tmp_path), endpoint)
+    try:
+        driver.wait_ready(ARM, FOLLOW)
+        yield running
+    finally:
+        running.close()
+
+
+def test_goal_succeeds_with_feedback_and_the_joints_reach_the_target(
+    sim: Sim, driver: ActionDriver
+) -> None:
+    driver.send(op="state", topic="/arm_left/arm_controller/state")
+    state = driver.expect(lambda o: "state" in o)["state"]
+    assert state["joint_names"] == ["shoulder", "elbow", "wrist"]
+    arm_goal(
+        driver,
+        "reach",
+        _trajectory(["shoulder", "elbow"], [(0.5, [0.2, -0.3]), (1.0, [0.4, -0.6])]),
+    )
+    assert driver.reply("accepted", "reach")["ok"] is True
+    result = driver.reply("result", "reach")
+    assert (result["status"], result["values"]["error_code"]) == (SUCCEEDED, 0)
+    driver.send(op="joints", topic="/arm_left/joint_states")
+    joints = driver.expect(lambda o: "joints" in o)["joints"]
+    assert joints["elbow"] == pytest.approx(-0.6, abs=0.01)  # the goal tolerance
+    assert joints["shoulder"] == pytest.approx(0.4, abs=0.05)
+
+
+def test_error_codes_as_on_ros1(sim: Sim, driver: ActionDriver) -> None:
+    """INVALID_JOINTS and INVALID_GOAL (accepted, then aborted with the code: a ROS 2
+    rejection carries no result), PATH_TOLERANCE_VIOLATED, GOAL_TOLERANCE_VIOLATED."""
+    arm_goal(driver, "joints", _trajectory(["shoulder", "grip_a"], [(0.2, [0.1, 0.01])]))
+    arm_goal(driver, "empty", _trajectory(["shoulder"], []))
+    # A jump no drive follows within 0.001 rad; the wrist cannot reach 3 rad in 0.07 s.
+    arm_goal(
+        driver,
+        "path",
+        _trajectory(
+            ["shoulder"], [(0.05, [1.5]), (1.0, [1.5])], path_tolerance={"shoulder": 0.001}
+        ),
+    )
+    results = {tag: driver.reply("result", tag) for tag in ("joints", "empty", "path")}
+    arm_goal(
+        driver,
+        "end",
+        _trajectory(["wrist"], [(0.02, [3.0])], goal_tolerance={"wrist": 1e-6}, goal_time=0.05),
+    )
+    results["end"] = driver.reply("result", "end")
+    codes = {tag: (r["status"], r["values"]["error_code"]) for tag, r in results.items()}
+    assert codes == {
+        "joints": (ABORTED, -2),
+        "empty": (ABORTED, -1),
+        "path": (ABORTED, -4),
+        "end": (ABORTED, -5),
+    }
+    assert "grip_a" in results["joints"]["values"]["error_string"]
+    assert "shoulder" in results["path"]["values"]["error_string"]
+    assert "wrist" in results["end"]["values"]["error_string"]
+
+
+def test_feedback_then_cancel_ends_the_goal_canceled(sim: Sim, driver: ActionDriver) -> None:
+    arm_goal(driver, "long", _trajectory(["elbow"], [(20.0, [1.0])]))
+    assert driver.reply("accepted", "long")["ok"] is True
+    # 20 Hz of sim time; the first may come late (the feedback topic's own discovery).
+    feedback = driver.reply("feedback", "long")
+    assert feedback["joint_names"] == ["shoulder", "elbow", "wrist"]
+    driver.send(op="cancel", tag="long")
+    answer = driver.reply("cancel", "long")
+    assert (answer["return_code"], answer["canceling"]) == (0, 1)
+    result = driver.reply("result", "long")
+    assert result["status"] == CANCELED
+    driver.send(op="joints", topic="/arm_left/joint_states")
+    assert driver.expect(lambda o: "joints" in o)["joints"]["elbow"] < 0.9  # stopped early
+
+
+def test_a_new_goal_preempts_the_running_one(sim: Sim, driver: ActionDriver) -> None:
+    arm_goal(driver, "first", _trajectory(["elbow"], [(20.0, [1.0])]))
+    assert driver.reply("accepted", "first")["ok"] is True
+    arm_goal(driver, "second", _trajectory(["elbow"], [(1.0, [-0.5])]))
+    assert driver.reply("accepted", "second")["ok"] is True
+    first = driver.reply("result", "first")
+    assert first["status"] == CANCELED
+    assert "preempted" in first["values"]["error_string"]
+    second = driver.reply("result", "second")
+    assert (second["status"], second["values"]["error_code"]) == (SUCCEEDED, 0)
+
+
+def test_gripper_reaches_its_goal_and_stalls_at_the_limit(sim: Sim, driver: ActionDriver) -> None:
+    driver.wait_ready(GRIP, GRIPPER)
+    command = {"command": {"position": 0.03, "max_effort": 5.0}}
+    driver.goal("grip", command, action=GRIP, kind=GRIPPER)
+    assert driver.reply("accepted", "grip")["ok"] is True
+    reached = driver.reply("result", "grip")
+    assert (reached["status"], reached["values"]["reached_goal"]) == (SUCCEEDED, True)
+    assert reached["values"]["position"] == pytest.approx(0.03, abs=0.004)
+    driver.goal("limit", {"command": {"position": 0.09}}, action=GRIP, kind=GRIPPER)
+    stalled = driver.reply("result", "limit")  # the joint stops at its 0.05 m limit
+    assert (stalled["status"], stalled["values"]["stalled"]) == (ABORTED, True)
+    assert stalled["values"]["position"] == pytest.approx(0.05, abs=5e-3)
+
+
+def test_the_sim_going_away_aborts_its_goals(
+    tmp_path: Path, endpoint: int, driver: ActionDriver
+) -> None:
+    running = Sim(_scene(tmp_path), endpoint)
+    try:
+        driver.wait_ready(ARM, FOLLOW)
+        arm_goal(driver, "orphan", _trajectory(["elbow"], [(30.0, [1.0])]))
+        assert driver.reply("accepted", "orphan")["ok"] is True
+    finally:
+        running.close()
+    assert driver.reply("result", "orphan")["status"] == ABORTED
