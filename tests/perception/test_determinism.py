@@ -8,6 +8,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 from simbridge.perception import DatagenJob, generate, merge_shards, render_frames
 from tests.perception.scenes import random_scene
 
@@ -65,7 +67,20 @@ def test_shards_merge_into_the_dataset_one_process_makes(tmp_path: Path) -> None
     render_frames(job, [2, 0], tmp_path / "a")
     merged = merge_shards(job, [tmp_path / "a", tmp_path / "b"], tmp_path / "merged", 4)
     assert merged.annotations == whole.annotations > 0
-    left, right = files(tmp_path / "whole"), files(tmp_path / "merged")
+    assert_same_files(tmp_path / "whole", tmp_path / "merged")
+
+
+@pytest.mark.slow  # spawns two processes; the fresh-process test above is the fast check
+def test_workers_make_the_dataset_one_process_makes(tmp_path: Path) -> None:
+    job = DatagenJob(str(random_scene(tmp_path)), seed=11, formats=("coco", "bop"))
+    whole = generate(job, 4, tmp_path / "whole")
+    spread = generate(job, 4, tmp_path / "spread", workers=2)
+    assert spread.annotations == whole.annotations
+    assert_same_files(tmp_path / "whole", tmp_path / "spread")
+
+
+def assert_same_files(left_root: Path, right_root: Path) -> None:
+    left, right = files(left_root), files(right_root)
     assert sorted(left) == sorted(right)
     for name, data in left.items():
         assert data == right[name], name

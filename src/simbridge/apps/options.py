@@ -4,8 +4,11 @@
 from __future__ import annotations
 
 import argparse
+import os
 
 __all__ = [
+    "DATAGEN",
+    "DATAGEN_DEMO_FRAMES",
     "LINE",
     "LINE_BACKENDS",
     "LINE_MAX_PARTS",
@@ -13,6 +16,7 @@ __all__ = [
     "MOBILE_ROBOT_BACKENDS",
     "PICK_AND_PLACE",
     "PICK_AND_PLACE_BACKENDS",
+    "add_datagen_arguments",
     "add_line_arguments",
     "add_mobile_robot_arguments",
     "add_pick_and_place_arguments",
@@ -38,6 +42,15 @@ LINE = (
     "move parts from an input area to an output area through their controllers' actions."
 )
 """What the line demo does (its --help description)."""
+
+DATAGEN = (
+    "Write a labelled, randomised image dataset of the pick-and-place table (cubes, a can, "
+    "clutter, lights, colours, camera and arm pose drawn per frame): COCO and BOP beside the "
+    "native layout, and a contact sheet to look at first."
+)
+"""What the datagen demo does (its --help description)."""
+DATAGEN_DEMO_FRAMES = 200
+"""Frames `simbridge demo datagen` writes."""
 
 
 def add_pick_and_place_arguments(parser: argparse.ArgumentParser) -> None:
@@ -153,4 +166,52 @@ def add_line_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--view-port", type=int, default=8080, help="live view port (default 8080; 0: any free)"
+    )
+
+
+def _workers(text: str) -> int:
+    value = int(text) if text.isdigit() else -1
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"--workers {text!r}: expected a whole number >= 0")
+    return value or (os.cpu_count() or 1)
+
+
+def add_datagen_arguments(
+    parser: argparse.ArgumentParser, *, frames: int | None, out: str | None = None
+) -> None:
+    """Options of `simbridge datagen` (`frames`/`out` None: required) and of `simbridge
+    demo datagen` (their defaults given)."""
+    parser.add_argument(
+        "--frames",
+        type=int,
+        default=frames,
+        required=frames is None,
+        help="frames to make, 0 .. N-1" + (f" (default {frames})" if frames else ""),
+    )
+    parser.add_argument(
+        "--out",
+        default=out,
+        required=out is None,
+        help="the dataset folder" + (f" (default {out})" if out else ""),
+    )
+    parser.add_argument(
+        "--format",
+        default="coco,bop",
+        help="comma-separated: coco, bop, native (the native layout is always written; "
+        "default coco,bop)",
+    )
+    parser.add_argument(
+        "--seed", type=int, default=0, help="dataset seed: same seed, same bytes (default 0)"
+    )
+    parser.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue the dataset in --out at its first missing frame (same scene, seed and "
+        "formats)",
+    )
+    parser.add_argument(
+        "--workers",
+        type=_workers,
+        default=1,
+        help="processes rendering frames (0: one per CPU; default 1); the files are the same",
     )

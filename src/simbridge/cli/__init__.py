@@ -15,13 +15,13 @@ from collections.abc import Sequence
 from simbridge import __version__
 from simbridge.errors import SimbridgeError
 
-from . import demo, endpoint, graph, msg, planner, record, rviz, sim, train
+from . import datagen, demo, endpoint, graph, msg, planner, record, rviz, sim, train
 
 __all__ = ["build_parser", "main"]
 
 log = logging.getLogger("simbridge")
 
-_GROUPS = (endpoint, graph, msg, sim, demo, planner, record, rviz, train)
+_GROUPS = (endpoint, graph, msg, sim, datagen, demo, planner, record, rviz, train)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -55,7 +55,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     ros_args = tuple(arg for arg in given if ":=" in arg) + rcl_args
     args = parser.parse_args(demo.with_default_demo(arg for arg in given if ":=" not in arg))
     args.ros_args = ros_args
-    quiet_tool = args.command in ("topic", "service", "msg", "urdf", "demo")
+    quiet_tool = args.command in ("topic", "service", "msg", "urdf", "demo", "datagen")
     level_name = args.log_level or ("WARNING" if quiet_tool else "INFO")
     level = getattr(logging, str(level_name).upper(), logging.INFO)
     if not logging.getLogger().handlers:  # a host (a test runner) may have set logging up

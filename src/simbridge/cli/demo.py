@@ -10,7 +10,7 @@ from .common import ensure_ros1, reexec_in_ros2_venv
 
 __all__ = ["DEMO_NAMES", "add_parser", "with_default_demo"]
 
-DEMO_NAMES = ("pick-and-place", "mobile-robot", "bridge", "line")
+DEMO_NAMES = ("pick-and-place", "mobile-robot", "bridge", "line", "datagen")
 DEFAULT_DEMO = "pick-and-place"
 
 
@@ -66,6 +66,12 @@ def _run_bridge(args: argparse.Namespace) -> int:
     return 0 if run_bridge_demo(count, backend=args.backend, json=args.json) == count else 1
 
 
+def _run_datagen(args: argparse.Namespace) -> int:
+    from .datagen import run_demo
+
+    return run_demo(args)
+
+
 def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     from simbridge.apps import options  # light: the demos themselves load when they run
 
@@ -98,6 +104,16 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     )
     options.add_line_arguments(p_line)
     p_line.set_defaults(func=_run_line)
+    p_datagen = demos.add_parser(
+        "datagen",
+        help=f"a {options.DATAGEN_DEMO_FRAMES}-frame labelled COCO + BOP dataset of the "
+        "pick-and-place table, with its contact sheet",
+        description=options.DATAGEN,
+    )
+    options.add_datagen_arguments(
+        p_datagen, frames=options.DATAGEN_DEMO_FRAMES, out="simbridge-datagen"
+    )
+    p_datagen.set_defaults(func=_run_datagen)
     p_bridge = demos.add_parser(
         "bridge",
         help="two connectors exchange Twist messages and a service call through an endpoint",

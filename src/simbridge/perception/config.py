@@ -18,7 +18,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from simbridge.errors import PerceptionError
+from simbridge.errors import PerceptionError, did_you_mean
 from simbridge.perception.camera import CameraSpec
 from simbridge.perception.labels import BodyRule, parse_rules
 from simbridge.perception.randomizers import Randomizer, parse_randomizer
@@ -79,7 +79,11 @@ def parse_perception(scene: Scene) -> PerceptionConfig:
     labelers = root.strings("labelers", LABELERS)
     for name in labelers:
         if name not in LABELERS:
-            raise root.error(f"unknown labeler {name!r} (valid: {', '.join(LABELERS)})", "labelers")
+            raise root.error(
+                f"unknown labeler {name!r}{did_you_mean(name, LABELERS)} "
+                f"(valid: {', '.join(LABELERS)})",
+                "labelers",
+            )
     render = root.sub("render")
     settings = RenderSettings(
         near=render.number("near", 0.01, 1e-6),

@@ -15,7 +15,8 @@ The API (stable; `simbridge datagen` and the Ray runner of simbridge.cluster bot
   files, dataset.json, the contact sheet) from frames 0 .. frames - 1. One shard of all
   frames and many shards merged give byte-identical datasets.
 - `first_missing_frame(out, frames)`: where `--resume` continues.
-- `generate(job, frames, out, resume=False, report=None)`: render and merge in this process.
+- `generate(job, frames, out, resume=False, report=None, workers=1)`: render (in this
+  process, or in `workers` fresh processes, each a shard of frames) and merge.
 
 A frame is done when its `native/frames/NNNNNN.json` exists (written last, atomically);
 every other file of it is written before, each atomically.
@@ -24,8 +25,10 @@ every other file of it is written before, each atomically.
 from __future__ import annotations
 
 import json
+import multiprocessing
 import shutil
 from collections.abc import Callable, Iterable, Sequence
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -251,6 +254,32 @@ def merge_shards(job: DatagenJob, shards: Sequence[Path], out: Path, frames: int
     )
 
 
+def _render_in_workers(
+    job: DatagenJob,
+    frames: range,
+    out: Path,
+    workers: int,
+    report: Callable[[int], None] | None,
+) -> None:
+    """`frames` rendered into `out` by `workers` fresh (spawned) processes, in chunks small
+    enough that `report` hears of progress often."""
+    chunk = max(1, min(8, len(frames) // (workers * 4)))
+    chunks = [frames[i : i + chunk] for i in range(0, len(frames), chunk)]
+    context = multiprocessing.get_context("spawn")  # never fork a process holding GL
+    done = 0
+    with ProcessPoolExecutor(workers, mp_context=context) as pool:
+        futures = [pool.submit(render_frames, job, part, out) for part in chunks]
+        try:
+            for future in as_completed(futures):
+                done += future.result()
+                if report is not None:
+                    report(done)
+        except BaseException:
+            for future in futures:
+                future.cancel()
+            raise
+
+
 def generate(
     job: DatagenJob,
     frames: int,
@@ -258,11 +287,15 @@ def generate(
     *,
     resume: bool = False,
     report: Callable[[int], None] | None = None,
+    workers: int = 1,
 ) -> DatasetSummary:
     """Render frames 0 .. frames - 1 into `out` and merge; `resume` continues at the first
-    missing frame of a dataset of the same job (`report(done)` counts from there)."""
+    missing frame of a dataset of the same job (`report(done)` counts from there);
+    `workers` > 1 renders in that many processes (the same bytes as one)."""
     if frames < 1:
         raise PerceptionError(f"--frames must be >= 1, got {frames}")
+    if workers < 1:
+        raise PerceptionError(f"--workers must be >= 1, got {workers}")
     out = Path(out)
     start = 0
     if (out / META).exists():
@@ -278,5 +311,9 @@ def generate(
                 "it cannot be resumed with these options"
             )
         start = first_missing_frame(out, frames)
-    render_frames(job, range(start, frames), out, report)
+    todo = range(start, frames)
+    if workers > 1 and len(todo) > 1:
+        _render_in_workers(job, todo, out, min(workers, len(todo)), report)
+    else:
+        render_frames(job, todo, out, report)
     return merge_shards(job, [out], out, frames)

@@ -10,7 +10,7 @@ import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
-from simbridge.errors import PerceptionError
+from simbridge.errors import PerceptionError, SimbridgeError
 from simbridge.perception.annotate import ViewLabels, annotate
 from simbridge.perception.camera import CameraView
 from simbridge.perception.config import PerceptionConfig, parse_perception
@@ -66,7 +66,12 @@ class FrameMaker:
         # The physics never runs: no ROS, no sensors; the world is posed, not stepped.
         self.world = World.from_scene(replace(scene, sensors=()), [extend])
         for randomizer in self.config.randomizers:
-            randomizer.bind(self.world)
+            try:
+                randomizer.bind(self.world)
+            except SimbridgeError as exc:  # what the scene lacks: say where it was asked
+                if randomizer.where is None:
+                    raise
+                raise PerceptionError(str(randomizer.where.error(str(exc)))) from exc
         self.baseline = Baseline(self.world.model)
         distractors = [
             (name, label, self.world.model.body(name).id)

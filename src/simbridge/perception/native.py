@@ -50,7 +50,8 @@ def labels_path(camera: str, index: int) -> str:
 def write_atomic(path: Path, data: bytes) -> None:
     """Write `data` to `path` whole or not at all (a sibling file renamed into place)."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    partial = path.with_name(f".{path.name}.partial")
+    # One partial file per process: workers of one dataset write the same dataset.json.
+    partial = path.with_name(f".{path.name}.{os.getpid()}.partial")
     partial.write_bytes(data)
     os.replace(partial, path)
 

@@ -53,6 +53,14 @@ def parse_randomizer(
     section: Section, index: int, cameras: tuple[CameraSpec, ...], base_dir: Path
 ) -> Randomizer:
     """The randomiser of one `randomizers:` entry."""
+    randomizer = _parse(section, index, cameras, base_dir)
+    randomizer.where = section.where
+    return randomizer
+
+
+def _parse(
+    section: Section, index: int, cameras: tuple[CameraSpec, ...], base_dir: Path
+) -> Randomizer:
     kind = section.string("type", "")
     if kind not in RANDOMIZER_TYPES:
         raise section.error(
@@ -65,7 +73,7 @@ def parse_randomizer(
     if kind == "materials":
         return MaterialsRandomizer(section, index)
     if kind == "placement":
-        return PlacementRandomizer(section, index)
+        return PlacementRandomizer(section)
     if kind == "distractors":
         return DistractorsRandomizer(section, index, base_dir)
     if kind == "robot_joints":

@@ -12,6 +12,7 @@ from numpy.typing import NDArray
 
 from simbridge.perception.camera import CameraView
 from simbridge.sim import World
+from simbridge.sim.scene.located import Where
 from simbridge.sim.urdf.document import MjcfDocument
 
 __all__ = ["Baseline", "FrameState", "Randomizer", "frame_rng"]
@@ -84,6 +85,8 @@ class Randomizer:
     options from a YAML section and document their ranges."""
 
     kind = ""
+    where: Where | None = None
+    """Where the randomiser's entry is in the scene file (set when it is parsed)."""
     image_step = False
     """True for steps on the rendered RGB image (`post`) rather than on the scene."""
 

@@ -42,8 +42,7 @@ def matching_bodies(model: mujoco.MjModel, patterns: tuple[str, ...], who: str) 
     found = [b for b, n in enumerate(names) if any(fnmatch.fnmatchcase(n, p) for p in patterns)]
     if not found:
         raise PerceptionError(
-            f"perception randomizer {who}: no body matches {list(patterns)} "
-            f"(bodies: {', '.join(names[1:])})"
+            f"{who}: no body matches {list(patterns)} (bodies: {', '.join(names[1:])})"
         )
     return found
 
@@ -54,7 +53,7 @@ class MaterialsRandomizer(Randomizer):
             "reflectance", *ColourRanges.KEYS)  # fmt: skip
 
     def __init__(self, section: Section, index: int) -> None:
-        self.name = f"{index} ({self.kind})"
+        self.name = "bodies"
         self.patterns = section.strings("bodies")
         if not self.patterns:
             raise section.error("missing key 'bodies' (body names or glob patterns)")

@@ -99,14 +99,14 @@ class Surface:
         try:
             body = model.body(name).id
         except KeyError:
-            raise PerceptionError(f"perception placement: no body '{name}' for a surface") from None
+            raise PerceptionError(f"surface: no body '{name}'") from None
         boxes = [
             g
             for g in range(model.ngeom)
             if model.geom_bodyid[g] == body and model.geom_type[g] == _BOX
         ]
         if not boxes:
-            raise PerceptionError(f"perception placement: surface '{name}' has no box geom")
+            raise PerceptionError(f"surface: body '{name}' has no box geom")
         geom = boxes[0]
         axes = data.geom_xmat[geom].reshape(3, 3).copy()
         size = np.asarray(model.geom_size[geom], dtype=float)
@@ -143,8 +143,8 @@ class PlacementRandomizer(Randomizer):
     kind = "placement"
     KEYS = ("type", "objects", "surface", "area", "margin", "yaw", "tilt")
 
-    def __init__(self, section: Section, index: int) -> None:
-        self.name = f"{index} ({self.kind})"
+    def __init__(self, section: Section) -> None:
+        self.name = "objects"
         self.patterns = section.strings("objects")
         if not self.patterns:
             raise section.error("missing key 'objects' (body names or glob patterns)")

@@ -43,7 +43,7 @@ class RobotJointsRandomizer(Randomizer):
             robot = driven.get(name)
             if robot is None:
                 raise PerceptionError(
-                    f"perception robot_joints: '{name}' is not a driven joint "
+                    f"joints: '{name}' is not a driven joint "
                     f"(driven: {', '.join(driven) or 'none'})"
                 )
             joint = robot.joints[name].joint

@@ -1,0 +1,118 @@
+"""`simbridge datagen` and `simbridge demo datagen`: the dataset, the summary line,
+`--resume` from the first missing frame (same bytes as a run without a break), and errors
+that name the file, line and entry of a bad `perception:` section."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+
+from simbridge.cli import build_parser, main
+from tests.perception.scenes import random_scene
+
+SUMMARY = re.compile(
+    r"datagen: (\d+) frames \((\d+) rendered now, [\d.]+ frames/s, 1 worker\), (\d+) images, "
+    r"(\d+) COCO annotations, (\d+) labelled instances of random\.yaml seed 4 -> .* in "
+)
+
+
+def files(root: Path) -> dict[str, bytes]:
+    return {
+        str(p.relative_to(root)): p.read_bytes() for p in sorted(root.rglob("*")) if p.is_file()
+    }
+
+
+def datagen(scene: Path, out: Path, frames: int, *extra: str) -> int:
+    return main(["datagen", str(scene), "--frames", str(frames), "--out", str(out),
+                 "--format", "coco,bop,native", "--seed", "4", *extra])  # fmt: skip
+
+
+def test_datagen_writes_the_dataset_and_resumes_at_the_first_missing_frame(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    scene = random_scene(tmp_path)
+    assert datagen(scene, tmp_path / "whole", 3) == 0
+    line = capsys.readouterr().out.strip().splitlines()[-1]
+    found = SUMMARY.match(line)
+    assert found, line
+    assert found.group(1, 2, 3) == ("3", "3", "3")
+    whole = files(tmp_path / "whole")
+    assert {"coco/annotations.json", "contact_sheet.png", "dataset.json"} <= set(whole)
+    assert "bop/train_pbr/000000/scene_gt.json" in whole
+    # A run cut short after frame 0 (frame 1's JSON never written) continues at frame 1.
+    assert datagen(scene, tmp_path / "cut", 1) == 0
+    (tmp_path / "cut" / "native/frames/000000.json").rename(tmp_path / "frame0.json")
+    assert datagen(scene, tmp_path / "cut", 3, "--resume") == 0  # frame 0 missing: all 3
+    (tmp_path / "cut" / "native/frames/000001.json").unlink()
+    (tmp_path / "cut" / "native/frames/000002.json").unlink()
+    capsys.readouterr()
+    assert datagen(scene, tmp_path / "cut", 3, "--resume") == 0
+    found = SUMMARY.match(capsys.readouterr().out.strip().splitlines()[-1])
+    assert found
+    assert found.group(1, 2) == ("3", "2")
+    assert files(tmp_path / "cut") == whole
+
+
+def test_datagen_refuses_to_overwrite_or_resume_another_dataset(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    scene = random_scene(tmp_path)
+    assert datagen(scene, tmp_path / "out", 1) == 0
+    capsys.readouterr()
+    assert datagen(scene, tmp_path / "out", 2) == 2
+    assert "already holds a dataset; pass --resume" in capsys.readouterr().err
+    assert main(["datagen", str(scene), "--frames", "2", "--out", str(tmp_path / "out"),
+                 "--seed", "5", "--resume"]) == 2  # fmt: skip
+    assert "cannot be resumed with these options" in capsys.readouterr().err
+    assert datagen(scene, tmp_path / "other", 1, "--format", "coco,yolo") == 2
+    assert "unknown format 'yolo'" in capsys.readouterr().err
+    assert main(["datagen", "pick-and-placee", "--frames", "1", "--out", str(tmp_path)]) == 2
+    assert "did you mean 'pick-and-place'" in capsys.readouterr().err
+
+
+BAD = [
+    ("  cameras:\n    - {name: main, widht: 64}\n",
+     r"bad\.yaml:6: perception\.cameras\[0\]\.widht: unknown key 'widht'; did you mean 'width'"),
+    ("  cameras: [{name: main}]\n  labelers: [rgb, dpeth]\n",
+     r"bad\.yaml:6: perception\.labelers: unknown labeler 'dpeth'; did you mean 'depth'"),
+    ("  cameras: [{name: main}]\n  randomizers:\n    - type: lights\n      intensity: [0.9, 0.1]\n",
+     r"bad\.yaml:8: perception\.randomizers\[0\]\.intensity: low 0\.9 is above high 0\.1"),
+    ("  cameras: [{name: main}]\n  randomizers:\n    - {type: light}\n",
+     r"bad\.yaml:7: perception\.randomizers\[0\]\.type: unknown randomizer type 'light'; did you"),
+    ("  cameras: [{name: main}]\n  randomizers:\n    - {type: placement, objects: [cube],"
+     " surface: table}\n",
+     r"bad\.yaml:7: perception\.randomizers\[0\]: objects: no body matches \['cube'\] "
+     r"\(bodies: table\)"),
+    ("  cameras: [{name: main}]\n  render: {near: 1, far: 0.5}\n",
+     r"bad\.yaml:6: perception\.render\.far: far 0\.5 must be beyond near 1"),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize(("section", "expected"), BAD)
+def test_a_bad_perception_section_is_named_by_file_line_and_entry(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], section: str, expected: str
+) -> None:
+    scene = tmp_path / "bad.yaml"
+    scene.write_text(
+        "ros: {enabled: false}\nobjects:\n  - {name: table, type: box, size: [1, 1, 0.1]}\n"
+        "perception:\n" + section
+    )
+    assert main(["datagen", str(scene), "--frames", "1", "--out", str(tmp_path / "o")]) == 2
+    assert re.search(expected, capsys.readouterr().err)
+    assert not (tmp_path / "o").exists()
+
+
+def test_demo_datagen_is_the_shipped_table_at_200_frames() -> None:
+    args = build_parser().parse_args(["demo", "datagen"])
+    assert (args.frames, args.format, args.seed, args.resume) == (200, "coco,bop", 0, False)
+    from simbridge.cli.datagen import scene_path
+    from simbridge.perception import FrameMaker
+
+    maker = FrameMaker(scene_path("pick-and-place"))
+    try:
+        assert {i.category for i in maker.table.instances} == {"cube", "can", "robot", "distractor"}
+        assert maker.config.output.contact_sheet > 0
+    finally:
+        maker.close()
