@@ -3,6 +3,7 @@ PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
+STAMP_DEMO := $(VENV)/.installed-demo
 export MUJOCO_GL ?= osmesa
 export PYOPENGL_PLATFORM ?= $(MUJOCO_GL)
 
@@ -18,9 +19,14 @@ sysdeps:
 sysdeps-demo:
 	@bash scripts/install-system-deps.sh demo
 
-$(STAMP): pyproject.toml constraints.txt | sysdeps-demo
+# The local demo needs simbridge alone: no dev tools, live view or Ray (make test adds them).
+$(STAMP_DEMO): pyproject.toml constraints.txt | sysdeps-demo
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install -q --upgrade pip
+	$(BIN)/pip install -q -c constraints.txt -e .
+	@touch $(STAMP_DEMO)
+
+$(STAMP): $(STAMP_DEMO)
 	@# constraints.txt pins the versions the suite was last run with (regenerate with
 	@# `make constraints` after an intentional upgrade).
 	$(BIN)/pip install -q -c constraints.txt -e '.[dev,view,ray]'
@@ -47,7 +53,7 @@ constraints-ros2: $(STAMP_ROS2)
 	  $(VENV_ROS2)/bin/pip freeze --path $$($(VENV_ROS2)/bin/python -c "import site; print(site.getsitepackages()[0])") \
 	  | grep -v -e '^-e' -e '^#' -e '^simbridge' -e '^pip==' -e '^setuptools==' -e '==0.0.0$$'; } > constraints-ros2.txt
 
-demo: sysdeps-demo $(STAMP)
+demo: sysdeps-demo $(STAMP_DEMO)
 	$(BIN)/simbridge demo
 
 lint: $(STAMP)
