@@ -17,7 +17,7 @@ __all__ = [
     "scene_path",
 ]
 
-DATAGEN_SCENES = {"pick-and-place": ("apps", "datagen", "scene.yaml")}
+DATAGEN_SCENES = ("pick-and-place",)
 """Shipped scenes with a `perception:` section, by the name `simbridge datagen` takes."""
 ALL_FORMATS = ("coco", "bop", "native")
 
@@ -38,8 +38,7 @@ def parse_formats(text: str) -> tuple[str, ...]:
 
 def scene_path(text: str) -> Path:
     """A scene file, else a shipped datagen scene's name."""
-    from importlib import resources
-
+    from simbridge.apps.datagen import SCENE
     from simbridge.errors import PerceptionError, did_you_mean
 
     given = Path(text)
@@ -53,7 +52,7 @@ def scene_path(text: str) -> Path:
             f"{did_you_mean(text, DATAGEN_SCENES)} (shipped: {', '.join(DATAGEN_SCENES)}; "
             "or a path to a scene YAML file with a 'perception:' section)"
         )
-    return Path(str(resources.files("simbridge").joinpath(*DATAGEN_SCENES[text])))
+    return SCENE
 
 
 def run_datagen(
