@@ -2,7 +2,8 @@
 
 ROS_MASTER_URI is used when a master answers there; otherwise a roscore is started on a
 free port with a private ROS_HOME, and this process's environment points at it (rospy
-reads it from there) until stop(), which also stops that roscore.
+reads it from there) until stop(), which also stops that roscore (after this process's
+rospy node, if it joined it, has left it).
 """
 
 from __future__ import annotations
@@ -61,8 +62,14 @@ class DemoMaster:
             os.environ[key] = value
 
     def stop(self) -> None:
-        """Stop a roscore this object started and restore the environment."""
+        """Stop a roscore this object started and restore the environment. This process's
+        node leaves that roscore first: it has no other master to serve."""
         if self._roscore is not None:
+            from simbridge.endpoint.backends.ros1 import (  # noqa: PLC0415 - imports rospy
+                leave_graph,
+            )
+
+            leave_graph(self.uri, "the demo's ROS master stops")
             self._roscore.stop()
             self._roscore = None
         for key, value in self._saved_env.items():

@@ -25,6 +25,7 @@ if TYPE_CHECKING:
     from simbridge.endpoint.backends.ros1.msg_types import Ros1Types
     from simbridge.endpoint.backends.ros1.node import (
         join_graph,
+        leave_graph,
         on_node_shutdown,
         read_drop_in_params,
         ros_args,
@@ -46,6 +47,7 @@ __all__ = [
     "RosCore",
     "generate_python_messages",
     "join_graph",
+    "leave_graph",
     "master_answers",
     "on_node_shutdown",
     "probe_service",
@@ -69,6 +71,7 @@ __getattr__, __dir__ = lazy_face(
         "RosCore": "master",
         "generate_python_messages": "msg_genpy",
         "join_graph": "node",
+        "leave_graph": "node",
         "master_answers": "master",
         "on_node_shutdown": "node",
         "probe_service": "probe",

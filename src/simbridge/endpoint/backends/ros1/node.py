@@ -23,7 +23,14 @@ import rospy
 from simbridge.endpoint.backends.ros1.rejoin import MasterWatch
 from simbridge.errors import EndpointError
 
-__all__ = ["NodeIdentity", "join_graph", "on_node_shutdown", "read_drop_in_params", "ros_args"]
+__all__ = [
+    "NodeIdentity",
+    "join_graph",
+    "leave_graph",
+    "on_node_shutdown",
+    "read_drop_in_params",
+    "ros_args",
+]
 
 
 @dataclass(frozen=True, slots=True)
@@ -87,6 +94,20 @@ def join_graph(name: str, args: Sequence[str], connect_timeout: float) -> NodeId
         _joined = wanted
         MasterWatch(master_uri).start()  # re-registers everything if the master restarts
         return wanted
+
+
+def leave_graph(master_uri: str, reason: str) -> bool:
+    """Shut this process's node down if it joined `master_uri`, so rospy unregisters while
+    that master still answers: call it before stopping a master the process started (else
+    rospy warns at exit that it cannot unregister). The node cannot join again; returns
+    whether it was shut down here."""
+    with _lock:
+        if _joined is None or _joined.master_uri != master_uri:
+            return False
+        if rospy.core.is_shutdown_requested():
+            return False
+    rospy.signal_shutdown(reason)
+    return True
 
 
 def on_node_shutdown(callback: Callable[[str], None]) -> None:
