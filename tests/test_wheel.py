@@ -83,6 +83,15 @@ def test_a_shipped_scene_runs_by_name(venv: Path) -> None:
     assert "simulated 0.200 s" in done.stdout
 
 
+def test_sim_help_points_at_the_scene_reference_the_wheel_ships(venv: Path) -> None:
+    helped = _run(venv, "simbridge", "sim", "--help")
+    assert "docs/scenes.md" not in helped.stdout  # a wheel has no docs/ folder
+    assert "simbridge sim --scene-format" in " ".join(helped.stdout.split())
+    shown = _run(venv, "simbridge", "sim", "--scene-format")
+    assert shown.returncode == 0, shown.stderr
+    assert shown.stdout == (ROOT / "docs" / "scenes.md").read_text()
+
+
 @pytest.mark.parametrize(
     "demo",
     [

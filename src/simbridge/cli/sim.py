@@ -43,6 +43,26 @@ def scene_file(text: str) -> Path:
     return Path(str(resources.files("simbridge").joinpath(*SHIPPED_SCENES[text])))
 
 
+class _SceneFormat(argparse.Action):
+    """`--scene-format`: print the scene file reference (docs/scenes.md, shipped in the
+    package as simbridge/assets/scenes.md) and exit, as --version does."""
+
+    def __init__(self, option_strings: list[str], dest: str, help: str | None = None) -> None:
+        super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS, help=help)
+
+    def __call__(
+        self,
+        parser: argparse.ArgumentParser,
+        namespace: argparse.Namespace,
+        values: object,
+        option_string: str | None = None,
+    ) -> None:
+        from simbridge.assets import asset_path
+
+        sys.stdout.write(asset_path("scenes.md").read_text())
+        parser.exit()
+
+
 @contextmanager
 def _plain_warnings(show: bool = True) -> Iterator[None]:
     """Print simbridge's load warnings as `simbridge: warning: ...` (or not at all)."""
@@ -209,7 +229,13 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     sim.add_argument(
         "scene",
         help=f"a scene YAML file, or a shipped scene: {', '.join(SHIPPED_SCENES)} (the format: "
-        "docs/scenes.md in the simbridge source); then NAME:=VALUE xacro args",
+        "simbridge sim --scene-format); then NAME:=VALUE xacro args",
+    )
+    sim.add_argument(
+        "--scene-format",
+        action=_SceneFormat,
+        help="print the scene file reference shipped with simbridge (every section and key, "
+        "with examples; the documentation's Scene files page) and exit",
     )
     sim.add_argument(
         "--endpoint",
