@@ -38,6 +38,7 @@ def endpoint_options(
         max_clients=args.max_clients,
         max_memory=int(args.max_memory_mb * 1024 * 1024),
         splice=not args.no_splice,
+        drain_timeout=args.drain_timeout,
     )
 
 
@@ -197,6 +198,14 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         type=float,
         default=10.0,
         help="close clients silent this long (s); 0 disables",
+    )
+    ep.add_argument(
+        "--drain-timeout",
+        type=float,
+        default=5.0,
+        metavar="S",
+        help="when a client leaves, how long each of its publishers may take to deliver what "
+        "it accepted before it is closed (in the background; default 5)",
     )
     ep.add_argument(
         "--msg-path",

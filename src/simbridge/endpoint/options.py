@@ -60,6 +60,9 @@ class EndpointOptions:
     """Move a large message bound for a single native ROS 1 subscriber from the client's
     socket to the subscriber's in the kernel (Linux splice), without copying it through
     the endpoint (`endpoint.speed.splice`; --no-splice turns it off)."""
+    drain_timeout: float = 5.0
+    """When a client leaves, how long each of its publishers may take to deliver what it
+    accepted before it is closed (in the background; `endpoint.session.drain`)."""
     evict_after: float = 2.0
     """When the endpoint is full, a client connected this long that has sent no complete
     request (only keepalives or a partial frame) makes room for a new one."""

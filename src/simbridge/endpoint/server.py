@@ -8,10 +8,11 @@ import logging
 import time
 from typing import Any
 
-from simbridge.endpoint.backends.base import Backend
+from simbridge.endpoint.backends.base import Backend, BackendPublisher
 from simbridge.endpoint.backends.local import LocalBus
 from simbridge.endpoint.budget import MemoryBudget
 from simbridge.endpoint.options import EndpointOptions
+from simbridge.endpoint.session.drain import PublisherDrains
 from simbridge.endpoint.session.session import ClientSession
 from simbridge.endpoint.typecheck import RegistryTypeCheck, TypeCheck
 from simbridge.errors import EndpointError
@@ -46,6 +47,7 @@ class EndpointServer:
         self._server: asyncio.Server | None = None
         self._timer: asyncio.Task[None] | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
+        self._drains: PublisherDrains | None = None
         self.port = 0
         self.started_at = 0.0
         self.lost: str | None = None
@@ -67,6 +69,7 @@ class EndpointServer:
     async def start(self) -> None:
         """Start the backend and listen; `port` holds the bound port (useful with port 0)."""
         self._loop = asyncio.get_running_loop()
+        self._drains = PublisherDrains(self._loop, self.options.drain_timeout)
         await self.backend.start()
         self.backend.watch_lost(self._backend_lost)
         opts = self.options
@@ -135,6 +138,8 @@ class EndpointServer:
             await self._server.wait_closed()
             self._server = None
         await asyncio.sleep(0)
+        if self._drains is not None:
+            await self._drains.close()  # what leaving clients published, before ROS goes
         await self.backend.close()
 
     async def _keepalive_loop(self) -> None:
@@ -187,6 +192,15 @@ class EndpointServer:
         """A client's connection is gone."""
         self._sessions.discard(session)
 
+    def drain(self, peer: str, publishers: list[tuple[str, BackendPublisher]]) -> None:
+        """Deliver what each publisher of client `peer` accepted, then close it, in the
+        background (`PublisherDrains`); closed at once before start()."""
+        if self._drains is None:
+            for _, publisher in publishers:
+                publisher.close()
+            return
+        self._drains.add(peer, publishers)
+
     def _evict_one(self) -> bool:
         """Make room for a new client when full: close the one that has been connected
         longest without sending a complete request (a drip or idle connection). False
@@ -219,5 +233,7 @@ class EndpointServer:
             "memory_bytes": self.budget.used,
             "memory_peak_bytes": self.budget.peak,
             "memory_limit_bytes": self.budget.limit,
+            "published_total": sum(sum(s.stats.published.values()) for s in sessions),
+            "drains": self._drains.stats() if self._drains is not None else {},
             "backend_counters": self.backend.stats(),
         }

@@ -13,6 +13,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from simbridge.endpoint import EndpointOptions
+from simbridge.endpoint.backends.base import BackendPublisher
 from simbridge.endpoint.backends.local import LocalBus
 from simbridge.endpoint.budget import MemoryBudget
 from simbridge.endpoint.session import ClientSession
@@ -102,6 +103,10 @@ class _Host:
 
     def forget(self, session: ClientSession) -> None:
         self.sessions.discard(session)
+
+    def drain(self, peer: str, publishers: list[tuple[str, BackendPublisher]]) -> None:
+        for _, publisher in publishers:
+            publisher.close()
 
     def stats(self) -> dict[str, Any]:
         return {"clients": len(self.sessions)}

@@ -82,6 +82,13 @@ class BackendPublisher(abc.ABC):
         (`endpoint.speed.splice`), or None: it is published as usual (the default)."""
         return None
 
+    async def drain(self, timeout: float) -> int:
+        """Wait, at most `timeout` s, until what was published has left for the topic's
+        subscribers, so close() loses nothing accepted (a client that publishes and leaves
+        at once); returns how many messages may still be undelivered (0: none). The
+        default holds nothing after publish() returns: 0."""
+        return 0
+
     def watch_backlog(self, behind: Callable[[], None], caught_up: Callable[[], None]) -> bool:
         """Call `behind()` when a subscriber falls behind on a topic that must not drop
         (queue_size 0), so the caller stops reading from its client, and `caught_up()`

@@ -107,6 +107,10 @@ class SessionHost(Protocol):
     def forget(self, session: ClientSession) -> None:
         """`session`'s connection is gone."""
 
+    def drain(self, peer: str, publishers: list[tuple[str, BackendPublisher]]) -> None:
+        """Deliver what each `(topic, publisher)` of client `peer` accepted, then close it
+        (in the background: `endpoint.session.drain`)."""
+
     def stats(self) -> dict[str, Any]:
         """Server-wide counters, for `__stats`."""
         ...
@@ -329,6 +333,7 @@ class ClientSession(asyncio.BufferedProtocol):
                     if entry is not None:
                         payload = event.payload
                         entry[1].publish(payload)
+                        stats.published[event.topic] += 1
                         if recycle is not None and type(payload) is bytearray:
                             recycle(payload)
                     else:
@@ -353,17 +358,18 @@ class ClientSession(asyncio.BufferedProtocol):
         else:
             self.frame_started = 0.0
         publish = publisher.publish
-        published = False
+        published = 0
         for payload in payloads:
             if self._closing:
                 break
             stats.frames_in += 1
             try:
                 publish(payload)
-                published = True
+                published += 1
             except Exception as exc:  # one bad request must not drop the client
                 self._internal_error(MessageReceived(topic, payload), exc)
         if published:
+            stats.published[topic] += published
             self.proven = True
 
     def _internal_error(self, event: object, exc: Exception) -> None:
@@ -535,10 +541,12 @@ class ClientSession(asyncio.BufferedProtocol):
     # ---- registrations ----------------------------------------------------------------
 
     def _drop_publisher(self, topic: str) -> None:
+        """Stop publishing `topic` for this client; what it accepted is delivered first
+        (`SessionHost.drain`)."""
         entry = self.publishers.pop(topic, None)
         if entry is not None:
-            entry[1].close()
             self._pushback.caught_up(entry[1])
+            self.server.drain(self.peer, [(topic, entry[1])])
 
     def _drop_subscription(self, topic: str) -> None:
         entry = self.subscriptions.pop(topic, None)
@@ -553,8 +561,9 @@ class ClientSession(asyncio.BufferedProtocol):
 
     def _release_all(self) -> None:
         self.actions.close()
-        for topic in list(self.publishers):
-            self._drop_publisher(topic)
+        publishers = [(topic, entry[1]) for topic, entry in self.publishers.items()]
+        self.publishers.clear()
+        self.server.drain(self.peer, publishers)
         for topic in list(self.subscriptions):
             self._drop_subscription(topic)
         for topic in list(self.unity_services):

@@ -25,6 +25,9 @@ class SessionStats:
     type, no server) or rejected by the action server."""
     feedback_dropped: int = 0
     """Action feedback messages dropped while the client was not reading."""
+    published: Counter[str] = field(default_factory=Counter)
+    """Messages handed to the graph per topic (what ROS then does with them is the
+    backend's: its counters, and the topic's QoS on ROS 2)."""
     dropped: Counter[str] = field(default_factory=Counter)
     """Messages dropped per topic because the client fell behind its queue_size."""
 
@@ -39,6 +42,8 @@ class SessionStats:
             "goals_sent": self.goals_sent,
             "goals_refused": self.goals_refused,
             "feedback_dropped": self.feedback_dropped,
+            "published": dict(self.published),
+            "published_total": sum(self.published.values()),
             "dropped": dict(self.dropped),
             "dropped_total": sum(self.dropped.values()),
         }

@@ -120,6 +120,11 @@ class SocketWriter:
         if queue:
             self._loop.add_writer(self._fd, self._writable)
 
+    @property
+    def chunks(self) -> int:
+        """Chunks written but not yet (wholly) taken by the kernel."""
+        return len(self._queue)
+
     def close(self) -> None:
         """Stop writing and forget what is queued (the socket is the caller's to close)."""
         if not self.closed:

@@ -37,6 +37,9 @@ __all__ = ["NativeData"]
 
 _log = logging.getLogger("simbridge.endpoint.ros1")
 
+_ASK_EVERY = (0.001, 0.02)
+"""A drain's first and longest pause between two looks at the connections (doubling)."""
+
 
 class NativeData:
     """The endpoint's TCPROS server and subscriber connections for one backend."""
@@ -224,6 +227,21 @@ class NativePublisher(Ros1Publisher):
         if self._topic.behind:
             behind()
         return True
+
+    async def drain(self, timeout: float) -> int:
+        """Wait until the kernel has taken every message queued or held for the topic's
+        subscribers (their sockets deliver it, also after close), or `timeout` s passed;
+        returns 0, or how many were left at most. The topic may be shared with other
+        publishers: what they queued is waited for too."""
+        loop = asyncio.get_running_loop()
+        deadline = loop.time() + timeout
+        pause = _ASK_EVERY[0]
+        while not self._closed and (left := self._topic.undelivered()):
+            if loop.time() >= deadline:
+                return left
+            await asyncio.sleep(pause)
+            pause = min(pause * 2, _ASK_EVERY[1])
+        return 0
 
     def _unregister(self) -> None:
         for callback in self._watchers:

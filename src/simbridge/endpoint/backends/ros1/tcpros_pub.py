@@ -150,6 +150,11 @@ class PublishedTopic:
             for _, caught_up in list(self.backlog_watchers):
                 caught_up()
 
+    def undelivered(self) -> int:
+        """Messages its connections hold that the kernel has not taken yet, at most (0:
+        every subscriber's socket has all; a partly sent one counts whole)."""
+        return sum(connection.undelivered() for connection in self.connections)
+
     def close(self) -> None:
         """Close every connection (the topic is no longer published)."""
         for connection in list(self.connections):
@@ -485,6 +490,13 @@ class _SubscriberConnection:
             self.flush()
         if not self._paused and self._topic is not None:
             self._topic.caught_up(self)
+
+    def undelivered(self) -> int:
+        """Messages held, queued or partly written, at most (each is a length prefix and a
+        payload: two chunks)."""
+        if self._closed:
+            return 0
+        return len(self._held) + (len(self._pending) + self._writer.chunks + 1) // 2
 
     def _write_failed(self, exc: OSError) -> None:
         _log.debug("a subscriber connection to %s failed: %s", self.peer, exc)

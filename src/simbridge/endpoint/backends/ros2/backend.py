@@ -56,6 +56,7 @@ from simbridge.endpoint.backends.ros2.entities import (
     SimServiceFailedError,
 )
 from simbridge.endpoint.backends.ros2.env import apply_ros2_env
+from simbridge.endpoint.backends.ros2.lossless import LosslessRos2Publisher
 from simbridge.endpoint.backends.ros2.msg_types import Ros2Types, tcp_type_name
 from simbridge.endpoint.backends.ros2.served import Ros2ServedActions
 from simbridge.endpoint.backends.ros2.takes import LoopTakes
@@ -154,7 +155,12 @@ class Ros2Backend(Backend):
         self._live: set[NodeEntity] = set()
         self._takes: LoopTakes | None = None
         self.settings: dict[str, str] = {}
-        self.counters: dict[str, int] = {"publish_errors": 0, "service_failures": 0}
+        self.counters: dict[str, int] = {
+            "publish_errors": 0,
+            "service_failures": 0,
+            "lossless_pushbacks": 0,
+            "lossless_dropped": 0,
+        }
         self._actions = Ros2Actions(self, self._types)
         self._served = Ros2ServedActions(self, self._types, self.counters)
 
@@ -246,16 +252,20 @@ class Ros2Backend(Backend):
     def advertise(
         self, topic: str, msg_type: str, *, queue_size: int, latch: bool
     ) -> BackendPublisher:
-        """A reliable publisher; `latch` is transient-local durability."""
+        """A reliable publisher; `latch` is transient-local durability. DDS keeps the last
+        `queue_size` samples for a subscriber that has not acknowledged them (a faster
+        publisher overwrites the oldest, which the endpoint cannot see); queue_size 0 keeps
+        all, and the client is pushed back on instead (`lossless`)."""
         loop = self.running_loop()
         cls = self._types.message(msg_type)
         qos = QoSProfile(
-            history=HistoryPolicy.KEEP_LAST,
+            history=HistoryPolicy.KEEP_ALL if queue_size == 0 else HistoryPolicy.KEEP_LAST,
             depth=max(queue_size, 1),
             reliability=ReliabilityPolicy.RELIABLE,
             durability=DurabilityPolicy.TRANSIENT_LOCAL if latch else DurabilityPolicy.VOLATILE,
         )
-        publisher = Ros2Publisher(self, topic, cls, qos, loop, live=self._live)
+        kind = LosslessRos2Publisher if queue_size == 0 else Ros2Publisher
+        publisher = kind(self, topic, cls, qos, loop, live=self._live)
         _log.info("publishing %s [%s] for the sim (latch=%s)", topic, msg_type, latch)
         return publisher
 

@@ -13,8 +13,9 @@ import time
 from collections.abc import Callable
 from typing import Any, Protocol
 
+from rclpy.duration import Duration
 from rclpy.event_handler import PublisherEventCallbacks
-from rclpy.qos import QoSProfile
+from rclpy.qos import HistoryPolicy, QoSProfile
 from rclpy.task import Future as RclpyFuture
 
 from simbridge.endpoint.backends.base import (
@@ -61,6 +62,12 @@ a ctypes call costs more than the copy of a small message) once one was shorter.
 
 _ERROR_LOG_INTERVAL = 5.0
 """Shortest time between two log lines about failed publishes."""
+
+_NOW = Duration(nanoseconds=0)
+"""wait_for_all_acked's timeout that only asks (rclpy's wait holds the GIL: a wait of
+any length would stop the event loop, so a drain asks every few ms instead)."""
+_ASK_EVERY = (0.001, 0.02)
+"""A drain's first and longest pause between two questions (it doubles meanwhile)."""
 
 
 class NodeSide(Protocol):
@@ -120,7 +127,12 @@ class Ros2Publisher(NodeEntity, BackendPublisher):
         live: set[NodeEntity],
     ) -> None:
         self._subscribers = SubscriberWatch(loop, self.subscriber_count, lambda: self.closed)
+        self._loop = loop
         self._last_error_log = -math.inf  # the first failure is always logged
+        self.depth: int = qos.depth if qos.history == HistoryPolicy.KEEP_LAST else 0
+        """Samples DDS keeps for a subscriber that has not acknowledged them (0: all)."""
+        self.published = 0
+        """Messages handed to DDS (a failed publish not counted)."""
         try:
             self._publisher = backend.node.create_publisher(
                 cls,
@@ -150,6 +162,7 @@ class Ros2Publisher(NodeEntity, BackendPublisher):
                 self._publish_lent(payload)
             else:
                 self._publish_raw(payload)
+            self.published += 1
         except Exception as exc:
             counters = self._backend.counters
             counters["publish_errors"] += 1
@@ -162,6 +175,30 @@ class Ros2Publisher(NodeEntity, BackendPublisher):
                     counters["publish_errors"],
                     exc,
                 )
+
+    def all_acked(self) -> bool:
+        """Whether every matched reliable subscription acknowledged every sample (asked
+        without waiting)."""
+        return bool(self._publisher.wait_for_all_acked(_NOW))
+
+    def undelivered(self) -> int:
+        """How many samples DDS may still hold for a subscriber, at most (none may be)."""
+        return min(self.published, self.depth) if self.depth else self.published
+
+    async def drain(self, timeout: float) -> int:
+        """Ask DDS every few ms whether every subscriber acknowledged every sample, until
+        it has or `timeout` s passed; returns 0, or `undelivered()`."""
+        return await self._acked_within(timeout)
+
+    async def _acked_within(self, timeout: float) -> int:
+        deadline = self._loop.time() + timeout
+        pause, longest = _ASK_EVERY
+        while not self.closed and not self.all_acked():
+            if self._loop.time() >= deadline:
+                return self.undelivered()
+            await asyncio.sleep(pause)
+            pause = min(pause * 2, longest)
+        return 0
 
     def subscriber_count(self) -> int:
         """Subscriptions matched with this publisher now."""
