@@ -67,6 +67,40 @@ SCENES = [
         r"2: robots\[0\]\.urdf: file '.*nothere\.urdf' does not exist",
         id="missing-urdf",
     ),
+    # Found when the scene is built (the URDF loaded), still at the entry's line:
+    pytest.param(
+        ROBOT + "    drives:\n      joints:\n        left_wheel_jiont: {mode: velocity}\n",
+        r"6: robots\[0\]\.drives\.joints\.left_wheel_jiont: 'left_wheel_jiont' is not a "
+        r"drivable joint of robot 'diffbot'; did you mean 'left_wheel_joint'\? \(revolute/",
+        id="drive-joint",
+    ),
+    pytest.param(
+        ROBOT + "    initial_positions:\n      right_wheel: 0.1\n",
+        r"5: robots\[0\]\.initial_positions\.right_wheel: 'right_wheel' is not a drivable "
+        r"joint of robot 'diffbot'; did you mean 'right_wheel_joint'\?",
+        id="initial-position-joint",
+    ),
+    pytest.param(
+        ROBOT + "  - urdf: " + str(DIFFBOT) + "\n",
+        r"4: robots\[1\]: robot 'diffbot': bodies base_link, .* already exist in the model "
+        r"\(give the robot a name prefix\)",
+        id="robot-bodies-taken",
+    ),
+    pytest.param(
+        ROBOT + "    prefix: a/\n  - urdf: " + str(DIFFBOT) + "\n    prefix: b/\n",
+        r"5: robots\[1\]: the robot name 'diffbot' is already taken by robots\[0\]",
+        id="robot-name-taken",
+    ),
+    pytest.param(
+        "objects:\n  - name: part\n    type: mesh\n    mesh: nothere.stl\n",
+        r"4: objects\[0\]\.mesh: file '.*nothere\.stl' does not exist",
+        id="missing-object-mesh",
+    ),
+    pytest.param(
+        "lights:\n  - {name: sun, dir: [0, 0, 0]}\n",
+        r"2: lights\[0\]\.dir: must not be \[0, 0, 0\]",
+        id="light-direction",
+    ),
 ]
 
 

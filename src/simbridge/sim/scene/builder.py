@@ -11,7 +11,8 @@ from simbridge.errors import SimError, did_you_mean
 from simbridge.sim.control.drive import DriveMode, DriveSpec
 from simbridge.sim.control.drive_bank import add_drive_actuator
 from simbridge.sim.scene.efforts import SCALE_MARGIN, effort_limits, gravity_torques
-from simbridge.sim.scene.model import LightSpec, ObjectSpec, PhysicsSettings, RobotSpec, Scene
+from simbridge.sim.scene.located import Where
+from simbridge.sim.scene.model import ObjectSpec, PhysicsSettings, RobotSpec, Scene
 from simbridge.sim.urdf.diagnostics import UrdfWarning
 from simbridge.sim.urdf.document import MjcfDocument, fmt
 from simbridge.sim.urdf.inertia import inertial_from_collisions
@@ -113,9 +114,15 @@ def _check_stability(where: str, name: str, joint: str, drive: DriveSpec, dt: fl
         )
 
 
-def _robot(
-    doc: MjcfDocument, spec: RobotSpec, meshes: MeshCache, strict: bool, physics: PhysicsSettings
-) -> BuiltRobot:
+def _located(scene: Scene, path: str) -> Where:
+    """Where the scene entry at `path` (`robots[0].drives.joints.j9`) came from: its file and
+    line when the scene was read from one, else the path alone."""
+    where = scene.locations.get(path)
+    return where if where is not None else Where(path)
+
+
+def _robot(doc: MjcfDocument, scene: Scene, index: int, meshes: MeshCache) -> BuiltRobot:
+    spec, strict, physics = scene.robots[index], scene.strict, scene.physics
     robot = load_urdf(
         spec.urdf, search_paths=spec.search_paths, xacro_args=spec.xacro_args, strict=strict
     )
@@ -130,20 +137,22 @@ def _robot(
     )
     if spec.collada_up_axis == "honour":
         meshes = MeshCache(meshes.directory, honour_up_axis=True)
-    mjcf = add_robot(doc, robot, options, meshes)
+    try:
+        mjcf = add_robot(doc, robot, options, meshes)
+    except SimError as exc:  # e.g. a second copy of a URDF without a name prefix of its own
+        raise _located(scene, f"robots[{index}]").error(str(exc)) from None
     drivable = {j.name: j for j in robot.movable_joints if j.mimic is None}
-    for joint_name in spec.joint_drives:
-        if joint_name not in drivable:
-            raise SimError(
-                f"robot '{name}' drives: '{joint_name}' is not a drivable joint "
-                f"(revolute/continuous/prismatic without mimic: {', '.join(drivable) or 'none'})"
-            )
-    for joint_name in spec.initial_positions:
-        if joint_name not in drivable:
-            raise SimError(
-                f"robot '{name}' initial_positions: '{joint_name}' is not a drivable joint "
-                f"(valid: {', '.join(drivable) or 'none'})"
-            )
+    for key, joints in (
+        ("drives.joints", spec.joint_drives),
+        ("initial_positions", spec.initial_positions),
+    ):
+        for joint_name in joints:
+            if joint_name not in drivable:
+                raise _located(scene, f"robots[{index}].{key}.{joint_name}").error(
+                    f"'{joint_name}' is not a drivable joint of robot '{name}'"
+                    f"{did_you_mean(joint_name, drivable)} (revolute/continuous/prismatic "
+                    f"without mimic: {', '.join(drivable) or 'none'})"
+                )
     spec = replace(spec, initial_positions=_initial_positions(robot, spec, name, where, strict))
     torques = gravity_torques(
         robot, mjcf.inertials, spec.initial_positions, spec.base.transform, physics.gravity
@@ -183,7 +192,7 @@ def _robot(
     return BuiltRobot(name, spec, mjcf, drives)
 
 
-def _object_geometry(obj: ObjectSpec) -> Geometry | None:
+def _object_geometry(obj: ObjectSpec, where: Where) -> Geometry | None:
     if obj.shape == "box":
         x, y, z = obj.size
         return Box((x, y, z))
@@ -194,12 +203,13 @@ def _object_geometry(obj: ObjectSpec) -> Geometry | None:
     if obj.shape == "mesh":
         assert obj.mesh is not None
         if not obj.mesh.is_file():
-            raise SimError(f"scene object '{obj.name}': mesh file '{obj.mesh}' does not exist")
+            raise where.error(f"file '{obj.mesh}' does not exist")
         return Mesh(str(obj.mesh), obj.mesh_scale, obj.mesh)
     return None
 
 
-def _object(doc: MjcfDocument, obj: ObjectSpec, meshes: MeshCache) -> None:
+def _object(doc: MjcfDocument, scene: Scene, index: int, meshes: MeshCache) -> None:
+    obj, where = scene.objects[index], _located(scene, f"objects[{index}]")
     tf = obj.pose.transform
     body = ET.SubElement(
         doc.worldbody, "body", name=obj.name, pos=fmt(tf.translation), quat=fmt(tf.quat_wxyz)
@@ -214,7 +224,7 @@ def _object(doc: MjcfDocument, obj: ObjectSpec, meshes: MeshCache) -> None:
         conaffinity="3",
         group="0",
     )
-    geometry = _object_geometry(obj)
+    geometry = _object_geometry(obj, _located(scene, f"objects[{index}].mesh"))
     if geometry is None:
         geom.attrib.update(type="plane", size=fmt((*obj.size, 0.05)))
     elif isinstance(geometry, Box):
@@ -238,7 +248,7 @@ def _object(doc: MjcfDocument, obj: ObjectSpec, meshes: MeshCache) -> None:
         assert geometry is not None
         unit = inertial_from_collisions([Collision(geometry)], 1.0, meshes)
         if unit is None:
-            raise SimError(f"scene object '{obj.name}': has no volume to compute inertia from")
+            raise where.error(f"object '{obj.name}' has no volume to compute its inertia from")
         scale = (obj.mass if obj.mass is not None else 1000.0 * unit.mass) / unit.mass
         ET.SubElement(body, "freejoint", name=obj.name)
         ET.SubElement(
@@ -252,10 +262,11 @@ def _object(doc: MjcfDocument, obj: ObjectSpec, meshes: MeshCache) -> None:
         )
 
 
-def _light(doc: MjcfDocument, light: LightSpec, index: int) -> None:
+def _light(doc: MjcfDocument, scene: Scene, index: int) -> None:
+    light = scene.lights[index]
     norm = math.sqrt(sum(c * c for c in light.direction))
     if norm == 0:
-        raise SimError(f"scene lights[{index}]: dir must not be zero")
+        raise _located(scene, f"lights[{index}].dir").error("must not be [0, 0, 0] (a direction)")
     attrs = {
         "pos": fmt(light.pos),
         "dir": fmt(light.direction),
@@ -273,14 +284,19 @@ def build_scene(scene: Scene, meshes: MeshCache | None = None) -> BuiltScene:
     cache = meshes or MeshCache()
     doc = MjcfDocument("scene")
     _physics(doc, scene.physics)
-    for i, light in enumerate(scene.lights):
-        _light(doc, light, i)
-    for obj in scene.objects:
-        _object(doc, obj, cache)
-    robots = tuple(_robot(doc, spec, cache, scene.strict, scene.physics) for spec in scene.robots)
+    for i in range(len(scene.lights)):
+        _light(doc, scene, i)
+    for i in range(len(scene.objects)):
+        _object(doc, scene, i, cache)
+    robots = tuple(_robot(doc, scene, i, cache) for i in range(len(scene.robots)))
     names = [r.name for r in robots]
-    if len(set(names)) != len(names):
-        raise SimError(f"scene robots: duplicate robot names {names} (set 'name' on each)")
+    for i, name in enumerate(names):
+        if name in names[:i]:
+            entry = _located(scene, f"robots[{i}]")
+            raise scene.locations.get(f"robots[{i}].name", entry).error(
+                f"the robot name '{name}' is already taken by robots[{names.index(name)}] "
+                "(set 'name' on each)"
+            )
     _check_sensor_bodies(scene, doc)
     return BuiltScene(scene, doc, robots)
 

@@ -44,15 +44,17 @@ T = TypeVar("T")
 
 class _Section:
     """A mapping from the YAML with its location, so errors say e.g.
-    `scene.yaml:7: robots[0].base: ...`."""
+    `scene.yaml:7: robots[0].base: ...`. Every entry and key read is noted in `locations`
+    (by path), so what the scene builder finds wrong later points at its line too."""
 
-    def __init__(self, data: object, where: Where) -> None:
+    def __init__(self, data: object, where: Where, locations: dict[str, Where]) -> None:
         if data is None:
             data = {}
         if not isinstance(data, Mapping):
             raise where.error(f"expected a mapping of keys, got {_kind(data)}")
         self.data: Mapping[str, Any] = data
         self.where = where
+        self.locations = locations
 
     def line(self, name: str) -> int | None:
         """The line of key `name` in the file, if the data came from one."""
@@ -68,7 +70,9 @@ class _Section:
                 )
 
     def key(self, name: str) -> Where:
-        return self.where.child(f".{name}" if self.where else name, self.line(name))
+        where = self.where.child(f".{name}" if self.where else name, self.line(name))
+        self.locations.setdefault(str(where), where)
+        return where
 
     def get(self, name: str, conv: Callable[[Any, Where], T], default: T) -> T:
         if name not in self.data or self.data[name] is None:
@@ -81,7 +85,7 @@ class _Section:
         return conv(self.data[name], self.key(name))
 
     def sub(self, name: str) -> _Section:
-        return _Section(self.data.get(name), self.key(name))
+        return _Section(self.data.get(name), self.key(name), self.locations)
 
     def items(self, name: str) -> list[_Section]:
         value = self.data.get(name) or []
@@ -89,10 +93,10 @@ class _Section:
         if not isinstance(value, list):
             raise where.error(f"expected a list of entries, got {_kind(value)}")
         lines = value.item_lines if isinstance(value, LineList) else [None] * len(value)
-        return [
-            _Section(v, where.child(f"[{i}]", line))
-            for i, (v, line) in enumerate(zip(value, lines, strict=True))
-        ]
+        entries = [where.child(f"[{i}]", line) for i, line in enumerate(lines)]
+        for entry in entries:
+            self.locations.setdefault(str(entry), entry)
+        return [_Section(v, entry, self.locations) for v, entry in zip(value, entries, strict=True)]
 
 
 def _kind(value: object) -> str:
@@ -635,8 +639,8 @@ def _sensor(section: _Section, locations: dict[str, Where]) -> dict[str, Any]:
 def parse_scene(data: object, base_dir: Path, source: Path | None = None) -> Scene:
     """Build a `Scene` from parsed YAML `data`; relative paths are taken from `base_dir`.
     Errors name the entry, and the file and line when `data` came from `load_scene`."""
-    root = _Section(data, Where("", str(source) if source is not None else None, None))
     locations: dict[str, Where] = {}
+    root = _Section(data, Where("", str(source) if source is not None else None, None), locations)
     root.done(("physics", "robots", "objects", "lights", "ros", "sensors", "strict", "perception"))
     perception = root.data.get("perception")
     if perception is not None and not isinstance(perception, Mapping):

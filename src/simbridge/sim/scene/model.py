@@ -249,5 +249,5 @@ class Scene:
     perception: Mapping[str, Any] | None = field(default=None, compare=False)
     """The raw `perception:` section (line-aware); `simbridge.perception` interprets it."""
     locations: Mapping[str, Where] = field(default_factory=dict, compare=False)
-    """Entries checked only when the scene is built (`sensors[1].body`: a sensor's mount
-    body) -> where they stand in the file, for the error."""
+    """Every entry and key the loader read (`robots[0].drives.joints.j9`, `sensors[1].body`)
+    -> where it stands in the file, for the errors found only when the scene is built."""
