@@ -55,115 +55,101 @@ DATAGEN_DEMO_FRAMES = 200
 
 def add_pick_and_place_arguments(parser: argparse.ArgumentParser) -> None:
     """The demo's options (`simbridge demo pick-and-place --help`)."""
-    parser.add_argument(
-        "--backend",
-        choices=PICK_AND_PLACE_BACKENDS,
-        default="local",
-        help="local (default): the embedded bus, no ROS needed; ros1: real topics and "
-        "services on the ROS 1 master at ROS_MASTER_URI, else a private roscore; ros2: real "
-        "ROS 2 topics and services (localhost-only DDS, in the ROS 2 venv)",
+    _add_shared_arguments(
+        parser,
+        backends=PICK_AND_PLACE_BACKENDS,
+        backend_help=(
+            "local (default): the embedded bus, no ROS needed; ros1: real topics and "
+            "services on the ROS 1 master at ROS_MASTER_URI, else a private roscore; ros2: real "
+            "ROS 2 topics and services (localhost-only DDS, in the ROS 2 venv)"
+        ),
+        summary='"cube_error_m", "phases"',
+        view_help=(
+            "live browser view (viser); keeps serving after the run, with a button that "
+            "runs again with a new seed, until Ctrl-C"
+        ),
     )
-    parser.add_argument(
-        "--json",
-        action="store_true",
-        help='print a JSON summary last: {"success", "seed", "backend", "sim_s", "wall_s", '
-        '"realtime_factor", "error", "cube_error_m", "phases", ...}',
-    )
-    parser.add_argument("--video", metavar="PATH", help="write a .gif (or .mp4 with ffmpeg)")
     parser.add_argument(
         "--seed",
         type=int,
         help="draw a random cube and target from this seed (default: the fixed task, "
         '"seed": null in the JSON)',
     )
-    parser.add_argument(
-        "--realtime",
-        type=float,
-        help="sim seconds per wall second (default: 1 with --view, else 0 = as fast as possible)",
-    )
-    parser.add_argument("--record", metavar="FILE", help="record the run (.mcap or .bag)")
-    parser.add_argument(
-        "--view",
-        action="store_true",
-        help="live browser view (viser); keeps serving after the run, with a button that "
-        "runs again with a new seed, until Ctrl-C",
-    )
-    parser.add_argument(
-        "--view-port", type=int, default=8080, help="live view port (default 8080; 0: any free)"
-    )
 
 
 def add_mobile_robot_arguments(parser: argparse.ArgumentParser) -> None:
     """The demo's options (`simbridge demo mobile-robot --help`)."""
+    _add_shared_arguments(
+        parser,
+        backends=MOBILE_ROBOT_BACKENDS,
+        backend_help=(
+            "local (default): the embedded bus, no ROS needed; ros1: real ROS topics on the "
+            "ROS 1 master at ROS_MASTER_URI, else a private roscore; ros2: real ROS 2 topics "
+            "(localhost-only DDS, in the ROS 2 venv)"
+        ),
+        summary='"odom_error_m"',
+        view_help=(
+            "live browser view (viser), in real time unless --realtime says otherwise; "
+            "stays up after the run until Ctrl-C"
+        ),
+        video=False,
+    )
     parser.add_argument(
         "--side", type=float, default=1.0, help="square side in metres, 0.2 to 1.2 (default 1)"
-    )
-    parser.add_argument(
-        "--realtime",
-        type=float,
-        default=None,
-        help="sim seconds per wall second (default: 1 with --view, else 0 = as fast as possible)",
-    )
-    parser.add_argument(
-        "--backend",
-        choices=MOBILE_ROBOT_BACKENDS,
-        default="local",
-        help="local (default): the embedded bus, no ROS needed; ros1: real ROS topics on the "
-        "ROS 1 master at ROS_MASTER_URI, else a private roscore; ros2: real ROS 2 topics "
-        "(localhost-only DDS, in the ROS 2 venv)",
-    )
-    parser.add_argument(
-        "--json",
-        action="store_true",
-        help='print a JSON summary last: {"success", "seed", "backend", "sim_s", "wall_s", '
-        '"realtime_factor", "error", "odom_error_m", ...}',
-    )
-    parser.add_argument("--record", metavar="FILE", help="record the run (.mcap or .bag)")
-    parser.add_argument(
-        "--view",
-        action="store_true",
-        help="live browser view (viser), in real time unless --realtime says otherwise; "
-        "stays up after the run until Ctrl-C",
-    )
-    parser.add_argument(
-        "--view-port", type=int, default=8080, help="live view port (default 8080; 0: any free)"
     )
 
 
 def add_line_arguments(parser: argparse.ArgumentParser) -> None:
     """The demo's options (`simbridge demo line --help`)."""
+    _add_shared_arguments(
+        parser,
+        backends=LINE_BACKENDS,
+        backend_help=(
+            "local (default): the embedded bus; ros1: real ROS 1 topics and actions on the "
+            "master at ROS_MASTER_URI (else a private roscore)"
+        ),
+        summary='"parts", "delivered"',
+        view_help=(
+            "live browser view (viser); keeps serving after the run, with a button that "
+            "runs the line again with the next seed (Ctrl-C ends)"
+        ),
+    )
     parser.add_argument(
         "--seed", type=int, default=0, help="draw the part poses from this seed (default 0)"
     )
     parser.add_argument(
-        "--backend",
-        choices=LINE_BACKENDS,
-        default="local",
-        help="local (default): the embedded bus; ros1: real ROS 1 topics and actions on the "
-        "master at ROS_MASTER_URI (else a private roscore)",
-    )
-    parser.add_argument(
         "--parts", type=int, default=3, help=f"parts to move, 1 to {LINE_MAX_PARTS} (default 3)"
     )
+
+
+def _add_shared_arguments(
+    parser: argparse.ArgumentParser,
+    *,
+    backends: tuple[str, ...],
+    backend_help: str,
+    summary: str,
+    view_help: str,
+    video: bool = True,
+) -> None:
+    """The options every demo has, worded for it where they differ: --backend, --json
+    (`summary`: its own keys after the shared ones), --video (where the demo films),
+    --realtime, --record, --view and --view-port."""
+    parser.add_argument("--backend", choices=backends, default="local", help=backend_help)
     parser.add_argument(
         "--json",
         action="store_true",
         help='print a JSON summary last: {"success", "seed", "backend", "sim_s", "wall_s", '
-        '"realtime_factor", "error", "parts", "delivered", ...}',
+        f'"realtime_factor", "error", {summary}, ...}}',
     )
-    parser.add_argument("--video", metavar="PATH", help="write a .gif (or .mp4 with ffmpeg)")
+    if video:
+        parser.add_argument("--video", metavar="PATH", help="write a .gif (or .mp4 with ffmpeg)")
     parser.add_argument(
         "--realtime",
         type=float,
         help="sim seconds per wall second (default: 1 with --view, else 0 = as fast as possible)",
     )
     parser.add_argument("--record", metavar="FILE", help="record the run (.mcap or .bag)")
-    parser.add_argument(
-        "--view",
-        action="store_true",
-        help="live browser view (viser); keeps serving after the run, with a button that "
-        "runs the line again with the next seed (Ctrl-C ends)",
-    )
+    parser.add_argument("--view", action="store_true", help=view_help)
     parser.add_argument(
         "--view-port", type=int, default=8080, help="live view port (default 8080; 0: any free)"
     )
