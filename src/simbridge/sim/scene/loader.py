@@ -43,9 +43,8 @@ T = TypeVar("T")
 
 
 class _Section:
-    """A mapping from the YAML with its location, so errors say e.g.
-    `scene.yaml:7: robots[0].base: ...`. Every entry and key read is noted in `locations`
-    (by path), so what the scene builder finds wrong later points at its line too."""
+    """A mapping from the YAML with its location, so errors say e.g. `scene.yaml:7:
+    robots[0].base: ...`; every entry and key read goes into `locations` for the builder's."""
 
     def __init__(self, data: object, where: Where, locations: dict[str, Where]) -> None:
         if data is None:
@@ -55,6 +54,7 @@ class _Section:
         self.data: Mapping[str, Any] = data
         self.where = where
         self.locations = locations
+        locations.setdefault(str(where), where)
 
     def line(self, name: str) -> int | None:
         """The line of key `name` in the file, if the data came from one."""
@@ -93,10 +93,10 @@ class _Section:
         if not isinstance(value, list):
             raise where.error(f"expected a list of entries, got {_kind(value)}")
         lines = value.item_lines if isinstance(value, LineList) else [None] * len(value)
-        entries = [where.child(f"[{i}]", line) for i, line in enumerate(lines)]
-        for entry in entries:
-            self.locations.setdefault(str(entry), entry)
-        return [_Section(v, entry, self.locations) for v, entry in zip(value, entries, strict=True)]
+        return [
+            _Section(v, where.child(f"[{i}]", line), self.locations)
+            for i, (v, line) in enumerate(zip(value, lines, strict=True))
+        ]
 
 
 def _kind(value: object) -> str:
