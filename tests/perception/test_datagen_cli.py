@@ -4,6 +4,7 @@ that name the file, line and entry of a bad `perception:` section."""
 
 from __future__ import annotations
 
+import os
 import re
 from pathlib import Path
 
@@ -107,6 +108,7 @@ def test_a_bad_perception_section_is_named_by_file_line_and_entry(
 def test_demo_datagen_is_the_shipped_table_at_200_frames() -> None:
     args = build_parser().parse_args(["demo", "datagen"])
     assert (args.frames, args.format, args.seed, args.resume) == (200, "coco,bop", 0, False)
+    assert args.workers == (os.cpu_count() or 1)  # one per CPU
     from simbridge.cli.datagen import scene_path
     from simbridge.perception import FrameMaker
 

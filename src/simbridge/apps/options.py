@@ -24,7 +24,7 @@ __all__ = [
 
 PICK_AND_PLACE_BACKENDS = ("local", "ros1", "ros2")
 MOBILE_ROBOT_BACKENDS = ("local", "ros1", "ros2")
-LINE_BACKENDS = ("local", "ros1")  # the controllers speak ROS 1 actions
+LINE_BACKENDS = ("local", "ros1", "ros2")
 LINE_MAX_PARTS = 4
 """The line's output slots (`simbridge.apps.line.task.MAX_PARTS`, checked by a test)."""
 
@@ -106,7 +106,9 @@ def add_line_arguments(parser: argparse.ArgumentParser) -> None:
         backends=LINE_BACKENDS,
         backend_help=(
             "local (default): the embedded bus; ros1: real ROS 1 topics and actions on the "
-            "master at ROS_MASTER_URI (else a private roscore)"
+            "master at ROS_MASTER_URI (else a private roscore); ros2: real ROS 2 topics and "
+            "actions (localhost-only DDS, in the ROS 2 venv), the robots driven from a separate "
+            "rclpy process"
         ),
         summary='"parts", "delivered"',
         view_help=(
@@ -163,10 +165,14 @@ def _workers(text: str) -> int:
 
 
 def add_datagen_arguments(
-    parser: argparse.ArgumentParser, *, frames: int | None, out: str | None = None
+    parser: argparse.ArgumentParser,
+    *,
+    frames: int | None,
+    out: str | None = None,
+    workers: int = 1,
 ) -> None:
     """Options of `simbridge datagen` (`frames`/`out` None: required) and of `simbridge
-    demo datagen` (their defaults given)."""
+    demo datagen` (their defaults given; `workers` 0: one per CPU)."""
     parser.add_argument(
         "--frames",
         type=int,
@@ -198,6 +204,8 @@ def add_datagen_arguments(
     parser.add_argument(
         "--workers",
         type=_workers,
-        default=1,
-        help="processes rendering frames (0: one per CPU; default 1); the files are the same",
+        default=workers or (os.cpu_count() or 1),
+        help="processes rendering frames (0: one per CPU; default "
+        + (str(workers) if workers else "one per CPU")
+        + "); the files are the same",
     )

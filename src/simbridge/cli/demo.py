@@ -111,7 +111,7 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         description=options.DATAGEN,
     )
     options.add_datagen_arguments(
-        p_datagen, frames=options.DATAGEN_DEMO_FRAMES, out="simbridge-datagen"
+        p_datagen, frames=options.DATAGEN_DEMO_FRAMES, out="simbridge-datagen", workers=0
     )
     p_datagen.set_defaults(func=_run_datagen)
     p_bridge = demos.add_parser(
@@ -122,10 +122,11 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     )
     p_bridge.add_argument(
         "--backend",
-        choices=["local", "ros1"],
+        choices=["local", "ros1", "ros2"],
         default="local",
         help="local (default): the embedded bus, no ROS needed; ros1: real topics and "
-        "services on the ROS 1 master at ROS_MASTER_URI, else a private roscore",
+        "services on the ROS 1 master at ROS_MASTER_URI, else a private roscore; ros2: real "
+        "ROS 2 topics and services (localhost-only DDS, in the ROS 2 venv)",
     )
     p_bridge.add_argument(
         "--json",
