@@ -160,11 +160,13 @@ def test_bad_options_get_a_clear_error(
     assert message in capsys.readouterr().err
 
 
-def test_cli_refuses_other_backends(capsys: pytest.CaptureFixture[str]) -> None:
-    with pytest.raises(SystemExit) as exited:  # argparse: ros2 is not one of the choices
-        cli_main(["demo", "line", "--backend", "ros2"])
+def test_cli_offers_every_backend_and_refuses_others(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as exited:
+        cli_main(["demo", "line", "--backend", "ros3"])
     assert exited.value.code == 2
-    assert "argument --backend: invalid choice: 'ros2'" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "argument --backend: invalid choice: 'ros3'" in err
+    assert "--backend {local,ros1,ros2}" in err
 
 
 def test_result_counts_only_parts_within_tolerance() -> None:

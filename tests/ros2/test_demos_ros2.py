@@ -33,3 +33,13 @@ def test_mobile_robot_drives_over_real_ros2_topics() -> None:
     assert completed is True, "".join(demo.output[-20:])
     assert '"error": null' in result
     assert "ros2 backend" in "".join(demo.output)
+
+
+def test_bridge_demo_over_ros2() -> None:
+    """Twist messages and a service call between two connectors through rclpy."""
+    with Ros2Process([*DEMO, "bridge", "--backend", "ros2", "--json"]) as demo:
+        assert demo.expect_json("success", timeout=120) is True
+    summary = demo.output[-1]
+    assert '"backend": "ros2"' in summary
+    assert '"received": 5' in summary
+    assert '"service_ok": true' in summary

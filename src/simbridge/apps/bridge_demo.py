@@ -13,7 +13,6 @@ from simbridge.connector import Connector, ConnectorOptions
 from simbridge.endpoint import Backend, EndpointOptions, EndpointThread, LocalBus, make_backend
 from simbridge.endpoint.backends.ros1 import unique_node_name
 from simbridge.errors import AppError
-from simbridge.messages import default_registry
 
 __all__ = ["run_bridge_demo"]
 
@@ -24,12 +23,12 @@ def run_bridge_demo(
     """Twist messages from a 'sim' connector to a 'ROS tool' connector, then a service call back.
 
     `backend` "ros1" routes them through a ROS 1 master (ROS_MASTER_URI, else a private
-    roscore) as real topics and services. Returns the number of Twist messages that
+    roscore) as real topics and services; "ros2" through rclpy (the ROS 2 venv, localhost
+    DDS), the connectors speaking ROS 2 (CDR). Returns the number of Twist messages that
     arrived (the demo fails if any was lost). `json` prints a summary as the last line
     (SUMMARY_KEYS, then sent, received, service_ok).
     """
     began = time.perf_counter()
-    reg = default_registry()
     options = ConnectorOptions(reconnect_initial=0.2)
     with ExitStack() as stack:
         graph: Backend = LocalBus()
@@ -37,14 +36,17 @@ def run_bridge_demo(
             master = stack.enter_context(DemoMaster())
             print(f"[endpoint] ROS master {master.describe()}")
             graph = make_backend("ros1", node_name=unique_node_name("simbridge_bridge_demo"))
+        elif backend == "ros2":
+            graph = make_backend("ros2", node_name="/simbridge_bridge_demo")
         elif backend != "local":
-            raise AppError(f"unknown backend {backend!r}; choose local or ros1")
+            raise AppError(f"unknown backend {backend!r}; choose local, ros1 or ros2")
         endpoint = stack.enter_context(EndpointThread(EndpointOptions(port=0), graph))
         print(f"[endpoint] listening on 127.0.0.1:{endpoint.port} (backend {backend})")
         with (
             Connector("127.0.0.1", endpoint.port, options).connect() as sim,
             Connector("127.0.0.1", endpoint.port, options).connect() as tool,
         ):
+            reg = sim.registry  # the endpoint's layouts (ROS 2 ones on a ros2 endpoint)
             got = threading.Event()
             received: list[Any] = []
 

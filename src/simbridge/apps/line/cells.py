@@ -1,6 +1,8 @@
-"""The line's in-process nodes: one per robot, each driving its robot only through its
+"""The line's robot nodes: one per robot, each driving its robot only through its
 controllers' standard actions (control_msgs/FollowJointTrajectory, GripperCommand) and
-watching its `<ns>/joint_states`, as a ROS node on a real line would."""
+watching its `<ns>/joint_states`, as a ROS node on a real line would. The graph they use is
+a `CellGraph`: an in-process node on the endpoint's bus (`NodeGraph`: local, ROS 1), or
+rclpy in a process of its own (`ros2_cells.Ros2Graph`)."""
 
 from __future__ import annotations
 
@@ -8,16 +10,28 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
 from simbridge.endpoint import Backend, Node, NodeActionClient
 from simbridge.errors import AppError
+from simbridge.messages import MessageRegistry
 from simbridge.messages.actionlib import SUCCEEDED
 from simbridge.planning import JointTrajectory, robot_trajectory_message
 
-__all__ = ["FOLLOW", "GRIPPER", "ArmCell", "ConveyorCell", "RobotNode", "RobotTally"]
+__all__ = [
+    "FOLLOW",
+    "GRIPPER",
+    "ArmCell",
+    "CellGraph",
+    "ConveyorCell",
+    "GoalClient",
+    "GoalHandle",
+    "NodeGraph",
+    "RobotNode",
+    "RobotTally",
+]
 
 FOLLOW = "control_msgs/FollowJointTrajectory"
 GRIPPER = "control_msgs/GripperCommand"
@@ -26,6 +40,81 @@ _STATUS_NAMES = (
     "REJECTED", "PREEMPTING", "RECALLING", "RECALLED", "LOST",
 )  # fmt: skip
 """actionlib_msgs/GoalStatus values by number."""
+
+
+class GoalHandle(Protocol):
+    """A goal sent by a `GoalClient`: actionlib's status values (SUCCEEDED is 3)."""
+
+    status: int | None
+    result: Any
+    text: str
+
+    def wait(self, timeout: float | None = None) -> bool:
+        """Block until the goal ended; False on timeout."""
+        ...
+
+    def cancel(self) -> None:
+        """Ask the server to cancel the goal."""
+
+
+class GoalClient(Protocol):
+    """An action client (`NodeActionClient`'s face)."""
+
+    @property
+    def name(self) -> str:
+        """The action's name."""
+        ...
+
+    def wait_for_server(self, timeout: float | None = None) -> bool:
+        """True once the server can take goals."""
+        ...
+
+    def send_goal(self, goal: Any, on_feedback: Callable[[Any], None] | None = None) -> Any:
+        """Send `goal` (a message of the graph's registry); a `GoalHandle`."""
+        ...
+
+
+class CellGraph(Protocol):
+    """What a robot's node needs of the ROS graph."""
+
+    @property
+    def registry(self) -> MessageRegistry:
+        """The layouts of the messages it builds and reads."""
+        ...
+
+    def action_client(self, name: str, action_type: str) -> GoalClient:
+        """A client of action `name` (`pkg/Action`)."""
+        ...
+
+    def subscribe(self, topic: str, msg_type: str, callback: Callable[[Any], None]) -> None:
+        """Call `callback(msg)` for every message on `topic`."""
+
+    def close(self) -> None:
+        """Leave the graph."""
+
+
+class NodeGraph:
+    """A `CellGraph` that is an in-process node on the endpoint's bus (local or ROS 1)."""
+
+    def __init__(self, bus: Backend, name: str, *, loop: Any = None) -> None:
+        self.node = Node(bus, name, loop=loop)
+
+    @property
+    def registry(self) -> MessageRegistry:
+        """The node's registry."""
+        return self.node.registry
+
+    def action_client(self, name: str, action_type: str) -> GoalClient:
+        """actionlib over the bus's topics."""
+        return NodeActionClient(self.node, name, action_type)
+
+    def subscribe(self, topic: str, msg_type: str, callback: Callable[[Any], None]) -> None:
+        """A subscription of the node."""
+        self.node.subscribe(topic, msg_type, callback)
+
+    def close(self) -> None:
+        """Withdraw the node's topics."""
+        self.node.close()
 
 
 @dataclass(frozen=True)
@@ -48,15 +137,14 @@ class RobotTally:
 
 
 class RobotNode:
-    """A node for the robot in ``namespace``: its joint states and action goals."""
+    """A node for the robot in ``namespace`` on ``graph``: its joint states and action goals."""
 
     def __init__(
         self,
-        bus: Backend,
+        graph: CellGraph,
         namespace: str,
         joints: tuple[str, ...],
         *,
-        loop: Any = None,
         goal_timeout_s: float = 60.0,
         alive: Callable[[], bool] = lambda: True,
     ) -> None:
@@ -65,18 +153,16 @@ class RobotNode:
         """Whether the simulation still runs: waiting on a goal ends when it stops."""
         self.joints = joints
         self.goal_timeout_s = goal_timeout_s
-        self.node = Node(bus, f"{namespace}_cell", loop=loop)
-        self.registry = self.node.registry
+        self.graph = graph
+        self.registry = graph.registry
         self._lock = threading.Lock()
         self._positions: dict[str, float] = {}
         self._joint_states = 0
         self._feedback = 0
         self._goals = 0
         self._heard = threading.Event()
-        self.trajectory = NodeActionClient(
-            self.node, self._controller_action(), FOLLOW
-        )  # fmt: skip
-        self.node.subscribe(f"{namespace}/joint_states", "sensor_msgs/JointState", self._on_joints)
+        self.trajectory = graph.action_client(self._controller_action(), FOLLOW)
+        graph.subscribe(f"{namespace}/joint_states", "sensor_msgs/JointState", self._on_joints)
 
     def _controller_action(self) -> str:
         raise NotImplementedError
@@ -92,7 +178,7 @@ class RobotNode:
         with self._lock:
             self._feedback += 1
 
-    def clients(self) -> list[NodeActionClient]:
+    def clients(self) -> list[GoalClient]:
         """Every action client of the node."""
         return [self.trajectory]
 
@@ -109,7 +195,7 @@ class RobotNode:
         with self._lock:
             return np.array([self._positions[j] for j in self.joints], dtype=np.float64)
 
-    def _await(self, client: NodeActionClient, goal: Any, what: str) -> Any:
+    def _await(self, client: GoalClient, goal: Any, what: str) -> Any:
         with self._lock:
             self._goals += 1
         handle = client.send_goal(goal, on_feedback=self._count_feedback)
@@ -143,8 +229,8 @@ class RobotNode:
             return RobotTally(self.namespace, self._goals, self._feedback, self._joint_states)
 
     def close(self) -> None:
-        """Withdraw the node's topics."""
-        self.node.close()
+        """Leave the graph."""
+        self.graph.close()
 
 
 class ArmCell(RobotNode):
@@ -158,22 +244,15 @@ class ArmCell(RobotNode):
     """A closed gripper whose finger stopped above this (m) is holding a part."""
 
     def __init__(
-        self,
-        bus: Backend,
-        namespace: str,
-        *,
-        loop: Any = None,
-        alive: Callable[[], bool] = lambda: True,
+        self, graph: CellGraph, namespace: str, *, alive: Callable[[], bool] = lambda: True
     ) -> None:
-        super().__init__(bus, namespace, self.ARM_JOINTS, loop=loop, alive=alive)
-        self.gripper = NodeActionClient(
-            self.node, f"{namespace}/gripper_controller/gripper_cmd", GRIPPER
-        )
+        super().__init__(graph, namespace, self.ARM_JOINTS, alive=alive)
+        self.gripper = graph.action_client(f"{namespace}/gripper_controller/gripper_cmd", GRIPPER)
 
     def _controller_action(self) -> str:
         return f"{self.namespace}/arm_controller/follow_joint_trajectory"
 
-    def clients(self) -> list[NodeActionClient]:
+    def clients(self) -> list[GoalClient]:
         """The arm's and the gripper's action clients."""
         return [self.trajectory, self.gripper]
 
@@ -197,14 +276,13 @@ class ConveyorCell(RobotNode):
 
     def __init__(
         self,
-        bus: Backend,
+        graph: CellGraph,
         namespace: str,
         *,
-        loop: Any = None,
         alive: Callable[[], bool] = lambda: True,
         speed: float = 0.25,
     ) -> None:
-        super().__init__(bus, namespace, ("pallet_joint",), loop=loop, alive=alive)
+        super().__init__(graph, namespace, ("pallet_joint",), alive=alive)
         self.speed = speed
 
     def _controller_action(self) -> str:

@@ -17,7 +17,7 @@ from collections.abc import Callable, Sequence
 from contextlib import ExitStack
 from pathlib import Path
 
-from simbridge.apps.line.cells import ArmCell, ConveyorCell, RobotNode
+from simbridge.apps.line.drive import drive_in_process, drive_ros2
 from simbridge.apps.line.result import DELIVERY_TOLERANCE_M, LineResult
 from simbridge.apps.line.scene import (
     ARMS,
@@ -27,7 +27,6 @@ from simbridge.apps.line.scene import (
     line_scene,
     part_name,
 )
-from simbridge.apps.line.supervisor import LineSupervisor
 from simbridge.apps.line.task import LineTask
 from simbridge.apps.line.view import LineView
 from simbridge.apps.options import LINE, LINE_BACKENDS, add_line_arguments
@@ -39,7 +38,6 @@ from simbridge.endpoint import (
     EndpointOptions,
     EndpointThread,
     LocalBus,
-    Node,
     make_backend,
 )
 from simbridge.endpoint.backends.ros1 import unique_node_name
@@ -166,12 +164,14 @@ def run_line(
         bus: Backend
         if backend == "local":
             bus, where = LocalBus(), "local bus"
+        elif backend == "ros2":
+            bus = make_backend("ros2", node_name="/simbridge_line")
+            where = "ros2 backend"
         else:
             master = stack.enter_context(DemoMaster())
             bus = make_backend("ros1", node_name=unique_node_name("simbridge_line"))
             where = f"ros1 backend, ROS master {master.describe()}"
         endpoint = stack.enter_context(EndpointThread(EndpointOptions(port=0), bus))
-        loop = endpoint.loop
         session = SimulationSession(
             line_scene(task, scene),
             f"127.0.0.1:{endpoint.port}",
@@ -188,31 +188,30 @@ def run_line(
             say(f"[line] live view at {stack.enter_context(LiveView(world, view)).url}")
         sim = _SimThread(world, max_sim_s, video_path, realtime_factor)
         alive = lambda: sim.alive  # noqa: E731
-        arm_in = ArmCell(bus, f"/{ARMS[0]}", loop=loop, alive=alive)
-        arm_out = ArmCell(bus, f"/{ARMS[1]}", loop=loop, alive=alive)
-        conveyor = ConveyorCell(bus, f"/{CONVEYOR}", loop=loop, alive=alive)
-        cells: dict[str, RobotNode] = {ARMS[0]: arm_in, ARMS[1]: arm_out, CONVEYOR: conveyor}
-        for cell in cells.values():
-            stack.callback(cell.close)
-        node = Node(bus, "/line_supervisor", loop=loop)
-        stack.callback(node.close)
         stack.callback(sim.stop)
+        pause_service = f"{session.scene.ros.services_prefix.rstrip('/')}/pause"
+        if backend == "ros2":
+            world.pause()  # until the ROS 2 cells found every action server (they resume it)
         sim.start()
-        for cell in cells.values():
-            cell.wait_ready(10.0)
         say(
             f"[line] endpoint on port {endpoint.port} ({where}); {len(task.parts)} parts; "
-            f"robots {', '.join(cells)}, each on its own connection"
+            f"robots {', '.join((*ARMS, CONVEYOR))}, each on its own connection"
         )
-        supervisor = LineSupervisor(
-            task, arm_in, arm_out, conveyor, node,
-            pause_service=f"{session.scene.ros.services_prefix.rstrip('/')}/pause",
-            sim_time=lambda: world.time, progress=say, seed=seed or 0,
-        )  # fmt: skip
-        try:
-            supervisor.run()
-        except SimbridgeError as exc:
-            error = str(exc)
+        if backend == "ros2":
+            say("[line] the robots are driven from a ROS 2 process of their own")
+            # Time stands still from the summary until the cells' process is gone.
+            drive = drive_ros2(
+                task, seed or 0, pause_service=pause_service, alive=alive, say=say,
+                on_summary=world.pause,
+            )  # fmt: skip
+            world.resume()
+        else:
+            drive = drive_in_process(
+                stack, bus, endpoint.loop, task, pause_service=pause_service,
+                sim_time=lambda: world.time, alive=alive, say=say, seed=seed or 0,
+            )  # fmt: skip
+        error = drive.error
+        if error is not None:
             say(f"[line] failed: {error}")
         sim.wait_sim(SETTLE_S)
         sim.stop()
@@ -221,10 +220,10 @@ def run_line(
         errors, finals = _measure(world, task)
         sim_s = world.time
         wall_s = sim.wall_s or time.perf_counter() - began
-        robots = {name: cell.tally().to_dict() for name, cell in cells.items()}
+        robots = drive.robots
     delivered = sum(e <= DELIVERY_TOLERANCE_M for e in errors)
-    first = supervisor.first_goal_at or 0.0
-    last = supervisor.last_delivery_at
+    first = drive.first_goal_at or 0.0
+    last = drive.last_delivery_at
     result = LineResult(
         parts=len(task.parts),
         delivered=delivered,
@@ -237,7 +236,7 @@ def run_line(
         seed=seed if seed is not None else 0,
         backend=backend,
         error=error,
-        planning_wall_s=supervisor.planning_wall_s,
+        planning_wall_s=drive.planning_wall_s,
         final_positions=tuple(finals),
         video=str(video_path) if video_path is not None and sim.frames else None,
     )

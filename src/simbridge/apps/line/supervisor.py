@@ -12,12 +12,10 @@ from __future__ import annotations
 import threading
 import time
 from collections.abc import Callable
-from typing import Any
 
 from simbridge.apps.line.cells import ArmCell, ConveyorCell
 from simbridge.apps.line.planner import ArmPlanner, Transfer, pallet_box, part_box
 from simbridge.apps.line.task import ARM_BASES, CONVEYOR_X, PART_SIZE, TRAVEL_M, LineTask
-from simbridge.endpoint import Node
 from simbridge.errors import AppError, SimbridgeError
 from simbridge.planning import BoxObstacle
 
@@ -72,17 +70,17 @@ class LineSupervisor:
         arm_in: ArmCell,
         arm_out: ArmCell,
         conveyor: ConveyorCell,
-        node: Node,
+        set_paused: Callable[[bool], None],
         *,
-        pause_service: str = "/simbridge/pause",
         sim_time: Callable[[], float] = lambda: 0.0,
         progress: Callable[[str], None] = lambda _text: None,
         seed: int = 0,
         handover_timeout_s: float = 120.0,
     ) -> None:
-        self.task, self.node = task, node
+        self.task = task
+        self._set_paused = set_paused
+        """Pauses (True) or resumes the simulation (the sim's `<services_prefix>/pause`)."""
         self.arm_in, self.arm_out, self.conveyor = arm_in, arm_out, conveyor
-        self.pause_service = pause_service
         self.sim_time = sim_time
         self.say = progress
         self.handover_timeout_s = handover_timeout_s
@@ -99,13 +97,6 @@ class LineSupervisor:
         self._errors: list[str] = []
 
     # --- planning, with the simulation paused ----------------------------------------------
-
-    def _set_paused(self, paused: bool) -> None:
-        registry = self.node.registry
-        request = registry.new(registry.service("std_srvs/SetBool").request, data=paused)
-        response: Any = self.node.call(self.pause_service, "std_srvs/SetBool", request, timeout=10)
-        if not response.success:
-            raise AppError(f"{self.pause_service} refused data={paused}: {response.message}")
 
     def _pause(self, paused: bool) -> None:
         """Counted: the simulation runs again when the last planner is done."""
