@@ -83,5 +83,7 @@ def run() -> list[dict[str, Any]]:
 
 if __name__ == "__main__":
     from benchmarks.table import format_table
+    from benchmarks.usage import exit_on_help
 
-    print(format_table(run()))
+    exit_on_help(__doc__, "  --markdown  a Markdown table")
+    print(format_table(run(), markdown="--markdown" in sys.argv))

@@ -20,6 +20,7 @@ SUITES = {
     "endpoint": "benchmarks.bench_endpoint",
     "ros1": "benchmarks.bench_ros1",
     "ros2": "benchmarks.bench_ros2",
+    "drain": "benchmarks.bench_drain",
     "sim": "benchmarks.bench_sim",
     "sensors": "benchmarks.bench_sensors",
     "pick_and_place": "benchmarks.bench_pick_and_place",
@@ -35,6 +36,8 @@ SUITES = {
 
 TITLES = {
     "endpoint": "Endpoint, local backend (targets: >= 50,000 small msg/s, >= 1 GB/s images)",
+    "drain": "ROS 2: a client that publishes and leaves at once, and a flat-out queue_size 0 "
+    "stream (nothing accepted is lost)",
     "sim": "Simulator (Niryo One arm)",
     "sensors": "Sensors (targets: camera >= 15 fps on CPU, mobile robot >= 2x real time)",
     "pick_and_place": "Pick and place, 20 random seeds (target: >= 95% success)",

@@ -264,3 +264,11 @@ def test_endpoint_splices_large_messages_unless_told_not_to(given: list[str], sp
     assert options.splice is splice
     assert options.host == "127.0.0.1"
     assert options.port == 0
+
+
+@pytest.mark.parametrize(("given", "bound"), [([], 5.0), (["--drain-timeout", "0.5"], 0.5)])
+def test_endpoint_drain_bound_comes_from_the_command_line(given: list[str], bound: float) -> None:
+    from simbridge.cli.endpoint import endpoint_options
+
+    options = endpoint_options(build_parser().parse_args(["endpoint", *given]), None, 0)
+    assert options.drain_timeout == bound
