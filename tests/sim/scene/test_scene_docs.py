@@ -16,7 +16,7 @@ import yaml
 from simbridge.sim.scene import parse_scene
 from simbridge.sim.world import World
 
-DOCS = Path(__file__).resolve().parents[2] / "docs" / "scenes.md"
+DOCS = Path(__file__).resolve().parents[3] / "docs" / "scenes.md"
 
 
 MY_ROBOT_XACRO = """<robot name="my_robot" xmlns:xacro="http://www.ros.org/wiki/xacro">
