@@ -39,9 +39,10 @@ def _v(values: tuple[float, ...]) -> str:
     return "[" + ", ".join(repr(float(v)) for v in values) + "]"
 
 
-def truth_scene(folder: Path) -> Path:
+def truth_scene(folder: Path, multisamples: int = 4) -> Path:
     """Known shapes far apart on an infinite floor, one camera on each: a sphere seen along
-    its axis, a turned box, bare floor, and a flat box half hidden under a plate."""
+    its axis, a turned box, bare floor, and a flat box half hidden under a plate;
+    `multisamples`: the renderer's anti-aliasing."""
     cameras = "\n".join(
         f"    - {{name: {name}, width: {WIDTH}, height: {HEIGHT}, fx: {FOCAL}, fy: {FOCAL}, "
         f"eye: {_v(eye)}, target: {_v(target)}, up: {_v(up)}}}"
@@ -64,7 +65,7 @@ lights:
   - {{type: directional, pos: [0, 0, 3], dir: [0.1, 0.2, -1], cast_shadows: false}}
 perception:
   classes: [ball, crate, tile, plate]
-  render: {{near: 0.05, far: 20}}
+  render: {{near: 0.05, far: 20, multisamples: {multisamples}}}
   output: {{contact_sheet: 4}}
   cameras:
 {cameras}

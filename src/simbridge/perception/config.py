@@ -90,8 +90,9 @@ def parse_perception(scene: Scene) -> PerceptionConfig:
         far=render.number("far", 50.0, 1e-3),
         shadows=render.boolean("shadows", True),
         reflections=render.boolean("reflections", False),
+        multisamples=render.integer("multisamples", 4, low=0),
     )
-    render.done(("near", "far", "shadows", "reflections"))
+    render.done(("near", "far", "shadows", "reflections", "multisamples"))
     if settings.far <= settings.near:
         raise render.error(f"far {settings.far:g} must be beyond near {settings.near:g}", "far")
     output = root.sub("output")
