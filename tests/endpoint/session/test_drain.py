@@ -17,7 +17,15 @@ from simbridge.endpoint import EndpointOptions
 from simbridge.endpoint.backends.base import BackendPublisher
 from simbridge.endpoint.backends.local import LocalBus
 from simbridge.endpoint.runner import EndpointThread
-from simbridge.protocol import MessageReceived, Subscribe
+from simbridge.protocol import (
+    CommandReceived,
+    MessageReceived,
+    Publish,
+    RemovePublisher,
+    Subscribe,
+    TopicListReply,
+    TopicListRequest,
+)
 
 COUNT = 5000
 
@@ -38,6 +46,23 @@ def test_publish_then_close_delivers_everything_on_the_local_backend() -> None:
     assert sent.stats["session"]["published_total"] == COUNT
 
 
+def test_a_publisher_with_nothing_in_flight_leaves_the_graph_at_once() -> None:
+    """Nothing to drain (the local bus delivers as it publishes): the topic is gone before
+    the next request, as before drains."""
+    with EndpointThread(EndpointOptions(port=0), LocalBus()) as endpoint:
+        client = RawClient(endpoint.port)
+        client.send(Publish("/drain/gone", "geometry_msgs/Twist").encode())
+        client.stats()
+        client.send(RemovePublisher("/drain/gone").encode() + TopicListRequest().encode())
+        reply = client.expect(
+            lambda e: isinstance(e, CommandReceived) and isinstance(e.command, TopicListReply)
+        )
+        drains = client.stats()["server"]["drains"]
+        client.close()
+    assert "/drain/gone" not in reply.command.topics
+    assert drains["drained_publishers"] == 1
+
+
 class _HeldPublisher(BackendPublisher):
     """A bus publisher whose drain waits for `release` (or gives up at the timeout with
     `left` messages undelivered); records what happened in `log`."""
@@ -52,6 +77,9 @@ class _HeldPublisher(BackendPublisher):
 
     def watch_subscribers(self, callback: Callable[[int], None]) -> bool:
         return self._inner.watch_subscribers(callback)
+
+    def in_flight(self) -> bool:
+        return True
 
     async def drain(self, timeout: float) -> int:
         self._log.append("drain")

@@ -82,6 +82,11 @@ class BackendPublisher(abc.ABC):
         (`endpoint.speed.splice`), or None: it is published as usual (the default)."""
         return None
 
+    def in_flight(self) -> bool:
+        """Whether something published may not have reached the subscribers yet (a drain
+        would wait); False by default, and then close() follows at once."""
+        return False
+
     async def drain(self, timeout: float) -> int:
         """Wait, at most `timeout` s, until what was published has left for the topic's
         subscribers, so close() loses nothing accepted (a client that publishes and leaves

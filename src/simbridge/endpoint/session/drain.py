@@ -38,8 +38,13 @@ class PublisherDrains:
         """Messages those publishers may still have held (at most) when they closed."""
 
     def add(self, peer: str, publishers: Iterable[tuple[str, BackendPublisher]]) -> None:
-        """Drain each of `peer`'s `(topic, publisher)` pairs, then close it."""
+        """Drain each of `peer`'s `(topic, publisher)` pairs, then close it (at once when
+        nothing is in flight: the topic leaves the graph before the next request)."""
         for topic, publisher in publishers:
+            if not publisher.in_flight():
+                self.drained += 1
+                publisher.close()
+                continue
             task = self._loop.create_task(self._drain(peer, topic, publisher))
             self._tasks.add(task)
             task.add_done_callback(self._tasks.discard)

@@ -228,6 +228,9 @@ class NativePublisher(Ros1Publisher):
             behind()
         return True
 
+    def in_flight(self) -> bool:
+        return not self._closed and self._topic.undelivered() > 0
+
     async def drain(self, timeout: float) -> int:
         """Wait until the kernel has taken every message queued or held for the topic's
         subscribers (their sockets deliver it, also after close), or `timeout` s passed;

@@ -181,6 +181,9 @@ class Ros2Publisher(NodeEntity, BackendPublisher):
         without waiting)."""
         return bool(self._publisher.wait_for_all_acked(_NOW))
 
+    def in_flight(self) -> bool:
+        return not self.closed and not self.all_acked()
+
     def undelivered(self) -> int:
         """How many samples DDS may still hold for a subscriber, at most (none may be)."""
         return min(self.published, self.depth) if self.depth else self.published

@@ -131,6 +131,9 @@ class LosslessRos2Publisher(Ros2Publisher):
             behind()
         return True
 
+    def in_flight(self) -> bool:
+        return self._behind or super().in_flight()
+
     def undelivered(self) -> int:
         """Held messages and those DDS may not have had acknowledged yet."""
         return len(self._held) + self._unconfirmed
