@@ -15,6 +15,7 @@ import asyncio
 import functools
 import itertools
 import logging
+import threading
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -44,6 +45,10 @@ _EARLY_FEEDBACK = 100
 _MAX_POSTED = 1000
 """Feedback messages one server may have on their way to the rclpy thread; more are dropped
 (counted in the backend's `served_feedback_dropped`)."""
+_ANSWER_BLOCK = 0.25
+"""How long the goal callback blocks the rclpy thread for the client's answer (it comes in
+milliseconds) before it awaits the rest of the timeout as an rclpy task; a waiting task keeps
+rclpy's executor spinning, a CPU the simulation beside it needs (s)."""
 _CLOSE_WAIT = 2.0
 """How long closing waits for aborted goals to end on the rclpy thread before destroying (s)."""
 _RESULT_GRACE = 1.0
@@ -59,6 +64,9 @@ class _Goal:
     goal_id: int
     request: Any
     answer: RclpyFuture = field(default_factory=RclpyFuture)
+    decided: threading.Event = field(default_factory=threading.Event)
+    """Set (from the event loop) with `accepted` when the client answered."""
+    accepted: bool = False
     outcome: tuple[int, Any] | None = None
     """The client's result: (terminal status, rclpy Result)."""
     handle: ServerGoalHandle | None = None
@@ -81,6 +89,9 @@ class Ros2ServedActions:
         self.counters = counters
         self.counters.setdefault("served_feedback_dropped", 0)
         self.servers: dict[str, Ros2ActionServer] = {}
+        self.lingering: dict[str, Ros2ActionServer] = {}
+        """Closed servers still in the graph (sending their last results); serving the
+        action again takes one back, so a reconnecting client's action never has two."""
         self.ids = itertools.count(1)
         self.closing: set[asyncio.Task[None]] = set()
         """Servers waiting for their aborted goals to end before they are destroyed."""
@@ -94,7 +105,13 @@ class Ros2ServedActions:
                 f"action {action!r} is already served by another client of this endpoint"
             )
         cls = self.types.action(action_type)
-        server = Ros2ActionServer(self, action, cls, sink, timeout=timeout)
+        server = self.lingering.pop(action, None)
+        if server is not None and server.cls is cls:
+            server.reopen(sink, timeout)
+        else:
+            if server is not None:  # another type: the old one goes now
+                server.destroy_soon(0.0)
+            server = Ros2ActionServer(self, action, cls, sink, timeout=timeout)
         self.servers[action] = server
         _log.info("serving action %s [%s] for a client", action, action_type)
         return server
@@ -125,12 +142,16 @@ class Ros2ActionServer(BackendActionServer):
         self._loop = self._rclpy.running_loop()
         self._action = action
         self._cls = cls
+        self.cls = cls
+        """The action's rclpy class."""
         self._sink = sink
         self._timeout = timeout
         self._known: dict[int, str] = {}
         self._ended: dict[int, asyncio.Future[None]] = {}
         """Accepted goals until rclpy has their result (set from the rclpy thread)."""
         self._r_goals: dict[int, _Goal] = {}
+        self._asked: dict[int, _Goal] = {}
+        """Goals waiting for the client's answer, for the event loop to answer them."""
         self._r_accepting: dict[int, _Goal] = {}
         """Accepted goals by id() of their request, until rclpy hands over their handle."""
         self._posted = 0
@@ -169,6 +190,10 @@ class Ros2ActionServer(BackendActionServer):
         self._answer(goal_id, accepted)
 
     def _answer(self, goal_id: int, accepted: bool) -> None:
+        asked = self._asked.pop(goal_id, None)
+        if asked is not None:
+            asked.accepted = accepted
+            asked.decided.set()
         if accepted:
             self._known[goal_id] = "running"
             self._ended[goal_id] = self._loop.create_future()
@@ -208,12 +233,17 @@ class Ros2ActionServer(BackendActionServer):
         del self._known[goal_id]
         self._rclpy.on_rclpy_thread(lambda: self._r_finish(goal_id, status, result))
 
+    def reopen(self, sink: ServedGoalSink, timeout: float) -> None:
+        """Serve again, for a new client, before this closed server left the graph."""
+        self._sink, self._timeout, self._closed = sink, timeout, False
+
     def close(self) -> None:
         if self._closed:
             return
         self._closed = True
         if self._served.servers.get(self._action) is self:
             del self._served.servers[self._action]
+        self._served.lingering[self._action] = self
         running: list[int] = []
         for goal_id, state in list(self._known.items()):
             if state == "asked":
@@ -228,16 +258,25 @@ class Ros2ActionServer(BackendActionServer):
             )
         if running:
             _log.info("aborted %d goal(s) of %s: its client left", len(running), self._action)
-        task = self._loop.create_task(self._destroy_when_ended(list(self._ended.values())))
+        self.destroy_soon(_RESULT_GRACE, list(self._ended.values()))
+
+    def destroy_soon(self, grace: float, ended: list[asyncio.Future[None]] | None = None) -> None:
+        """Leave the graph once `ended` goals ended (bounded) and `grace` s passed, unless
+        served again meanwhile."""
+        task = self._loop.create_task(self._destroy_when_ended(grace, ended or []))
         self._served.closing.add(task)
         task.add_done_callback(self._served.closing.discard)
 
-    async def _destroy_when_ended(self, ended: list[asyncio.Future[None]]) -> None:
+    async def _destroy_when_ended(self, grace: float, ended: list[asyncio.Future[None]]) -> None:
         if ended:
             _done, left = await asyncio.wait(ended, timeout=_CLOSE_WAIT)
             if left:
                 _log.warning("%d goal(s) of %s did not end in time", len(left), self._action)
-        await asyncio.sleep(_RESULT_GRACE)
+        await asyncio.sleep(grace)
+        if not self._closed:  # served again
+            return
+        if self._served.lingering.get(self._action) is self:
+            del self._served.lingering[self._action]
         await self._rclpy_call(self._server.destroy)
         _log.info("stopped serving action %s", self._action)
 
@@ -266,11 +305,14 @@ class Ros2ActionServer(BackendActionServer):
             _log.debug("closing served action %s: %s", self._action, exc)
             return []
 
-    def _ask(self, goal_id: int, payload: bytes) -> None:
+    def _ask(self, goal: _Goal, payload: bytes) -> None:
         """A goal from the rclpy thread: to the client, with the answer's deadline."""
+        goal_id = goal.goal_id
         if self._closed:
+            goal.decided.set()
             self._rclpy.on_rclpy_thread(lambda: self._r_answer(goal_id, False))
             return
+        self._asked[goal_id] = goal
         self._known[goal_id] = "asked"
         self._loop.call_later(self._timeout, self._timed_out, goal_id)
         self._sink.goal(goal_id, payload)
@@ -305,8 +347,11 @@ class Ros2ActionServer(BackendActionServer):
             _log.error("goal for %s cannot be serialized: %s", self._action, exc)
             return GoalResponse.REJECT
         self._r_goals[goal.goal_id] = goal
-        self._post(self._ask, goal.goal_id, payload)
-        accepted = await goal.answer
+        self._post(self._ask, goal, payload)
+        if goal.decided.wait(_ANSWER_BLOCK):
+            accepted = goal.accepted
+        else:
+            accepted = await goal.answer
         if not accepted:
             self._r_goals.pop(goal.goal_id, None)
             return GoalResponse.REJECT
