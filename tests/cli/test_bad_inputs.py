@@ -92,6 +92,20 @@ SCENES = [
         id="robot-name-taken",
     ),
     pytest.param(
+        ROBOT + "    ros:\n      controllers:\n        base_controller:\n"
+        "          type: joint_group_velocity_controller\n"
+        "          joints: [left_wheel_joint, rigth_wheel_joint]\n",
+        r"8: robots\[0\]\.ros\.controllers\.base_controller\.joints: 'rigth_wheel_joint' is not "
+        r"a drivable joint of robot 'diffbot'; did you mean 'right_wheel_joint'\?",
+        id="controller-joint",
+    ),
+    pytest.param(
+        ROBOT + "    ros:\n      diff_drive: {left: left_wheel_joint, right: right_wheel}\n",
+        r"5: robots\[0\]\.ros\.diff_drive\.right: 'right_wheel' is not a drivable joint of "
+        r"robot 'diffbot'; did you mean 'right_wheel_joint'\?",
+        id="diff-drive-joint",
+    ),
+    pytest.param(
         "objects:\n  - name: part\n    type: mesh\n    mesh: nothere.stl\n",
         r"4: objects\[0\]\.mesh: file '.*nothere\.stl' does not exist",
         id="missing-object-mesh",

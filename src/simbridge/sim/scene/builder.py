@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import math
+import re
 import warnings
 import xml.etree.ElementTree as ET
+from collections.abc import Iterator
 from dataclasses import dataclass, replace
 
 from simbridge.errors import SimError, did_you_mean
@@ -12,7 +14,13 @@ from simbridge.sim.control.drive import DriveMode, DriveSpec
 from simbridge.sim.control.drive_bank import add_drive_actuator
 from simbridge.sim.scene.efforts import SCALE_MARGIN, effort_limits, gravity_torques
 from simbridge.sim.scene.located import Where
-from simbridge.sim.scene.model import ObjectSpec, PhysicsSettings, RobotSpec, Scene
+from simbridge.sim.scene.model import (
+    GripperControllerSpec,
+    ObjectSpec,
+    PhysicsSettings,
+    RobotSpec,
+    Scene,
+)
 from simbridge.sim.urdf.diagnostics import UrdfWarning
 from simbridge.sim.urdf.document import MjcfDocument, fmt
 from simbridge.sim.urdf.inertia import inertial_from_collisions
@@ -116,9 +124,29 @@ def _check_stability(where: str, name: str, joint: str, drive: DriveSpec, dt: fl
 
 def _located(scene: Scene, path: str) -> Where:
     """Where the scene entry at `path` (`robots[0].drives.joints.j9`) came from: its file and
-    line when the scene was read from one, else the path alone."""
-    where = scene.locations.get(path)
-    return where if where is not None else Where(path)
+    line when the scene was read from one (else those of the nearest entry above it that
+    was read, e.g. a list's key), else the path alone."""
+    head = path
+    while head and head not in scene.locations:
+        head = re.sub(r"(\.[^.\[]*|\[\d+\]|^[^.\[]*)$", "", head)  # one step up
+    found = scene.locations.get(head)  # "": the file alone
+    return Where(path) if found is None else Where(path, found.file, found.line)
+
+
+def _ros_joints(spec: RobotSpec) -> Iterator[tuple[str, str]]:
+    """(entry path below the robot, joint name) of every joint its `ros:` block names."""
+    if spec.ros is None:
+        return
+    for controller in spec.ros.controllers:
+        at = f"ros.controllers.{controller.name}"
+        if isinstance(controller, GripperControllerSpec):
+            yield f"{at}.joint", controller.joint
+        else:
+            yield from ((f"{at}.joints", joint) for joint in controller.joints)
+    yield from (("ros.command_joints", joint) for joint in spec.ros.command_joints)
+    if spec.ros.diff_drive is not None:
+        yield "ros.diff_drive.left", spec.ros.diff_drive.left_joint
+        yield "ros.diff_drive.right", spec.ros.diff_drive.right_joint
 
 
 def _robot(doc: MjcfDocument, scene: Scene, index: int, meshes: MeshCache) -> BuiltRobot:
@@ -189,6 +217,13 @@ def _robot(doc: MjcfDocument, scene: Scene, index: int, meshes: MeshCache) -> Bu
         mj_name = mjcf.joint_name(joint_name)
         add_drive_actuator(actuators, mj_name, drive.force_limit)
         drives[mj_name] = drive
+    world_names = {mjcf.joint_name(j) for j in drivable}  # a `ros:` block may use either
+    for key, joint_name in _ros_joints(spec):
+        if joint_name not in drivable and joint_name not in world_names:
+            raise _located(scene, f"robots[{index}].{key}").error(
+                f"'{joint_name}' is not a drivable joint of robot '{name}'"
+                f"{did_you_mean(joint_name, drivable)} (valid: {', '.join(drivable) or 'none'})"
+            )
     return BuiltRobot(name, spec, mjcf, drives)
 
 

@@ -351,9 +351,9 @@ def _controllers(section: _Section) -> tuple[ControllerSpec, ...]:
         if kind == "gripper_action_controller":
             found.append(_gripper(str(name), entry))
             continue
-        joints = entry.data.get("joints")
+        joints, at = entry.data.get("joints"), entry.key("joints")  # `at`: noted for the builder
         if not isinstance(joints, list) or not joints:
-            raise entry.key("joints").error("expected a list of joint names")
+            raise at.error("expected a list of joint names")
         if kind in GROUP_TYPES:
             found.append(GroupControllerSpec(str(name), GROUP_TYPES[kind], tuple(map(str, joints))))
             entry.done(("type", "joints"))
