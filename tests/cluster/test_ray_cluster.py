@@ -3,6 +3,9 @@ runs on both nodes and gives what the single-process path gives."""
 
 from __future__ import annotations
 
+import functools
+import hashlib
+import json
 import os
 import signal
 import time
@@ -14,13 +17,20 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
+from simbridge.cli import main
 from simbridge.cluster import train_ars_on_ray
+from simbridge.cluster.datagen import RUN_RECORD, datagen_on_ray
 from simbridge.cluster.shards import Progress, chunks, render_on_ray
+from simbridge.errors import ClusterError
 from simbridge.gym import ARSConfig, train_ars
 from simbridge.gym.ars import CurvePoint
+from simbridge.perception import DatagenJob, generate, merge_shards, render_frames
+from tests.perception.scenes import random_scene
 from tests.raysupport import descendants_named, local_cluster, require_ray
 
 ENV_ID = "simbridge/Reach-v0"
+DATAGEN_FRAMES = 8
+DATAGEN_CHUNK = 4
 
 
 @pytest.fixture(scope="module")
@@ -122,7 +132,7 @@ def test_shards_survive_a_killed_worker_without_duplicates_or_holes(
     # every frame once, in the shard of its chunk, as the renderer writes it
     written = sorted((tmp_path / "shards").rglob("*.txt"))
     assert [p.relative_to(tmp_path / "shards").as_posix() for p in written] == [
-        f"shard-{i // 4:05d}/{i:05d}.txt" for i in range(12)
+        f"shard-{i // 4 * 4:06d}-{i // 4 * 4 + 4:06d}/{i:05d}.txt" for i in range(12)
     ]
     assert all(p.read_text() == f"frame {int(p.stem)}\n" * (int(p.stem) + 1) for p in written)
     assert not list((tmp_path / "shards").glob(".*")), "a partial shard was left"
@@ -133,3 +143,110 @@ def test_shards_survive_a_killed_worker_without_duplicates_or_holes(
     assert seen[-1].done == seen[-1].total == 12
     assert set(seen[-1].rendered_per_node) == _alive_nodes()
     assert sum(seen[-1].rendered_per_node.values()) > 12
+
+
+def _hashes(root: Path) -> dict[str, str]:
+    return {
+        path.relative_to(root).as_posix(): hashlib.sha256(path.read_bytes()).hexdigest()
+        for path in sorted(root.rglob("*"))
+        if path.is_file()
+    }
+
+
+@pytest.fixture(scope="module")
+def datagen_job(tmp_path_factory: pytest.TempPathFactory) -> DatagenJob:
+    """A small randomised scene (64x48) as a dataset job, shared by the module's tests
+    (a Ray worker builds its scene once and keeps it for every chunk of the same job)."""
+    scene = random_scene(tmp_path_factory.mktemp("scene"))
+    return DatagenJob(str(scene), seed=11, formats=("coco", "bop"))
+
+
+@pytest.fixture(scope="module")
+def local_dataset(datagen_job: DatagenJob, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """DATAGEN_FRAMES frames of the job made by one process, without Ray."""
+    out = tmp_path_factory.mktemp("local") / "dataset"
+    generate(datagen_job, DATAGEN_FRAMES, out)
+    return out
+
+
+def test_datagen_ray_cli_on_two_nodes_writes_the_single_process_bytes(
+    cluster: Any, datagen_job: DatagenJob, local_dataset: Path, tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:  # fmt: skip
+    out = tmp_path / "ray"
+    assert main(["datagen", datagen_job.scene, "--frames", str(DATAGEN_FRAMES), "--out",
+                 str(out), "--seed", "11", "--ray", "auto", "--chunk", "2"]) == 0  # fmt: skip
+    line = capsys.readouterr().out.strip().splitlines()[-1]
+    assert f"datagen: {DATAGEN_FRAMES} frames ({DATAGEN_FRAMES} rendered now on Ray in 4 " in line
+    # the dataset is the one-process dataset byte for byte, no shard folder left; the
+    # run's record is the one file beside it
+    ray_files = _hashes(out)
+    record = json.loads((out / RUN_RECORD).read_text())
+    del ray_files[RUN_RECORD]
+    assert ray_files == _hashes(local_dataset)
+    # where it ran: both nodes, every chunk once in the record, every frame counted once
+    assert set(record["nodes"]) == _alive_nodes()
+    assert [c["frames"] for c in record["chunks"]] == [[0, 2], [2, 4], [4, 6], [6, 8]]
+    assert {c["node"] for c in record["chunks"]} == _alive_nodes()
+    assert sum(record["frames_per_node"].values()) == DATAGEN_FRAMES
+    # a second run into the same folder is refused rather than mixed in
+    with pytest.raises(ClusterError, match="already holds a dataset"):
+        datagen_on_ray(datagen_job, DATAGEN_FRAMES, out)
+
+
+STALLED_CHUNK = 1
+"""The chunk whose first attempt stops after one frame, until the test kills it."""
+
+
+def _render_stalling_once(
+    job: DatagenJob, marks: Path, frames: range, folder: Path, report: Callable[[int], None]
+) -> None:
+    """`render_frames`, except that chunk STALLED_CHUNK's first attempt (the first to
+    create its mark) waits after its first frame, long enough to be killed there."""
+    first = False
+    if frames.start == STALLED_CHUNK * DATAGEN_CHUNK:
+        try:
+            (marks / "stalled").touch(exist_ok=False)
+            first = True
+        except FileExistsError:
+            pass
+
+    def stall_after_one(done: int) -> None:
+        report(done)
+        if first and done == 1:
+            time.sleep(300)  # the test kills this process within a second or so
+
+    render_frames(job, frames, folder, stall_after_one)
+
+
+def test_datagen_chunk_killed_mid_render_is_retried_without_duplicates_or_holes(
+    cluster: Any, datagen_job: DatagenJob, local_dataset: Path, tmp_path: Path
+) -> None:
+    ray = require_ray()
+    killed: list[int] = []
+    seen: list[Progress] = []
+
+    def kill_the_stalled_chunk(progress: Progress) -> None:
+        seen.append(progress)
+        pid, done = progress.running.get(STALLED_CHUNK, (0, 0))
+        if not killed and done == 1:
+            os.kill(pid, signal.SIGKILL)
+            killed.append(pid)
+
+    marks = tmp_path / "marks"
+    marks.mkdir()
+    render = functools.partial(_render_stalling_once, datagen_job, marks)
+    ranges = chunks(DATAGEN_FRAMES, DATAGEN_CHUNK)
+    run = render_on_ray(
+        ray, render, ranges, tmp_path / "shards", progress=kill_the_stalled_chunk, every_s=0.2
+    )
+    merge_shards(datagen_job, run.shards, tmp_path / "ray", DATAGEN_FRAMES)
+    assert killed, "the stalled chunk was never seen one frame in"
+    assert run.progress is not None
+    assert run.progress.attempts[STALLED_CHUNK][0] == killed[0]
+    assert len(run.progress.attempts[STALLED_CHUNK]) == 2  # retried in another process
+    # no frame twice, none missing: the one-process dataset, byte for byte
+    assert _hashes(tmp_path / "ray") == _hashes(local_dataset)
+    # progress ended at every frame once, though the killed attempt rendered one more
+    assert seen[-1].done == seen[-1].total == DATAGEN_FRAMES
+    assert sum(seen[-1].rendered_per_node.values()) == DATAGEN_FRAMES + 1

@@ -101,6 +101,19 @@ def run_datagen(
 
 
 def _run(args: argparse.Namespace) -> int:
+    if args.ray:
+        from .datagen_ray import run_datagen_on_ray
+
+        return run_datagen_on_ray(
+            scene_path(args.scene),
+            args.frames,
+            Path(args.out),
+            formats=parse_formats(args.format),
+            seed=args.seed,
+            resume=args.resume,
+            address=args.ray,
+            chunk=args.chunk,
+        )
     return run_datagen(
         scene_path(args.scene),
         args.frames,
@@ -142,4 +155,16 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         + ", ".join(DATAGEN_SCENES),
     )
     options.add_datagen_arguments(p, frames=None)
+    p.add_argument(
+        "--ray",
+        metavar="ADDRESS",
+        help="render on the Ray cluster at HOST:PORT ('auto': the one `ray start` runs on "
+        "this machine), one task of --chunk frames per CPU (--workers is then unused); the "
+        "same bytes as here; needs `pip install 'simbridge[ray]'` (docs/ray.md)",
+    )
+    p.add_argument(
+        "--chunk",
+        type=int,
+        help="with --ray: frames per task (default 25)",
+    )
     p.set_defaults(func=_run)

@@ -34,6 +34,7 @@ __all__ = [
     "ShardRun",
     "chunks",
     "render_on_ray",
+    "shard_name",
     "store_shard",
 ]
 
@@ -145,13 +146,19 @@ def _render_chunk(render: RenderChunk, index: int, frames: range, board: Any) ->
     return Shard(index, frames, files, node, pid)
 
 
+def shard_name(frames: range) -> str:
+    """The folder name of the shard of `frames` (by its frames, so a run started again
+    with the same chunks finds the shards already stored)."""
+    return f"shard-{frames.start:06d}-{frames.stop:06d}"
+
+
 def store_shard(shard: Shard, root: Path) -> Path:
-    """Write `shard` to root/shard-NNNNN atomically (a sibling folder renamed into place);
-    a shard already stored stays as it is."""
-    final = root / f"shard-{shard.index:05d}"
+    """Write `shard` to root/shard-FIRST-STOP atomically (a sibling folder renamed into
+    place); a shard already stored stays as it is."""
+    final = root / shard_name(shard.frames)
     if final.exists():
         return final
-    partial = root / f".shard-{shard.index:05d}.partial"
+    partial = root / f".{final.name}.partial"
     shutil.rmtree(partial, ignore_errors=True)  # left by a driver that died mid-write
     for name, data in shard.files.items():
         path = partial / name
@@ -189,11 +196,11 @@ def render_on_ray(
     root.mkdir(parents=True, exist_ok=True)
     board = ray.remote(num_cpus=0)(ProgressBoard).remote([len(frames) for frames in ranges])
     task = ray.remote(num_cpus=1, max_retries=MAX_RETRIES)(_render_chunk)
-    run = ShardRun([root / f"shard-{i:05d}" for i in range(len(ranges))])
+    run = ShardRun([root / shard_name(frames) for frames in ranges])
     pending = {
         task.remote(render, index, frames, board): index
         for index, frames in enumerate(ranges)
-        if not (root / f"shard-{index:05d}").exists()
+        if not (root / shard_name(frames)).exists()
     }
     last = time.perf_counter()
     try:
