@@ -20,6 +20,7 @@ from simbridge.apps.mobile_robot import SCENE_PATH
 from simbridge.endpoint import EndpointOptions, EndpointThread, LocalBus, Node
 from simbridge.messages import ros2_registry
 from simbridge.sim.runner import SimulationSession
+from tests.waiting import wait_for
 
 REG2 = ros2_registry()
 TOPICS = {
@@ -84,14 +85,14 @@ def test_every_topic_in_ros2_layouts_and_cmd_vel_drives(
             node.subscribe(topic, msg_type, got[topic].put)
         cmd_vel = node.advertise("/cmd_vel", "geometry_msgs/msg/Twist")
         address = f"127.0.0.1:{ros2_endpoint.port}"
-        with SimulationSession(_scene(tmp_path), address, connect_timeout=5) as session:
+        with SimulationSession(_scene(tmp_path), address, connect_timeout=60) as session:
             assert session.connector is not None
             assert session.connector.protocol == "ROS2"
             assert session.sensors is not None
             sensors = session.sensors
             lazy = [t for t in sensors.suite.outputs if t not in sensors.shared]
             publishers = [sensors.publisher(t) for t in lazy]
-            deadline = time.monotonic() + 5
+            deadline = time.monotonic() + 60
             while any(p.subscriber_count != 1 for p in publishers) and time.monotonic() < deadline:
                 time.sleep(0.01)
             session.run(duration=0.3)
@@ -99,12 +100,18 @@ def test_every_topic_in_ros2_layouts_and_cmd_vel_drives(
             for _ in range(5):
                 cmd_vel.publish(twist)
                 session.run(duration=0.2)
-            assert session.connector.flush(5)
-            messages = {topic: [got[topic].get(timeout=5)] for topic in TOPICS}
-            time.sleep(0.2)
-            for topic, inbox in got.items():
-                while not inbox.empty():
-                    messages[topic].append(inbox.get_nowait())
+            assert session.connector.flush(60)
+            messages = {topic: [got[topic].get(timeout=60)] for topic in TOPICS}
+
+            def drain() -> bool:  # everything so far; true once the last /clock (1.3 s) came
+                for topic, inbox in got.items():
+                    while not inbox.empty():
+                        messages[topic].append(inbox.get_nowait())
+                return _stamp(messages["/clock"][-1].clock) >= 1.3 - 0.02
+
+            assert wait_for(drain, timeout=60)
+            time.sleep(0.2)  # anything after the last /clock (there should be nothing)
+            drain()
 
     for topic, msg_type in TOPICS.items():
         first = messages[topic][0]
