@@ -1,5 +1,11 @@
-"""Ray scaling on this machine: ARS rollouts (env steps/s) on 1 worker, 2 workers on one
-node and 2 nodes of 1 CPU each, beside the same rollouts without Ray, and Ray's overhead.
+"""Ray scaling on this machine: ARS rollouts (env steps/s) and datagen frames (frames/s)
+on 1 worker, 2 workers on one node and 2 nodes of 1 CPU each, beside the same work
+without Ray, and Ray's overhead.
+
+Datagen: the datagen demo scene (apps/datagen/scene.yaml, 640x480, COCO + BOP) as Ray
+tasks of `DATAGEN_CHUNK` frames, `DATAGEN_FRAMES` frames a worker, timed after a warm-up
+round (workers started, scenes built), and the driver's merge of the shards (`merge_s`,
+serial: the part that does not scale).
 
 Each layout is a fresh local cluster (`ray.cluster_utils.Cluster` on 127.0.0.2, private
 RAY_TMPDIR, 100 MB object store a node); the learner's side is `RayRollouts.perturbed`,
@@ -19,6 +25,7 @@ vector env).
 
 from __future__ import annotations
 
+import functools
 import importlib
 import os
 import shutil
@@ -36,14 +43,26 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # also as a bare s
 import numpy as np
 
 from simbridge.cluster import RayRollouts, RolloutWorker, make_vector
+from simbridge.cluster.shards import chunks, render_on_ray
 from simbridge.gym import ARSConfig, LinearPolicy
 from simbridge.gym.ars import Episodes, VectorRollouts, noise_table
+from simbridge.perception.dataset import DatagenJob, merge_shards, render_frames
 
 __all__ = ["LOOPBACK", "local_cluster", "run"]
 
 ENV_ID = "simbridge/Reach-v0"
 MAX_STEPS = 50
 CONFIG = ARSConfig()
+DATAGEN_SCENE = Path(__file__).resolve().parents[1] / "src/simbridge/apps/datagen/scene.yaml"
+DATAGEN_CHUNK = 4
+DATAGEN_FRAMES = 8
+"""Frames a worker renders in the timed round (chunks of DATAGEN_CHUNK)."""
+LAYOUTS = {
+    "Ray, 1 worker (1 node, 1 CPU)": [1],
+    "Ray, 2 workers on one node (2 CPUs)": [2],
+    "Ray, 2 workers on 2 nodes (1 CPU each)": [1, 1],
+}
+"""Each Ray row's cluster: the CPUs of each of its nodes."""
 PER_WORKER = 8
 """Directions (two worlds each) per worker: two workers run twice the directions."""
 ROUND_S = 3.0
@@ -160,15 +179,59 @@ def _task_overhead(ray: Any) -> tuple[float, float]:
     return statistics.median(alone) * 1e3, (time.perf_counter() - start) / 200 * 1e3
 
 
+def _job() -> DatagenJob:
+    return DatagenJob(str(DATAGEN_SCENE), seed=0)
+
+
+def _datagen_row(ray: Any, workers: int, name: str) -> dict[str, Any]:
+    """Frames/s of the datagen demo scene rendered as Ray tasks (chunks of
+    `DATAGEN_CHUNK`, `DATAGEN_FRAMES` a worker), after a warm-up round that starts the
+    workers and builds their scenes, and the driver's merge of those shards."""
+    render = functools.partial(render_frames, _job())
+    with tempfile.TemporaryDirectory(prefix="sbdatagen") as folder:
+        root = Path(folder)
+        render_on_ray(ray, render, chunks(DATAGEN_CHUNK * workers, DATAGEN_CHUNK), root / "warm")
+        frames = DATAGEN_FRAMES * workers
+        start = time.perf_counter()
+        run = render_on_ray(ray, render, chunks(frames, DATAGEN_CHUNK), root / "shards")
+        wall = time.perf_counter() - start
+        start = time.perf_counter()
+        merge_shards(_job(), run.shards, root / "out", frames)
+        merge = time.perf_counter() - start
+    return {
+        "layout": name,
+        "frames": frames,
+        "frames_per_s": frames / wall,
+        "nodes": len(set(run.nodes.values())),
+        "merge_s": merge,
+    }
+
+
+def local_datagen_row() -> dict[str, Any]:
+    """Frames/s of the same frames rendered in this process (no Ray), and their merge."""
+    frames = DATAGEN_FRAMES
+    with tempfile.TemporaryDirectory(prefix="sbdatagen") as folder:
+        root = Path(folder)
+        render_frames(_job(), range(DATAGEN_CHUNK), root / "warm")
+        start = time.perf_counter()
+        render_frames(_job(), range(frames), root / "shard")
+        wall = time.perf_counter() - start
+        start = time.perf_counter()
+        merge_shards(_job(), [root / "shard"], root / "out", frames)
+        merge = time.perf_counter() - start
+    return {
+        "layout": "no Ray, this process",
+        "frames": frames,
+        "frames_per_s": frames / wall,
+        "nodes": "",
+        "merge_s": merge,
+    }
+
+
 def ray_rows() -> list[dict[str, Any]]:
     """The rollouts on Ray actors, one cluster per layout."""
-    layouts = {
-        "Ray, 1 worker (1 node, 1 CPU)": [1],
-        "Ray, 2 workers on one node (2 CPUs)": [2],
-        "Ray, 2 workers on 2 nodes (1 CPU each)": [1, 1],
-    }
     rows = []
-    for name, nodes in layouts.items():
+    for name, nodes in LAYOUTS.items():
         start = time.perf_counter()
         with local_cluster(nodes) as ray:
             cluster_s = time.perf_counter() - start
@@ -210,8 +273,8 @@ def ray_rows() -> list[dict[str, Any]]:
     return rows
 
 
-def run() -> dict[str, list[dict[str, Any]]]:
-    """The scaling table."""
+def ars_table() -> list[dict[str, Any]]:
+    """The ARS rollouts' table: no Ray, then each Ray layout."""
     rows = local_rows() + ray_rows()
     base = next(r["rate"] for r in rows if r["layout"].startswith("Ray, 1 worker"))
     table = []
@@ -226,14 +289,56 @@ def run() -> dict[str, list[dict[str, Any]]]:
         for key, digits in TIMES.items():
             row[key] = round(r[key], digits) if key in r else ""
         table.append(row)
-    return {"ARS rollouts of Reach-v0 on Ray (8 directions a worker, 50-step episodes)": table}
+    return table
+
+
+def datagen_table() -> list[dict[str, Any]]:
+    """The datagen table: this process, then each Ray layout on a cluster of its own."""
+    frames = [local_datagen_row()]
+    for name, nodes in LAYOUTS.items():
+        with local_cluster(nodes) as ray:
+            frames.append(_datagen_row(ray, sum(nodes), name))
+    base = frames[1]["frames_per_s"]
+    return [
+        {
+            "layout": r["layout"],
+            "frames": r["frames"],
+            "frames_per_s": round(r["frames_per_s"], 2),
+            "x_1_worker": round(r["frames_per_s"] / base, 2),
+            "nodes": r["nodes"],
+            "merge_s": round(r["merge_s"], 2),
+        }
+        for r in frames
+    ]
+
+
+ARS_TITLE = "ARS rollouts of Reach-v0 on Ray (8 directions a worker, 50-step episodes)"
+DATAGEN_TITLE = (
+    f"datagen on Ray ({DATAGEN_SCENE.name} of apps/datagen, 640x480, COCO + BOP, "
+    f"chunks of {DATAGEN_CHUNK})"
+)
+
+
+def run(parts: tuple[str, ...] = ("ars", "datagen")) -> dict[str, list[dict[str, Any]]]:
+    """The scaling tables: ARS rollouts, datagen frames (`parts`: which)."""
+    tables = {}
+    if "ars" in parts:
+        tables[ARS_TITLE] = ars_table()
+    if "datagen" in parts:
+        tables[DATAGEN_TITLE] = datagen_table()
+    return tables
 
 
 if __name__ == "__main__":
     from benchmarks.table import format_table
     from benchmarks.usage import exit_on_help
 
-    exit_on_help(__doc__, "  --markdown  a Markdown table")
-    for title, rows in run().items():
+    exit_on_help(
+        __doc__,
+        "  --markdown  a Markdown table\n  --datagen   the datagen table alone\n"
+        "  --ars       the ARS table alone",
+    )
+    chosen = tuple(p for p in ("ars", "datagen") if f"--{p}" in sys.argv)
+    for title, rows in run(chosen or ("ars", "datagen")).items():
         print(f"\n{title}\n")
         print(format_table(rows, markdown="--markdown" in sys.argv))

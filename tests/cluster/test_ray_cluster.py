@@ -19,7 +19,7 @@ import pytest
 
 from simbridge.cli import main
 from simbridge.cluster import train_ars_on_ray
-from simbridge.cluster.datagen import RUN_RECORD, datagen_on_ray
+from simbridge.cluster.datagen import RUN_RECORD, SHARDS, datagen_on_ray
 from simbridge.cluster.shards import Progress, chunks, render_on_ray
 from simbridge.errors import ClusterError
 from simbridge.gym import ARSConfig, train_ars
@@ -250,3 +250,25 @@ def test_datagen_chunk_killed_mid_render_is_retried_without_duplicates_or_holes(
     # progress ended at every frame once, though the killed attempt rendered one more
     assert seen[-1].done == seen[-1].total == DATAGEN_FRAMES
     assert sum(seen[-1].rendered_per_node.values()) == DATAGEN_FRAMES + 1
+
+
+def test_datagen_on_ray_resumes_a_dataset_and_the_shards_of_an_interrupted_run(
+    cluster: Any, datagen_job: DatagenJob, local_dataset: Path, tmp_path: Path
+) -> None:
+    out = tmp_path / "resumed"
+    generate(datagen_job, 2, out)  # frames 0-1 merged, as by a run cut short
+    # a shard an interrupted Ray run stored (frames 4-5), not merged yet
+    render_frames(datagen_job, range(4, 6), out / SHARDS / "shard-000004-000006")
+    other = DatagenJob(datagen_job.scene, seed=12, formats=datagen_job.formats)
+    with pytest.raises(ClusterError, match="another scene, seed"):
+        datagen_on_ray(other, DATAGEN_FRAMES, out, resume=True)
+    made = datagen_on_ray(datagen_job, DATAGEN_FRAMES, out, chunk_frames=2, resume=True)
+    # chunks from frame 2 on; the stored shard's chunk was not sent to the cluster
+    assert made.first_frame == 2
+    chunk_rows = made.record["chunks"]
+    assert [c["frames"] for c in chunk_rows] == [[2, 4], [4, 6], [6, 8]]
+    assert [c["attempts"] for c in chunk_rows] == [1, 0, 1]
+    assert chunk_rows[1]["node"] is None
+    resumed = _hashes(out)
+    del resumed[RUN_RECORD]
+    assert resumed == _hashes(local_dataset)

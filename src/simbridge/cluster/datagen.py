@@ -61,16 +61,22 @@ class RayDataset:
 
 
 def _check_resumable(job: DatagenJob, out: Path) -> None:
-    """ClusterError unless the dataset in `out` is `job`'s (scene, seed, formats, labelers):
-    its metadata must be what rendering no frame of `job` writes."""
+    """ClusterError unless the dataset in `out` and the shards an interrupted run stored
+    are `job`'s (scene, seed, formats, labelers): their metadata must be what rendering no
+    frame of `job` writes."""
+    found = [out / META, *sorted((out / SHARDS).glob(f"shard-*/{META.as_posix()}"))]
+    found = [path for path in found if path.exists()]
+    if not found:
+        return
     with tempfile.TemporaryDirectory(prefix="simbridge-meta-") as folder:
         render_frames(job, [], Path(folder))
         expected = (Path(folder) / META).read_bytes()
-    if (out / META).read_bytes() != expected:
-        raise ClusterError(
-            f"'{out}' holds a dataset of another scene, seed, format or labeler set; it "
-            "cannot be resumed with these options"
-        )
+    for path in found:
+        if path.read_bytes() != expected:
+            raise ClusterError(
+                f"'{path}' is the metadata of a dataset of another scene, seed, format or "
+                "labeler set; it cannot be resumed with these options"
+            )
 
 
 def _record(
@@ -128,7 +134,7 @@ def datagen_on_ray(
             f"'{out}' already holds a dataset or the shards of an interrupted run; pass "
             "--resume to continue it or choose another folder"
         )
-    if resume and (out / META).exists():
+    if resume:
         _check_resumable(job, out)
     start = first_missing_frame(out, frames)
     ranges = chunks(frames - start, chunk_frames, first=start)
