@@ -21,7 +21,10 @@ fi
 say "installing ROS 2 Jazzy wheels (requirements-ros2.txt, pinned by constraints-ros2.txt)"
 "$VENV/bin/pip" install -q --progress-bar off -c constraints-ros2.txt -r requirements-ros2.txt
 say "installing simbridge (editable) into $VENV"
-"$VENV/bin/pip" install -q --progress-bar off -c constraints-ros2.txt -c constraints.txt -e .
+# the lock: `make test` builds the main venv at the same time, and an editable install
+# writes src/simbridge.egg-info
+flock .editable-install.lock \
+  "$VENV/bin/pip" install -q --progress-bar off -c constraints-ros2.txt -c constraints.txt -e .
 # rclpy must import on its own here, with no ROS 1 on the path.
 env -u PYTHONPATH "$VENV/bin/python" -c "import rclpy, rclpy.experimental, std_msgs.msg, simbridge"
 touch "$VENV/.installed"
