@@ -18,6 +18,7 @@ if TYPE_CHECKING:
     from simbridge.endpoint.backends.ros2.env import (
         apply_ros2_env,
         clean_stale_shm,
+        fastdds_peers_profile_xml,
         ros2_env,
         ros2_python,
     )
@@ -29,6 +30,7 @@ __all__ = [
     "apply_ros2_env",
     "build_packages",
     "clean_stale_shm",
+    "fastdds_peers_profile_xml",
     "ros2_cli_args",
     "ros2_env",
     "ros2_python",
@@ -43,6 +45,7 @@ __getattr__, __dir__ = lazy_face(
         "apply_ros2_env": "env",
         "build_packages": "build",
         "clean_stale_shm": "env",
+        "fastdds_peers_profile_xml": "env",
         "ros2_cli_args": "backend",
         "ros2_env": "env",
         "ros2_python": "env",

@@ -14,11 +14,14 @@ from __future__ import annotations
 import contextlib
 import fcntl
 import hashlib
+import ipaddress
 import os
 import tempfile
 import time
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
+
+from simbridge.errors import EndpointError
 
 __all__ = [
     "DEFAULT_SHM_SEGMENT",
@@ -28,6 +31,7 @@ __all__ = [
     "WRITER_NACK_SUPPRESSION_NS",
     "apply_ros2_env",
     "clean_stale_shm",
+    "fastdds_peers_profile_xml",
     "fastdds_profile_xml",
     "ros2_env",
     "ros2_python",
@@ -137,6 +141,72 @@ def fastdds_profile_xml(shm_segment: int = DEFAULT_SHM_SEGMENT) -> str:
         heartbeat_ns=WRITER_HEARTBEAT_NS,
         nack_suppression_ns=WRITER_NACK_SUPPRESSION_NS,
     )
+
+
+_PEERS_PROFILE = """<?xml version="1.0" encoding="UTF-8" ?>
+<!-- simbridge: one host of a ROS 2 graph across hosts on a trusted network. UDP on
+     {address} only, discovery by unicast to the listed peers, no multicast, no shared memory. -->
+<dds xmlns="http://www.eprosima.com/XMLSchemas/fastRTPS_Profiles">
+  <profiles>
+    <transport_descriptors>
+      <transport_descriptor>
+        <transport_id>simbridge_udp_peers</transport_id>
+        <type>UDPv4</type>
+        <interfaceWhiteList>
+          <address>{address}</address>
+        </interfaceWhiteList>
+      </transport_descriptor>
+    </transport_descriptors>
+    <participant profile_name="simbridge_peers" is_default_profile="true">
+      <rtps>
+        <userTransports>
+          <transport_id>simbridge_udp_peers</transport_id>
+        </userTransports>
+        <useBuiltinTransports>false</useBuiltinTransports>
+        <builtin>
+          <metatrafficUnicastLocatorList>
+            <locator/>
+          </metatrafficUnicastLocatorList>
+          <initialPeersList>
+{peers}
+          </initialPeersList>
+        </builtin>
+      </rtps>
+    </participant>
+  </profiles>
+</dds>
+"""
+
+_PEER = """            <locator>
+              <udpv4>
+                <address>{address}</address>
+              </udpv4>
+            </locator>"""
+
+
+def fastdds_peers_profile_xml(address: str, peers: Sequence[str]) -> str:
+    """A Fast DDS profile for one host of a graph spanning hosts: UDP on this host's IPv4
+    `address` only, discovery by unicast to `peers` (every host's address, this one's
+    included, so processes on one host find each other too), no multicast, no shared memory.
+
+    Use it with ROS_AUTOMATIC_DISCOVERY_RANGE=SUBNET (docs/ros2.md: Several hosts on one
+    ROS 2 graph); DDS discovery has no authentication, so only on a trusted network.
+    """
+    own = _ipv4(address, "address")
+    if not peers:
+        raise EndpointError("no peers given: a host needs at least one peer address to discover")
+    checked = dict.fromkeys(_ipv4(p, "peer") for p in peers)
+    return _PEERS_PROFILE.format(
+        address=own, peers="\n".join(_PEER.format(address=p) for p in checked)
+    )
+
+
+def _ipv4(text: str, what: str) -> str:
+    """`text` as a plain IPv4 address, or an error naming it."""
+    try:
+        return str(ipaddress.IPv4Address(text.strip()))
+    except ValueError:
+        raise EndpointError(f"{what} {text!r} is not an IPv4 address (like 10.0.0.2)") from None
 
 
 def write_fastdds_profile(
