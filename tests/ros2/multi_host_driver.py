@@ -33,7 +33,7 @@ HOSTS = {"a": "10.213.7.1", "b": "10.213.7.2", "c": "10.213.7.3"}
 """The hosts of the graph: every one lists all three as its peers."""
 OUTSIDER = ("d", "10.213.7.4")
 """The control: a host on the same bridge that lists only itself as peer, so (with no
-multicast) it must find neither robot."""
+multicast) it must find neither robot, started once the checker has found both."""
 CHECKER = Path(__file__).parent / "multi_host_checker.py"
 
 
@@ -170,14 +170,10 @@ def run(folder: Path) -> dict[str, object]:
             )
             procs.append(endpoints[name])
         checker = Proc(
-            [*hosts["c"].enter(), str(python), str(CHECKER), "/robot_a", "/robot_b", "60"],
+            [*hosts["c"].enter(), str(python), str(CHECKER), "/robot_a", "/robot_b", "90"],
             host_env(hosts["c"], folder, list(HOSTS.values())),
         )
-        control = Proc(
-            [*hosts["d"].enter(), str(python), str(CHECKER), "/robot_a", "/robot_b", "20"],
-            host_env(hosts["d"], folder, [OUTSIDER[1]]),
-        )
-        procs += [checker, control]
+        procs.append(checker)
         for name, robot in (("a", "robot_a"), ("b", "robot_b")):
             port = endpoints[name].expect(r"listening on 127\.0\.0\.1:(\d+)", 90).group(1)
             sim = [sys.executable, "-m", "simbridge.cli", "sim", str(write_scene(folder, robot))]
@@ -189,6 +185,12 @@ def run(folder: Path) -> dict[str, object]:
             )
         seen = json.loads(checker.expect(r'^\{"seen"', 120).string)["seen"]
         packets = link_packets()
+        # The control looks for 15 s while both robots are known to be on the graph.
+        control = Proc(
+            [*hosts["d"].enter(), str(python), str(CHECKER), "/robot_a", "/robot_b", "15"],
+            host_env(hosts["d"], folder, [OUTSIDER[1]]),
+        )
+        procs.append(control)
         unseen = json.loads(control.expect(r'^\{"seen"', 120).string)["seen"]
         return {"seen": seen, "control": unseen, "packets": packets}
     finally:
