@@ -92,7 +92,9 @@ def _plain_warnings(show: bool = True) -> Iterator[None]:
 @contextmanager
 def _sigterm_interrupts() -> Iterator[None]:
     """SIGTERM (kill, systemd, a launch file's shutdown) stops the run as Ctrl-C does: the
-    recording is closed, registrations withdrawn and what ran is reported."""
+    recording is closed, registrations withdrawn and what ran is reported. SIGINT gets the
+    same handler explicitly: a process started with SIGINT ignored (inherited from a parent
+    that ignores it) would otherwise never see Ctrl-C."""
 
     def interrupt(_sig: int, _frame: object) -> None:
         raise KeyboardInterrupt
@@ -100,11 +102,12 @@ def _sigterm_interrupts() -> Iterator[None]:
     if threading.current_thread() is not threading.main_thread():  # signals reach only it
         yield
         return
-    previous = signal.signal(signal.SIGTERM, interrupt)
+    previous = {sig: signal.signal(sig, interrupt) for sig in (signal.SIGTERM, signal.SIGINT)}
     try:
         yield
     finally:
-        signal.signal(signal.SIGTERM, previous)
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
 
 
 def _xacro_args(args: argparse.Namespace) -> dict[str, str]:
