@@ -23,7 +23,7 @@ from simbridge.errors import AppError
 from simbridge.sim.ros import description_params
 from simbridge.sim.ros.state_publisher import WORLD_FRAME
 from simbridge.sim.scene.loader import load_scene
-from simbridge.sim.scene.model import Scene
+from simbridge.sim.scene.spec import Scene
 from simbridge.sim.sensors import SensorSuite
 from simbridge.sim.sensors.odometry import Odometry
 from simbridge.sim.world.world import World

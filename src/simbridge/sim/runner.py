@@ -18,7 +18,7 @@ from simbridge.sim.ros.params import description_params
 from simbridge.sim.ros.robot_bridge import RobotBridge
 from simbridge.sim.ros.sensor_publisher import SensorPublisher
 from simbridge.sim.scene.loader import load_scene
-from simbridge.sim.scene.model import Scene
+from simbridge.sim.scene.spec import Scene
 from simbridge.sim.sensors import SensorSuite
 from simbridge.sim.view import LiveView, ViewOptions
 from simbridge.sim.world.world import ModelExtension, RunStats, World

@@ -11,7 +11,7 @@ from simbridge.sim.ros.robot_bridge import RobotBridge
 from simbridge.sim.ros.sensor_publisher import SensorPublisher
 from simbridge.sim.ros.services import ControlServices
 from simbridge.sim.ros.state_publisher import StatePublisher
-from simbridge.sim.scene.model import RosSettings
+from simbridge.sim.scene.spec import RosSettings
 from simbridge.sim.sensors import SensorSuite
 from simbridge.sim.sensors.odometry import Odometry
 from simbridge.sim.world.callbacks import CallbackHandle

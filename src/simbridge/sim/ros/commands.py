@@ -12,7 +12,7 @@ from simbridge.sim.control.drive import DriveMode, DriveSpec
 from simbridge.sim.control.follower import TrajectoryFollower
 from simbridge.sim.ros.convert import trajectory_from_message
 from simbridge.sim.ros.names import RobotNames, resolve_name
-from simbridge.sim.scene.model import CommandTopics, RosSettings
+from simbridge.sim.scene.spec import CommandTopics, RosSettings
 from simbridge.sim.world.callbacks import CallbackHandle
 from simbridge.sim.world.world import World
 

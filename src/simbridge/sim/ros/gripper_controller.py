@@ -17,7 +17,7 @@ from simbridge.connector import (
 )
 from simbridge.sim.control.drive import DriveMode, DriveSpec
 from simbridge.sim.ros.names import RobotNames, resolve_name
-from simbridge.sim.scene.model import GripperControllerSpec
+from simbridge.sim.scene.spec import GripperControllerSpec
 from simbridge.sim.world.callbacks import CallbackHandle
 from simbridge.sim.world.world import World
 

@@ -11,7 +11,7 @@ from simbridge.connector import Connector
 from simbridge.errors import SimError
 from simbridge.sim.control.drive import DriveMode
 from simbridge.sim.ros.names import RobotNames, resolve_name
-from simbridge.sim.scene.model import GroupControllerSpec
+from simbridge.sim.scene.spec import GroupControllerSpec
 from simbridge.sim.world.world import World
 
 __all__ = ["GroupCommandController"]

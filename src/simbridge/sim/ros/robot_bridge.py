@@ -19,7 +19,7 @@ from simbridge.sim.ros.group_controller import GroupCommandController
 from simbridge.sim.ros.joint_state_encoder import JointStateEncoder
 from simbridge.sim.ros.names import RobotNames, resolve_name
 from simbridge.sim.ros.trajectory_controller import JointTrajectoryController
-from simbridge.sim.scene.model import (
+from simbridge.sim.scene.spec import (
     GripperControllerSpec,
     GroupControllerSpec,
     RosSettings,

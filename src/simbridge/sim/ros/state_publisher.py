@@ -18,7 +18,7 @@ from simbridge.messages.fastwire import ClockWriter, TFWriter
 from simbridge.sim.ros.convert import StampMaker, joint_state_message, tf_message
 from simbridge.sim.ros.joint_state_encoder import JointStateEncoder, stamp_parts
 from simbridge.sim.ros.names import RobotNames
-from simbridge.sim.scene.model import RosSettings
+from simbridge.sim.scene.spec import RosSettings
 from simbridge.sim.urdf.transforms import Transform
 from simbridge.sim.world.callbacks import CallbackHandle
 from simbridge.sim.world.world import World

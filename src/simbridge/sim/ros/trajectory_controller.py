@@ -27,7 +27,7 @@ from simbridge.sim.control.follower import TrajectoryFollower
 from simbridge.sim.control.trajectory import Trajectory, Vector
 from simbridge.sim.ros.convert import StampMaker, duration_seconds, trajectory_from_message
 from simbridge.sim.ros.names import RobotNames, resolve_name
-from simbridge.sim.scene.model import TrajectoryControllerSpec
+from simbridge.sim.scene.spec import TrajectoryControllerSpec
 from simbridge.sim.world.callbacks import CallbackHandle
 from simbridge.sim.world.world import World
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from simbridge.sim.scene.builder import BuiltRobot, BuiltScene, build_scene
 from simbridge.sim.scene.loader import SHAPES, load_scene, parse_scene, with_overrides
-from simbridge.sim.scene.model import (
+from simbridge.sim.scene.spec import (
     CommandTopics,
     ControllerSpec,
     GripperControllerSpec,

@@ -14,7 +14,7 @@ from simbridge.sim.control.drive import DriveMode, DriveSpec
 from simbridge.sim.control.drive_bank import add_drive_actuator
 from simbridge.sim.scene.efforts import SCALE_MARGIN, effort_limits, gravity_torques
 from simbridge.sim.scene.located import Where
-from simbridge.sim.scene.model import (
+from simbridge.sim.scene.spec import (
     GripperControllerSpec,
     ObjectSpec,
     PhysicsSettings,

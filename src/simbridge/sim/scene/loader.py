@@ -13,7 +13,7 @@ from simbridge.sim.control.diff_drive import DiffDriveConfig, DiffDriveLimits
 from simbridge.sim.control.drive import DriveMode, DriveSpec
 from simbridge.sim.scene.efforts import EFFORT_POLICIES
 from simbridge.sim.scene.located import LineList, LineMap, Where, plain, read_yaml
-from simbridge.sim.scene.model import (
+from simbridge.sim.scene.spec import (
     INTEGRATORS,
     CommandTopics,
     ControllerSpec,

@@ -15,7 +15,7 @@ from numpy.typing import NDArray
 from simbridge.errors import SimError
 from simbridge.sim.control.drive_bank import DriveBank
 from simbridge.sim.scene.builder import BuiltScene
-from simbridge.sim.scene.model import Scene
+from simbridge.sim.scene.spec import Scene
 from simbridge.sim.urdf.transforms import Transform
 from simbridge.sim.world.robot import RobotHandle
 

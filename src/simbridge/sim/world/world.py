@@ -16,7 +16,7 @@ from simbridge.errors import SimError
 from simbridge.sim.control.follower import TrajectoryFollower
 from simbridge.sim.scene.builder import BuiltScene, build_scene
 from simbridge.sim.scene.loader import load_scene
-from simbridge.sim.scene.model import Scene
+from simbridge.sim.scene.spec import Scene
 from simbridge.sim.urdf.document import MjcfDocument
 from simbridge.sim.world.callbacks import CallbackHandle, StepCallbacks
 from simbridge.sim.world.crossthread import CrossThreadControl

@@ -1,4 +1,5 @@
-"""A scene: robots, objects, lights, physics and ROS interfaces (frozen dataclasses)."""
+"""A scene's parsed specification: robots, objects, lights, physics and ROS interfaces (frozen
+dataclasses, independent of MuJoCo)."""
 
 from __future__ import annotations
 
