@@ -12,8 +12,7 @@ import numpy as np
 from simbridge.apps.line.task import PART_SIZE, LineTask
 from simbridge.errors import AppError
 from simbridge.sim import Scene, load_scene
-from simbridge.sim.scene import ObjectSpec
-from simbridge.sim.scene import Pose as ScenePose
+from simbridge.sim.scene import ObjectSpec, Origin
 from simbridge.sim.urdf.document import MjcfDocument, fmt
 from simbridge.sim.world import ModelExtension
 
@@ -51,7 +50,7 @@ def line_scene(task: LineTask, path: Path = SCENE_PATH) -> Scene:
             name=part_name(index),
             shape="box",
             size=(PART_SIZE,) * 3,
-            pose=ScenePose((part.x, part.y, PART_SIZE / 2), (0.0, 0.0, part.yaw)),
+            pose=Origin((part.x, part.y, PART_SIZE / 2), (0.0, 0.0, part.yaw)),
             dynamic=True,
             mass=0.1,
             friction=(1.2, 0.01, 0.0001),

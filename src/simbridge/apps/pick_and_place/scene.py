@@ -13,8 +13,7 @@ from simbridge.apps.pick_and_place.task import PickAndPlaceTask
 from simbridge.errors import AppError
 from simbridge.planning import BoxObstacle, matrix_to_quaternion
 from simbridge.sim import Scene, World, load_scene
-from simbridge.sim.scene import ObjectSpec
-from simbridge.sim.scene import Pose as ScenePose
+from simbridge.sim.scene import ObjectSpec, Origin
 from simbridge.sim.urdf.document import MjcfDocument, fmt
 
 __all__ = [
@@ -49,7 +48,7 @@ def task_scene(task: PickAndPlaceTask, path: Path = SCENE_PATH) -> Scene:
     objects = list(scene.objects)
     for index, obj in enumerate(objects):
         if obj.name == CUBE:
-            pose = ScenePose(task.cube_center, (0.0, 0.0, task.cube_yaw))
+            pose = Origin(task.cube_center, (0.0, 0.0, task.cube_yaw))
             size = (task.cube_size,) * 3
             objects[index] = dataclasses.replace(obj, pose=pose, size=size)
             break

@@ -13,13 +13,13 @@ from simbridge.sim.scene.spec import (
     LightSpec,
     ObjectSpec,
     PhysicsSettings,
-    Pose,
     RobotRos,
     RobotSpec,
     RosSettings,
     Scene,
     TrajectoryControllerSpec,
 )
+from simbridge.sim.urdf.robot import Origin
 
 __all__ = [
     "SHAPES",
@@ -32,8 +32,8 @@ __all__ = [
     "JointConstraint",
     "LightSpec",
     "ObjectSpec",
+    "Origin",
     "PhysicsSettings",
-    "Pose",
     "RobotRos",
     "RobotSpec",
     "RosSettings",

@@ -23,7 +23,6 @@ from simbridge.sim.scene.spec import (
     LightSpec,
     ObjectSpec,
     PhysicsSettings,
-    Pose,
     RobotRos,
     RobotSpec,
     RosSettings,
@@ -33,6 +32,7 @@ from simbridge.sim.scene.spec import (
 from simbridge.sim.sensors.config import OptionError
 from simbridge.sim.sensors.suite import SENSOR_CONFIGS, sensor_config
 from simbridge.sim.urdf.loader import is_xacro
+from simbridge.sim.urdf.robot import Origin
 from simbridge.sim.urdf.transforms import Vec3
 
 __all__ = ["SHAPES", "load_scene", "parse_scene", "with_overrides"]
@@ -172,8 +172,8 @@ def _vec3(value: Any, where: Where) -> Vec3:
     return (x, y, z)
 
 
-def _pose(section: _Section) -> Pose:
-    pose = Pose(
+def _pose(section: _Section) -> Origin:
+    pose = Origin(
         section.get("xyz", _vec3, (0.0, 0.0, 0.0)), section.get("rpy", _vec3, (0.0, 0.0, 0.0))
     )
     section.done(("xyz", "rpy"))

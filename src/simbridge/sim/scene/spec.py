@@ -11,7 +11,8 @@ from typing import Any
 from simbridge.sim.control.diff_drive import DiffDriveConfig
 from simbridge.sim.control.drive import DriveSpec
 from simbridge.sim.scene.located import Where
-from simbridge.sim.urdf.transforms import Transform, Vec3
+from simbridge.sim.urdf.robot import Origin
+from simbridge.sim.urdf.transforms import Vec3
 
 __all__ = [
     "CommandTopics",
@@ -22,7 +23,6 @@ __all__ = [
     "LightSpec",
     "ObjectSpec",
     "PhysicsSettings",
-    "Pose",
     "RobotRos",
     "RobotSpec",
     "RosSettings",
@@ -31,19 +31,6 @@ __all__ = [
 ]
 
 INTEGRATORS = ("euler", "implicit", "implicitfast", "rk4")
-
-
-@dataclass(frozen=True)
-class Pose:
-    """Position (m) and fixed-axis roll/pitch/yaw (rad), as in a URDF origin."""
-
-    xyz: Vec3 = (0.0, 0.0, 0.0)
-    rpy: Vec3 = (0.0, 0.0, 0.0)
-
-    @property
-    def transform(self) -> Transform:
-        """The rigid transform of this pose."""
-        return Transform.from_xyz_rpy(self.xyz, self.rpy)
 
 
 @dataclass(frozen=True)
@@ -65,7 +52,7 @@ class RobotSpec:
     urdf: Path
     name: str | None = None
     prefix: str = ""
-    base: Pose = Pose()
+    base: Origin = field(default_factory=Origin)
     fixed_base: bool = True
     self_collision: bool = False
     xacro_args: dict[str, str] = field(default_factory=dict)
@@ -100,7 +87,7 @@ class ObjectSpec:
     name: str
     shape: str
     size: tuple[float, ...] = ()
-    pose: Pose = Pose()
+    pose: Origin = field(default_factory=Origin)
     dynamic: bool = False
     mass: float | None = None
     friction: tuple[float, float, float] = (1.0, 0.005, 0.0001)

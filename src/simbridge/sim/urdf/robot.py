@@ -33,7 +33,8 @@ __all__ = [
 
 @dataclass(frozen=True)
 class Origin:
-    """A URDF `<origin>`: translation in metres and fixed-axis roll/pitch/yaw in radians."""
+    """A URDF `<origin>`: translation in metres and fixed-axis roll/pitch/yaw in radians; also
+    a scene's placement of a robot's base or an object (its `pose:`)."""
 
     xyz: Vec3 = (0.0, 0.0, 0.0)
     rpy: Vec3 = (0.0, 0.0, 0.0)
