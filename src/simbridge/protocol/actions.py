@@ -95,6 +95,73 @@ def _status(name: str, obj: dict[str, Any], allowed: tuple[int, ...]) -> int:
     return status
 
 
+@dataclass(frozen=True, slots=True)
+class _ActionTyped(Command):
+    """The shape {"action", "action_type"}: an action by name and type (`pkg/Action`)."""
+
+    action: str
+    action_type: str
+
+    def to_json(self) -> dict[str, Any]:
+        return {"action": self.action, "action_type": self.action_type}
+
+    @classmethod
+    def from_json(cls, obj: dict[str, Any]) -> Command:
+        return cls(
+            _get_name(cls.NAME, obj, "action"),
+            _get_name(cls.NAME, obj, "action_type", kind="type"),
+        )
+
+
+@dataclass(frozen=True, slots=True)
+class _GoalOnly(Command):
+    """The shape {"goal_id"}: a goal by id alone."""
+
+    goal_id: int
+
+    def to_json(self) -> dict[str, Any]:
+        return {"goal_id": self.goal_id}
+
+    @classmethod
+    def from_json(cls, obj: dict[str, Any]) -> Command:
+        return cls(_goal_id(cls.NAME, obj))
+
+
+@dataclass(frozen=True, slots=True)
+class _GoalFeedback(Command):
+    """The shape {"goal_id", "feedback"}: feedback (CDR) for a goal."""
+
+    goal_id: int
+    feedback: bytes
+
+    def to_json(self) -> dict[str, Any]:
+        return {"goal_id": self.goal_id, "feedback": _b64(self.feedback)}
+
+    @classmethod
+    def from_json(cls, obj: dict[str, Any]) -> Command:
+        return cls(_goal_id(cls.NAME, obj), _get_bytes(cls.NAME, obj, "feedback"))
+
+
+@dataclass(frozen=True, slots=True)
+class _GoalEnd(Command):
+    """The shape {"goal_id", "status", "result"}: a goal's terminal status and result (CDR)."""
+
+    goal_id: int
+    status: int
+    result: bytes
+
+    def to_json(self) -> dict[str, Any]:
+        return {"goal_id": self.goal_id, "status": self.status, "result": _b64(self.result)}
+
+    @classmethod
+    def from_json(cls, obj: dict[str, Any]) -> Command:
+        return cls(
+            _goal_id(cls.NAME, obj),
+            _status(cls.NAME, obj, _TERMINAL),
+            _get_bytes(cls.NAME, obj, "result"),
+        )
+
+
 @register_command("client")
 @dataclass(frozen=True, slots=True)
 class ActionGoal(Command):
@@ -126,38 +193,18 @@ class ActionGoal(Command):
 
 @register_command("client")
 @dataclass(frozen=True, slots=True)
-class ActionCancel(Command):
+class ActionCancel(_GoalOnly):
     """Ask the server to cancel the client's goal `goal_id`."""
 
     NAME: ClassVar[str] = "__action_cancel"
-    goal_id: int
-
-    def to_json(self) -> dict[str, Any]:
-        return {"goal_id": self.goal_id}
-
-    @classmethod
-    def from_json(cls, obj: dict[str, Any]) -> Command:
-        return cls(_goal_id(cls.NAME, obj))
 
 
 @register_command("client")
 @dataclass(frozen=True, slots=True)
-class ActionServerQuery(Command):
+class ActionServerQuery(_ActionTyped):
     """Is an action server for `action` (of `action_type`) reachable now?"""
 
     NAME: ClassVar[str] = "__action_server"
-    action: str
-    action_type: str
-
-    def to_json(self) -> dict[str, Any]:
-        return {"action": self.action, "action_type": self.action_type}
-
-    @classmethod
-    def from_json(cls, obj: dict[str, Any]) -> Command:
-        return cls(
-            _get_name(cls.NAME, obj, "action"),
-            _get_name(cls.NAME, obj, "action_type", kind="type"),
-        )
 
 
 @register_command("endpoint")
@@ -196,38 +243,15 @@ class ActionStatus(Command):
 
 @register_command("endpoint")
 @dataclass(frozen=True, slots=True)
-class ActionFeedback(Command):
+class ActionFeedback(_GoalFeedback):
     """Feedback for goal `goal_id` (CDR of the action's Feedback)."""
 
     NAME: ClassVar[str] = "__action_feedback"
-    goal_id: int
-    feedback: bytes
-
-    def to_json(self) -> dict[str, Any]:
-        return {"goal_id": self.goal_id, "feedback": _b64(self.feedback)}
-
-    @classmethod
-    def from_json(cls, obj: dict[str, Any]) -> Command:
-        return cls(_goal_id(cls.NAME, obj), _get_bytes(cls.NAME, obj, "feedback"))
 
 
 @register_command("endpoint")
 @dataclass(frozen=True, slots=True)
-class ActionResult(Command):
+class ActionResult(_GoalEnd):
     """The end of goal `goal_id`: its terminal status and result (CDR of the action's Result)."""
 
     NAME: ClassVar[str] = "__action_result"
-    goal_id: int
-    status: int
-    result: bytes
-
-    def to_json(self) -> dict[str, Any]:
-        return {"goal_id": self.goal_id, "status": self.status, "result": _b64(self.result)}
-
-    @classmethod
-    def from_json(cls, obj: dict[str, Any]) -> Command:
-        return cls(
-            _goal_id(cls.NAME, obj),
-            _status(cls.NAME, obj, _TERMINAL),
-            _get_bytes(cls.NAME, obj, "result"),
-        )

@@ -28,13 +28,13 @@ from dataclasses import dataclass
 from typing import Any, ClassVar
 
 from simbridge.protocol.actions import (
-    STATUS_ABORTED,
-    STATUS_CANCELED,
-    STATUS_SUCCEEDED,
+    _ActionTyped,
     _b64,
     _get_bytes,
     _goal_id,
-    _status,
+    _GoalEnd,
+    _GoalFeedback,
+    _GoalOnly,
 )
 from simbridge.protocol.commands import Command, _get_bool, _get_name, register_command
 
@@ -52,27 +52,13 @@ __all__ = [
 ACTION_SERVERS_EXTENSION = "action_servers"
 """The name an endpoint announces in its handshake's `extensions` when it has these."""
 
-_ENDS = (STATUS_SUCCEEDED, STATUS_CANCELED, STATUS_ABORTED)
-
 
 @register_command("client")
 @dataclass(frozen=True, slots=True)
-class ServeAction(Command):
+class ServeAction(_ActionTyped):
     """Serve ROS 2 action `action` of type `action_type` (`pkg/Action`) from this client."""
 
     NAME: ClassVar[str] = "__action_serve"
-    action: str
-    action_type: str
-
-    def to_json(self) -> dict[str, Any]:
-        return {"action": self.action, "action_type": self.action_type}
-
-    @classmethod
-    def from_json(cls, obj: dict[str, Any]) -> Command:
-        return cls(
-            _get_name(cls.NAME, obj, "action"),
-            _get_name(cls.NAME, obj, "action_type", kind="type"),
-        )
 
 
 @register_command("client")
@@ -132,54 +118,23 @@ class ServedAccept(Command):
 
 @register_command("client")
 @dataclass(frozen=True, slots=True)
-class ServedFeedback(Command):
+class ServedFeedback(_GoalFeedback):
     """Feedback for the served goal `goal_id` (CDR of the action's Feedback)."""
 
     NAME: ClassVar[str] = "__action_serve_feedback"
-    goal_id: int
-    feedback: bytes
-
-    def to_json(self) -> dict[str, Any]:
-        return {"goal_id": self.goal_id, "feedback": _b64(self.feedback)}
-
-    @classmethod
-    def from_json(cls, obj: dict[str, Any]) -> Command:
-        return cls(_goal_id(cls.NAME, obj), _get_bytes(cls.NAME, obj, "feedback"))
 
 
 @register_command("client")
 @dataclass(frozen=True, slots=True)
-class ServedResult(Command):
+class ServedResult(_GoalEnd):
     """The end of the served goal `goal_id`: succeeded, canceled or aborted, and its result."""
 
     NAME: ClassVar[str] = "__action_serve_result"
-    goal_id: int
-    status: int
-    result: bytes
-
-    def to_json(self) -> dict[str, Any]:
-        return {"goal_id": self.goal_id, "status": self.status, "result": _b64(self.result)}
-
-    @classmethod
-    def from_json(cls, obj: dict[str, Any]) -> Command:
-        return cls(
-            _goal_id(cls.NAME, obj),
-            _status(cls.NAME, obj, _ENDS),
-            _get_bytes(cls.NAME, obj, "result"),
-        )
 
 
 @register_command("endpoint")
 @dataclass(frozen=True, slots=True)
-class ServedCancelRequest(Command):
+class ServedCancelRequest(_GoalOnly):
     """A ROS 2 client asked to cancel the served goal `goal_id`."""
 
     NAME: ClassVar[str] = "__action_cancel_request"
-    goal_id: int
-
-    def to_json(self) -> dict[str, Any]:
-        return {"goal_id": self.goal_id}
-
-    @classmethod
-    def from_json(cls, obj: dict[str, Any]) -> Command:
-        return cls(_goal_id(cls.NAME, obj))
