@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import signal
 import sys
 import threading
@@ -10,9 +11,12 @@ import warnings
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import TextIO
+from typing import TYPE_CHECKING, TextIO
 
 from .common import endpoint_address
+
+if TYPE_CHECKING:
+    from simbridge.apps.ros2_node import Ros2SimNode
 
 __all__ = ["SHIPPED_SCENES", "add_parser", "scene_file"]
 
@@ -152,6 +156,7 @@ def run_sim(args: argparse.Namespace) -> int:
         load_scene(scene_file(args.scene)), _xacro_args(args), strict=args.strict
     )
     endpoint = f"{args.endpoint[0]}:{args.endpoint[1]}" if args.endpoint else None
+    node = _ros2_node(args)
     record = RecordOptions(Path(args.record), args.record_buffer) if args.record else None
     view = None
     realtime = args.realtime
@@ -159,7 +164,7 @@ def run_sim(args: argparse.Namespace) -> int:
         follow = args.view_follow
         view = ViewOptions(args.view_host, args.view_port, args.view_rate, follow, linger=True)
         realtime = 1.0 if realtime is None else realtime
-    with _plain_warnings(), _sigterm_interrupts():
+    with _plain_warnings(), _sigterm_interrupts(), node or contextlib.nullcontext():
         try:
             stats = run_scene(
                 scene,
@@ -171,6 +176,7 @@ def run_sim(args: argparse.Namespace) -> int:
                 view=view,
                 connect_timeout=None if args.wait_for_endpoint else args.connect_timeout,
                 progress=True,
+                connect=node.connector if node is not None else None,
             )
         except ConnectorError as exc:
             raise ConnectorError(
@@ -182,6 +188,19 @@ def run_sim(args: argparse.Namespace) -> int:
         f"({stats.steps} steps, {stats.realtime_factor:.2f}x real time)"
     )
     return 0
+
+
+def _ros2_node(args: argparse.Namespace) -> Ros2SimNode | None:
+    """With --ros2, the sim's own ROS 2 node (not started; AppError without rclpy)."""
+    if not args.ros2:
+        return None
+    from simbridge.apps.ros2_node import Ros2SimNode, require_rclpy
+    from simbridge.errors import AppError
+
+    if args.endpoint:
+        raise AppError("give --endpoint HOST:PORT or --ros2, not both")
+    require_rclpy()
+    return Ros2SimNode(args.node_name)
 
 
 def _load_options(p: argparse.ArgumentParser) -> None:
@@ -246,6 +265,18 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         default=None,
         metavar="HOST:PORT",
         help="serve the scene's ROS interfaces through this endpoint",
+    )
+    sim.add_argument(
+        "--ros2",
+        action="store_true",
+        help="serve the scene's ROS interfaces as a ROS 2 node of this process (rclpy: run "
+        "with .venv-ros2/bin/simbridge, `make ros2`), without an endpoint",
+    )
+    sim.add_argument(
+        "--node-name",
+        default="simbridge_sim",
+        metavar="NAME",
+        help="with --ros2: the node's name (default simbridge_sim)",
     )
     sim.add_argument(
         "--connect-timeout",

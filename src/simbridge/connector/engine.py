@@ -19,6 +19,7 @@ import struct
 import threading
 import time
 from collections import deque
+from collections.abc import Callable
 from concurrent.futures import Future
 from typing import TYPE_CHECKING, Any, Literal
 
@@ -101,9 +102,15 @@ class ConnectorEngine:
         port: int = 10000,
         options: ConnectorOptions | None = None,
         registry: MessageRegistry | None = None,
+        *,
+        dial: Callable[[], socket.socket] | None = None,
     ) -> None:
+        """`dial`: how to reach the endpoint instead of TCP to host:port, a connected
+        stream socket per call (an endpoint in this process, on one end of a socketpair);
+        host and port then only name it in messages."""
         self.host = host
         self.port = port
+        self._dial = dial
         self.options = options if options is not None else ConnectorOptions()
         forced = self.options.protocol
         self.protocol: Literal["ROS1", "ROS2"] = "ROS1" if forced == "auto" else forced
@@ -230,7 +237,11 @@ class ConnectorEngine:
             self._closing.wait(min(_POLL_S, self._retry_at - now))
             return True
         try:
-            link = open_link(self.host, self.port, self.options.connect_timeout)
+            link = (
+                Link(self._dial())
+                if self._dial is not None
+                else open_link(self.host, self.port, self.options.connect_timeout)
+            )
         except OSError as exc:
             self._failures += 1
             self._unreachable = str(exc) or type(exc).__name__

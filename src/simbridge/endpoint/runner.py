@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import asyncio
 import concurrent.futures
+import socket
 import threading
 from collections.abc import Callable
 from typing import Any, TypeVar
@@ -30,7 +31,11 @@ class EndpointThread:
         options: EndpointOptions | None = None,
         backend: Backend | None = None,
         types: TypeCheck | None = None,
+        *,
+        listen: bool = True,
     ) -> None:
+        """`listen`: False serves only clients in this process (`dial`), no port."""
+        self._listen = listen
         self.server = EndpointServer(options or EndpointOptions(port=0), backend, types)
         self.loop = asyncio.new_event_loop()
         self._thread = threading.Thread(target=self._run, name="simbridge-endpoint", daemon=True)
@@ -64,7 +69,7 @@ class EndpointThread:
 
     async def _main(self) -> None:
         try:
-            await self.server.start()
+            await self.server.start(listen=self._listen)
         except BaseException as exc:
             self._error = exc
             self._ready.set()
@@ -85,6 +90,18 @@ class EndpointThread:
 
         self.loop.call_soon_threadsafe(run)
         return future.result(timeout)
+
+    def dial(self, timeout: float = 10.0) -> socket.socket:
+        """A new client connection to this endpoint within the process: one end of a
+        socketpair whose other end the endpoint serves (a Connector's `dial`)."""
+        ours, theirs = socket.socketpair()
+        try:
+            asyncio.run_coroutine_threadsafe(self.server.adopt(theirs), self.loop).result(timeout)
+        except BaseException:
+            ours.close()
+            theirs.close()
+            raise
+        return ours
 
     def stop(self, timeout: float = 10.0) -> None:
         """Close every connection and stop the thread."""

@@ -5,6 +5,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
+import socket
 import time
 from typing import Any
 
@@ -66,13 +67,19 @@ class EndpointServer:
         """Connected clients."""
         return frozenset(self._sessions)
 
-    async def start(self) -> None:
-        """Start the backend and listen; `port` holds the bound port (useful with port 0)."""
+    async def start(self, *, listen: bool = True) -> None:
+        """Start the backend and listen; `port` holds the bound port (useful with port 0).
+        Without `listen`, clients come only through `adopt` (clients in this process)."""
         self._loop = asyncio.get_running_loop()
         self._drains = PublisherDrains(self._loop, self.options.drain_timeout)
         await self.backend.start()
         self.backend.watch_lost(self._backend_lost)
         opts = self.options
+        if not listen:
+            self.started_at = time.monotonic()
+            self._timer = asyncio.create_task(self._keepalive_loop())
+            log.info("simbridge endpoint in this process (backend %s)", self.backend.name)
+            return
         try:
             self._server = await self._loop.create_server(
                 lambda: ClientSession(self), opts.host, opts.port, reuse_address=True
@@ -94,6 +101,11 @@ class EndpointServer:
         log.info(
             "simbridge endpoint on %s:%d (backend %s)", opts.host, self.port, self.backend.name
         )
+
+    async def adopt(self, sock: socket.socket) -> None:
+        """Serve a client on `sock`, a connected stream socket (one end of a socketpair
+        whose other end a Connector in this process dials), as if it had connected."""
+        await self.loop.connect_accepted_socket(lambda: ClientSession(self), sock)
 
     async def serve_forever(self) -> None:
         """Run until cancelled; raise EndpointError if the backend leaves the graph for good."""
@@ -133,8 +145,9 @@ class EndpointServer:
             self._timer = None
         if self._server is not None:
             self._server.close()
-            for session in list(self._sessions):
-                session.close()
+        for session in list(self._sessions):
+            session.close()
+        if self._server is not None:
             await self._server.wait_closed()
             self._server = None
         await asyncio.sleep(0)

@@ -6,7 +6,7 @@ from __future__ import annotations
 import contextlib
 import logging
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from simbridge.connector import Connector, ConnectorOptions
@@ -53,11 +53,13 @@ class SimulationSession:
         record: RecordOptions | None = None,
         *,
         extensions: Sequence[ModelExtension] = (),
+        connect: Callable[[], Connector] | None = None,
     ) -> None:
         """`record`: write every message the session publishes or receives to a bag
         (needs an endpoint). `extensions`: MJCF edits for `World.from_scene` (contacts
-        tuned for grasping, markers)."""
-        if record is not None and not endpoint:
+        tuned for grasping, markers). `connect`: makes each of the session's connectors
+        instead of dialing `endpoint` (the sim's own ROS 2 node, `simbridge.apps.ros2_node`)."""
+        if record is not None and not endpoint and connect is None:
             raise SimError(
                 f"recording to '{record.path}' needs an endpoint: the simulation publishes "
                 "nothing without one (give --endpoint HOST:PORT)"
@@ -73,14 +75,15 @@ class SimulationSession:
         self._endpoint = parse_endpoint(endpoint) if endpoint else None
         self._options = connector_options
         self._connect_timeout = connect_timeout
+        self._connect = connect
 
     def start(self) -> SimulationSession:
         """Connect (in the background unless the session has a `connect_timeout`; the
         connector keeps retrying) and register every topic and service the scene asks for."""
-        if self._endpoint is None or not self.scene.ros.enabled or self.connector is not None:
+        served = self._endpoint is not None or self._connect is not None
+        if not served or not self.scene.ros.enabled or self.connector is not None:
             return self
-        host, port = self._endpoint
-        self.connector = Connector(host, port, self._options).connect(wait=self._connect_timeout)
+        self.connector = self._new_connector()
         for name, description in description_params(self.world).items():
             self.connector.set_param(name, description)  # for RViz's RobotModel
         if self._record is not None:
@@ -106,7 +109,7 @@ class SimulationSession:
             measure_all=self.recorder is not None,  # the bag listens to all
         )
         for name in sorted(own):
-            connector = Connector(host, port, self._options).connect(wait=self._connect_timeout)
+            connector = self._new_connector()
             if self.recorder is not None:
                 self.recorder.attach(connector)
             self.robot_bridges[name] = RobotBridge(
@@ -114,6 +117,14 @@ class SimulationSession:
             ).start()
         self.bridge.start()
         return self
+
+    def _new_connector(self) -> Connector:
+        """A connector of the session: `connect()`'s, else one dialing the endpoint."""
+        if self._connect is not None:
+            return self._connect()
+        assert self._endpoint is not None
+        host, port = self._endpoint
+        return Connector(host, port, self._options).connect(wait=self._connect_timeout)
 
     @property
     def sensors(self) -> SensorPublisher | None:
@@ -187,6 +198,7 @@ def run_scene(
     view: ViewOptions | None = None,
     connect_timeout: float | None = None,
     progress: bool = False,
+    connect: Callable[[], Connector] | None = None,
 ) -> RunStats:
     """Load and run a scene headless (or in the viewer) until `duration` sim seconds pass
     or the process is interrupted, serving ROS through `endpoint` ("host:port") if given.
@@ -194,9 +206,10 @@ def run_scene(
     (`SimulationSession.pacing`). `record`: a bag of every message in and out; `view`:
     serve a live 3D view in the browser while it runs. `connect_timeout`: ConnectorError
     when no endpoint answers that soon (None: connect in the background, retrying).
-    `progress`: while recording, a status line on stderr (`simbridge.progress.Ticker`)."""
+    `progress`: while recording, a status line on stderr (`simbridge.progress.Ticker`).
+    `connect`: makes the session's connectors instead of dialing `endpoint`."""
     with SimulationSession(
-        scene, endpoint, record=record, connect_timeout=connect_timeout
+        scene, endpoint, record=record, connect_timeout=connect_timeout, connect=connect
     ) as session:
         live = LiveView(session.world, view) if view is not None else None
         if live is not None and session.sensors is not None:

@@ -198,7 +198,7 @@ class ClientSession(asyncio.BufferedProtocol):
                 tune_stream(sock)  # Nagle off; on loopback, unpaced sends to the client
             self._fd = sock.fileno()
         peer = transport.get_extra_info("peername")
-        self.peer = f"{peer[0]}:{peer[1]}" if isinstance(peer, tuple) else str(peer)
+        self.peer = f"{peer[0]}:{peer[1]}" if isinstance(peer, tuple) else str(peer) or "in-process"
         self.output.attach(transport, self._fd, self.peer)
         transport.set_write_buffer_limits(high=self.options.write_high_water)
         if not self.server.admit(self):
