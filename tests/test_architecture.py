@@ -189,12 +189,14 @@ SIM_LEVELS: list[set[str]] = [
     {"sim.urdf"},
     {"sim.control", "sim.sensors"},
     {"sim.scene"},
-    {"sim.world"},
+    {"sim.world", "sim.labels"},
     {"sim.ros", "sim.record", "sim.view"},
     {"sim.runner"},
 ]
 """The parts of sim/, lowest first: a part imports itself and the parts of lower levels,
 never a sibling on its own level nor anything above (the face `sim` may import them all).
+Labels (who is what, for datasets and live cameras) read a scene's entries; cameras take
+them through a protocol of their own, so sensors stay below scenes.
 The top-level runner (SimulationSession, run_scene) sits above ROS, recording and view."""
 
 

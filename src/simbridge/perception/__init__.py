@@ -35,9 +35,9 @@ from simbridge.perception.dataset import (
     render_frames,
 )
 from simbridge.perception.frames import Frame, FrameMaker, View
-from simbridge.perception.labels import Instance, LabelTable
 from simbridge.perception.render import Rendered, RenderSettings, ViewRenderer
 from simbridge.perception.rle import rle
+from simbridge.sim.labels import Instance, LabelTable
 
 __all__ = [
     "FORMATS",

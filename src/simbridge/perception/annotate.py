@@ -14,10 +14,10 @@ from numpy.typing import NDArray
 from scipy import ndimage
 
 from simbridge.perception.camera import CameraView
-from simbridge.perception.labels import Instance, LabelTable
 from simbridge.perception.render import Rendered
 from simbridge.perception.shapes import ShapeCache, geom_extent, silhouette_points
 from simbridge.perception.silhouette import Silhouette, silhouette
+from simbridge.sim.labels import Instance, LabelTable
 
 __all__ = ["KEYPOINT_DEPTH_TOLERANCE", "Box3D", "InstanceLabel", "ViewLabels", "annotate"]
 

@@ -20,10 +20,10 @@ from pathlib import Path
 
 from simbridge.errors import PerceptionError, did_you_mean
 from simbridge.perception.camera import CameraSpec
-from simbridge.perception.labels import BodyRule, parse_rules
 from simbridge.perception.randomizers import Randomizer, parse_randomizer
 from simbridge.perception.render import RenderSettings
 from simbridge.perception.section import Section
+from simbridge.sim.labels import BodyRule, parse_label_rules
 from simbridge.sim.scene import Scene
 from simbridge.sim.scene.located import Where
 
@@ -115,7 +115,7 @@ def parse_perception(scene: Scene) -> PerceptionConfig:
         cameras=cameras,
         labelers=frozenset(labelers),
         classes=root.strings("classes"),
-        rules=parse_rules(root.items("labels")),
+        rules=parse_label_rules(root.data.get("labels"), root.key("labels")),
         render=settings,
         output=out,
         randomizers=randomizers,

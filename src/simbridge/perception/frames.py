@@ -14,7 +14,6 @@ from simbridge.errors import PerceptionError, SimbridgeError
 from simbridge.perception.annotate import ViewLabels, annotate
 from simbridge.perception.camera import CameraView
 from simbridge.perception.config import PerceptionConfig, parse_perception
-from simbridge.perception.labels import LabelTable
 from simbridge.perception.randomizers import (
     Baseline,
     DistractorsRandomizer,
@@ -24,6 +23,7 @@ from simbridge.perception.randomizers import (
 from simbridge.perception.render import Rendered, ViewRenderer
 from simbridge.perception.shapes import ShapeCache
 from simbridge.sim import Scene, World, load_scene
+from simbridge.sim.labels import LabelTable
 from simbridge.sim.urdf.document import MjcfDocument
 
 __all__ = ["Frame", "FrameMaker", "View"]

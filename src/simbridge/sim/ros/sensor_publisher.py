@@ -8,6 +8,9 @@ Sensors build ROS 1 (noetic) messages; against a ROS 2 endpoint each one is tran
 to the ROS 2 layout (Header without seq, CameraInfo `d k r p`) on its way out. IMU,
 laser-scan and odometry messages skip that and the generic encoder: precompiled writers
 serialize them for either generation (`sensor_encoder.py`).
+
+Cameras with `labelers:` get the scene's label table here (the world knows the scene and
+which bodies make each robot): their ids are those of a dataset of the same scene.
 """
 
 from __future__ import annotations
@@ -19,8 +22,9 @@ import mujoco
 
 from simbridge.connector import Connector, Publisher
 from simbridge.messages import Translator, WireFormat, default_registry
+from simbridge.sim.labels import scene_label_table
 from simbridge.sim.ros.sensor_encoder import SensorEncoder
-from simbridge.sim.sensors import Publication, SensorSuite
+from simbridge.sim.sensors import Camera, Publication, SensorSuite
 from simbridge.sim.world.callbacks import CallbackHandle
 from simbridge.sim.world.world import World
 
@@ -64,6 +68,18 @@ class SensorPublisher:
         self.observers: list[SensorObserver] = []
         self._next_due = (0, 0.0)
         """(step, at timestep) before which no sensor is due: `poll` skips until then."""
+        self._bind_labels()
+
+    def _bind_labels(self) -> None:
+        """Give every labelling camera the scene's instance and class ids."""
+        labelling = [s for s in self.suite.sensors if isinstance(s, Camera) and s.labeller.topics]
+        if not labelling:
+            return
+        world = self.world
+        bodies = {name: list(robot.bodies.values()) for name, robot in world.robots.items()}
+        table = scene_label_table(world.model, world.scene, bodies)
+        for camera in labelling:
+            camera.bind_labels(table)
 
     def add_observer(self, observer: SensorObserver) -> None:
         """Also measure what `observer` wants, and show it every batch of messages."""

@@ -10,7 +10,8 @@ A scene's `sensors:` list maps onto `SensorSuite.from_config` / `attach_sensors`
       - {type: lidar_3d, name: velodyne, body: base_link, xyz: [0, 0, 0.4], channels: 16,
          samples: 1800, rate: 10}
       - {type: camera, name: front_cam, body: camera_link, width: 640, height: 480,
-         fovy: 1.047, rate: 10, compression: jpeg, jpeg_quality: 80}
+         fovy: 1.047, rate: 10, compression: jpeg, jpeg_quality: 80,
+         labelers: [instance, semantic, boxes_2d]}
       - {type: depth_camera, name: depth, body: camera_link, topic: camera, range_max: 8}
       - {type: imu, name: imu, body: base_link, rate: 100, accel_noise: 0.02}
       - {type: odometry, name: odom, body: base_link, rate: 50}
@@ -28,6 +29,7 @@ from simbridge.sim.sensors.depth_camera import DepthCamera, DepthCameraConfig
 from simbridge.sim.sensors.frames import Mount, MountedFrame, Pose
 from simbridge.sim.sensors.gl_backend import configure_gl
 from simbridge.sim.sensors.imu import Imu, ImuConfig, ImuReading
+from simbridge.sim.sensors.labelled import LIVE_LABELERS, Detection, LabelLookup, LiveLabeller
 from simbridge.sim.sensors.lidar2d import LaserScanResult, Lidar2D, Lidar2DConfig
 from simbridge.sim.sensors.lidar3d import Lidar3D, Lidar3DConfig, PointScan
 from simbridge.sim.sensors.odometry import Odometry, OdometryConfig, OdometryReading
@@ -44,20 +46,24 @@ from simbridge.sim.sensors.suite import (
 )
 
 __all__ = [
+    "LIVE_LABELERS",
     "SENSOR_CONFIGS",
     "SENSOR_TYPES",
     "Camera",
     "CameraConfig",
     "DepthCamera",
     "DepthCameraConfig",
+    "Detection",
     "Imu",
     "ImuConfig",
     "ImuReading",
+    "LabelLookup",
     "LaserScanResult",
     "Lidar2D",
     "Lidar2DConfig",
     "Lidar3D",
     "Lidar3DConfig",
+    "LiveLabeller",
     "Mount",
     "MountedFrame",
     "Odometry",

@@ -1,4 +1,5 @@
-"""RGB camera: sensor_msgs/Image (rgb8), CompressedImage (jpeg/png) and CameraInfo."""
+"""RGB camera: sensor_msgs/Image (rgb8), CompressedImage (jpeg/png) and CameraInfo, and
+with `labelers:` live labels (instance and semantic segmentation, 2D detections)."""
 
 from __future__ import annotations
 
@@ -9,16 +10,17 @@ import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
-from simbridge.errors import SimError
+from simbridge.errors import SimError, did_you_mean
 from simbridge.sim.sensors.base import Sensor
-from simbridge.sim.sensors.camera_model import OPTICAL_FROM_BODY, PinholeModel
-from simbridge.sim.sensors.config import SensorConfig
+from simbridge.sim.sensors.camera_model import OPTICAL_FROM_BODY, PinholeModel, optical_pose
+from simbridge.sim.sensors.config import OptionError, SensorConfig
 from simbridge.sim.sensors.encoding import (
     COMPRESSED_FORMATS,
     compressed_format_string,
     encode_rgb,
 )
 from simbridge.sim.sensors.frames import Pose
+from simbridge.sim.sensors.labelled import LIVE_LABELERS, LabelLookup, LiveLabeller
 from simbridge.sim.sensors.offscreen import OffscreenRenderer
 from simbridge.sim.sensors.rosmsg import Publication, header, new_message
 
@@ -29,8 +31,10 @@ __all__ = ["Camera", "CameraConfig"]
 class CameraConfig(SensorConfig):
     """A colour camera looking along the mount's +x (z up). `fovy` is vertical, radians.
 
-    Topics under `topic` (default `camera`): image_raw, image_raw/compressed, camera_info.
-    Default frame: `<body>_optical_frame` (REP 103: z forward, x right, y down).
+    Topics under `topic` (default `camera`): image_raw, image_raw/compressed, camera_info;
+    with `labelers` (any of instance, semantic, boxes_2d) also instances and semantic
+    (16UC1 ids) and detections (vision_msgs/Detection2DArray), ids as in a dataset of the
+    scene. Default frame: `<body>_optical_frame` (REP 103: z forward, x right, y down).
     Shadows, reflections and MSAA (`multisamples`, e.g. 4) cost CPU time and are off.
     """
 
@@ -44,6 +48,21 @@ class CameraConfig(SensorConfig):
     shadows: bool = False
     reflections: bool = False
     multisamples: int = 0
+    labelers: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        for name in self.labelers:
+            if name not in LIVE_LABELERS:
+                raise OptionError(
+                    type(self).__name__,
+                    "labelers",
+                    f"labelers: unknown labeler {name!r}{did_you_mean(name, LIVE_LABELERS)} "
+                    f"(valid: {', '.join(LIVE_LABELERS)})",
+                )
+        if len(set(self.labelers)) != len(self.labelers):
+            raise OptionError(
+                type(self).__name__, "labelers", f"labelers: listed twice in {list(self.labelers)}"
+            )
 
 
 class Camera(Sensor):
@@ -65,6 +84,8 @@ class Camera(Sensor):
         self.image_topic = f"{namespace}/image_raw"
         self.compressed_topic = f"{namespace}/image_raw/compressed"
         self.info_topic = f"{namespace}/camera_info"
+        self.labeller = LiveLabeller(namespace, config.labelers)
+        """The label outputs (none without `labelers`); `bind_labels` gives them their ids."""
         super().__init__(
             config.name,
             config.mount().resolve(model),
@@ -74,13 +95,32 @@ class Camera(Sensor):
                 self.image_topic: "sensor_msgs/Image",
                 self.compressed_topic: "sensor_msgs/CompressedImage",
                 self.info_topic: "sensor_msgs/CameraInfo",
+                **self.labeller.outputs,
             },
             data_in_frame=Pose(np.zeros(3), OPTICAL_FROM_BODY),
         )
         self._renderer: OffscreenRenderer | None = None
+        self._label_renderer: OffscreenRenderer | None = None
+        """Segmentation needs a renderer without multisampling: the image's one, or its own."""
 
-    def render(self, model: mujoco.MjModel, data: mujoco.MjData) -> NDArray[np.uint8]:
-        """The current view as an (height, width, 3) rgb8 array."""
+    def bind_labels(self, lookup: LabelLookup) -> None:
+        """Take instance and class ids from a scene's label table (needed by `labelers`)."""
+        self.labeller.bind(lookup)
+
+    def segmentation(self, model: mujoco.MjModel, data: mujoco.MjData) -> NDArray[np.int32]:
+        """The current view as (height, width, 2) MuJoCo object id and type per pixel."""
+        if self._label_renderer is None:
+            if self.config.multisamples == 0:
+                self._label_renderer = self._image_renderer(model)
+            else:
+                self._label_renderer = OffscreenRenderer(
+                    model, self.config.width, self.config.height
+                )
+        return self._label_renderer.render_segmentation(
+            data, self.world_pose(data), self.config.fovy, self.config.near, self.config.far
+        )
+
+    def _image_renderer(self, model: mujoco.MjModel) -> OffscreenRenderer:
         if self._renderer is None:
             self._renderer = OffscreenRenderer(
                 model,
@@ -90,7 +130,11 @@ class Camera(Sensor):
                 reflections=self.config.reflections,
                 multisamples=self.config.multisamples,
             )
-        return self._renderer.render_rgb(
+        return self._renderer
+
+    def render(self, model: mujoco.MjModel, data: mujoco.MjData) -> NDArray[np.uint8]:
+        """The current view as an (height, width, 3) rgb8 array."""
+        return self._image_renderer(model).render_rgb(
             data, self.world_pose(data), self.config.fovy, self.config.near, self.config.far
         )
 
@@ -126,10 +170,26 @@ class Camera(Sensor):
         if self.wanted(self.info_topic):
             info_header = header(now, self.frame_id, self._next_seq(self.info_topic))
             out.append(self._publication(self.info_topic, self.pinhole.camera_info(info_header)))
+        labels = [topic for topic in self.labeller.outputs if self.wanted(topic)]
+        if labels:
+            if not self.labeller.bound:
+                raise SimError(
+                    f"camera {self.name!r} has labelers {list(self.config.labelers)} but no "
+                    "scene labels were bound (Camera.bind_labels with the scene's LabelTable)"
+                )
+            messages = self.labeller.messages(
+                labels,
+                self.segmentation(model, data),
+                data,
+                optical_pose(self.world_pose(data)),
+                lambda topic: header(now, self.frame_id, self._next_seq(topic)),
+            )
+            out += [self._publication(topic, message) for topic, message in messages]
         return out
 
     def close(self) -> None:
-        """Free the offscreen renderer."""
-        if self._renderer is not None:
-            self._renderer.close()
-            self._renderer = None
+        """Free the offscreen renderers."""
+        for renderer in (self._renderer, self._label_renderer):
+            if renderer is not None:
+                renderer.close()
+        self._renderer = self._label_renderer = None

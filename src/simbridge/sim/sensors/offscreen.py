@@ -131,6 +131,34 @@ class OffscreenRenderer:
         mujoco.mjr_readPixels(None, self._depth, self._rect, self._mjr)
         return _linear_depth(np.flipud(self._depth), near, far)
 
+    def render_segmentation(
+        self, data: mujoco.MjData, pose: Pose, fovy: float, near: float, far: float
+    ) -> NDArray[np.int32]:
+        """An (height, width, 2) image of MuJoCo object id and object type per pixel
+        (what `mujoco.Renderer`'s segmentation mode gives), (-1, -1) where nothing was
+        drawn. Needs a renderer without multisampling: blended edges would mix ids."""
+        self._prepare(data, pose, fovy, near, far)
+        flags = self._scene.flags
+        flags[mujoco.mjtRndFlag.mjRND_SEGMENT] = True
+        flags[mujoco.mjtRndFlag.mjRND_IDCOLOR] = True
+        try:
+            mujoco.mjr_render(self._rect, self._scene, self._mjr)
+        finally:
+            flags[mujoco.mjtRndFlag.mjRND_SEGMENT] = False
+            flags[mujoco.mjtRndFlag.mjRND_IDCOLOR] = False
+        mujoco.mjr_readPixels(self._rgb, None, self._rect, self._mjr)
+        colour = np.flipud(self._rgb).astype(np.int32)
+        # IDCOLOR paints scene geom i (its segid) as the 24-bit colour i + 1; 0 is nothing.
+        segid = colour[..., 0] + (colour[..., 1] << 8) + (colour[..., 2] << 16)
+        scene = self._scene
+        lookup = np.full((scene.ngeom + 1, 2), -1, dtype=np.int32)
+        for index in range(scene.ngeom):
+            geom = scene.geoms[index]
+            if geom.segid >= 0:
+                lookup[geom.segid + 1] = (geom.objid, geom.objtype)
+        out: NDArray[np.int32] = lookup[np.clip(segid, 0, scene.ngeom)]
+        return out
+
     def close(self) -> None:
         """Free the GL resources; the renderer cannot be used afterwards."""
         _OPEN.discard(self)

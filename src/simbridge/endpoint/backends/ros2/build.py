@@ -47,6 +47,7 @@ SHIPPED_ROS2_PACKAGES = (
     "moveit_msgs",
     "niryo_moveit",
     "simbridge_msgs",
+    "vision_msgs",
 )
 """Shipped definitions with no ROS 2 wheel, built by `make ros2` (dependencies first)."""
 

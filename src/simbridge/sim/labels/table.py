@@ -1,9 +1,11 @@
 """Who is what: labelled instances (an object, a robot, a group of bodies, a distractor),
 their classes, and the lookup from MuJoCo geom to instance and class.
 
-Instance ids are 1, 2, ... in a fixed order (scene objects, robots, `labels:` entries,
-distractor slots), the same in every frame; class ids are 1, 2, ... in the order of
-`classes:` or of first use. 0 is "nothing labelled" in both.
+Shared by datasets (`simbridge.perception`) and live cameras (`labelers:` on a `camera`
+sensor), so both give a scene's parts the same ids. Instance ids are 1, 2, ... in a fixed
+order (scene objects, robots, `labels:` entries, distractor slots), the same in every
+frame; class ids are 1, 2, ... in the order of `classes:` or of first use. 0 is "nothing
+labelled" in both.
 """
 
 from __future__ import annotations
@@ -11,16 +13,45 @@ from __future__ import annotations
 import fnmatch
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import Protocol
 
 import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
 from simbridge.errors import PerceptionError
-from simbridge.perception.section import Section
-from simbridge.sim.scene import Scene
 
-__all__ = ["BodyRule", "Instance", "LabelTable", "parse_rules"]
+__all__ = ["BodyRule", "Instance", "LabelTable", "LabelledObject", "LabelledParts", "LabelledRobot"]
+
+
+class LabelledObject(Protocol):
+    """A scene object as labels see it (`ObjectSpec` fits)."""
+
+    @property
+    def name(self) -> str: ...
+
+    @property
+    def label(self) -> str | None: ...
+
+
+class LabelledRobot(Protocol):
+    """A scene robot as labels see it (`RobotSpec` fits)."""
+
+    @property
+    def name(self) -> str | None: ...
+
+    @property
+    def label(self) -> str | None: ...
+
+
+class LabelledParts(Protocol):
+    """A scene's objects and robots, whose `label:` keys make instances (`Scene` fits)."""
+
+    @property
+    def objects(self) -> Sequence[LabelledObject]: ...
+
+    @property
+    def robots(self) -> Sequence[LabelledRobot]: ...
 
 
 @dataclass(frozen=True)
@@ -30,22 +61,6 @@ class BodyRule:
     name: str
     category: str
     bodies: tuple[str, ...]
-
-
-def parse_rules(sections: Sequence[Section]) -> tuple[BodyRule, ...]:
-    """`labels: [{name, class, bodies: [globs]}]`."""
-    rules = []
-    for section in sections:
-        name = section.string("name", "")
-        if not name:
-            raise section.error("missing key 'name' (the instance's name)")
-        category = section.string("class", name)
-        bodies = section.strings("bodies")
-        if not bodies:
-            raise section.error("missing key 'bodies' (body names or glob patterns)")
-        section.done(("name", "class", "bodies"))
-        rules.append(BodyRule(name, category, bodies))
-    return tuple(rules)
 
 
 @dataclass(frozen=True)
@@ -88,7 +103,7 @@ class LabelTable:
     def build(
         cls,
         model: mujoco.MjModel,
-        scene: Scene,
+        scene: LabelledParts,
         *,
         robot_bodies: Mapping[str, Sequence[int]],
         rules: Sequence[BodyRule],

@@ -1,0 +1,210 @@
+"""Live labels of a camera: instance and semantic segmentation images and 2D detections
+(`vision_msgs/Detection2DArray`) of what the camera sees, each frame, next to its image.
+
+The ids come from a `LabelLookup` (a scene's `simbridge.sim.labels.LabelTable`, bound by
+whoever knows the scene: the ROS layer), the same ids a dataset of the scene carries.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any, Protocol
+
+import mujoco
+import numpy as np
+from numpy.typing import NDArray
+from scipy import ndimage
+
+from simbridge.sim.sensors.frames import Pose
+from simbridge.sim.sensors.rosmsg import new_message, pose_message
+
+__all__ = [
+    "LIVE_LABELERS",
+    "Detection",
+    "LabelLookup",
+    "LabelledInstance",
+    "LiveLabeller",
+    "detections",
+]
+
+LIVE_LABELERS = ("instance", "semantic", "boxes_2d")
+"""What a camera's `labelers:` may list: instance ids and class ids per pixel
+(`<topic>/instances`, `<topic>/semantic`, 16UC1) and tight 2D boxes (`<topic>/detections`)."""
+
+_SUFFIXES = {"instance": "instances", "semantic": "semantic", "boxes_2d": "detections"}
+_TYPES = {
+    "instance": "sensor_msgs/Image",
+    "semantic": "sensor_msgs/Image",
+    "boxes_2d": "vision_msgs/Detection2DArray",
+}
+
+
+class LabelledInstance(Protocol):
+    """One labelled thing (`simbridge.sim.labels.Instance` fits)."""
+
+    @property
+    def id(self) -> int: ...
+
+    @property
+    def category(self) -> str: ...
+
+    @property
+    def root_body(self) -> int: ...
+
+
+class LabelLookup(Protocol):
+    """Instances and per-pixel ids of a scene (`simbridge.sim.labels.LabelTable` fits)."""
+
+    @property
+    def instances(self) -> Sequence[LabelledInstance]: ...
+
+    def instance_image(self, segmentation: NDArray[np.int32]) -> NDArray[np.uint16]: ...
+
+    def category_image(self, segmentation: NDArray[np.int32]) -> NDArray[np.uint16]: ...
+
+
+@dataclass(frozen=True)
+class Detection:
+    """An instance seen in one image: its tight box and its pose in the optical frame."""
+
+    instance: LabelledInstance
+    box: tuple[int, int, int, int]
+    """(column_min, row_min, column_max, row_max) of its visible pixels, inclusive."""
+    pose: Pose
+    """Its root body's pose in the camera's optical frame (REP 103: z forward)."""
+
+    @property
+    def center(self) -> tuple[float, float]:
+        """Box centre in pixel coordinates (pixel centres at integers, as in CameraInfo)."""
+        u0, v0, u1, v1 = self.box
+        return ((u0 + u1) / 2.0, (v0 + v1) / 2.0)
+
+    @property
+    def size(self) -> tuple[float, float]:
+        """Box width and height in pixels (whole pixels: edges at the outer pixel borders)."""
+        u0, v0, u1, v1 = self.box
+        return (float(u1 - u0 + 1), float(v1 - v0 + 1))
+
+
+def detections(
+    lookup: LabelLookup, instance_image: NDArray[np.uint16], data: mujoco.MjData, optical: Pose
+) -> list[Detection]:
+    """Every instance with visible pixels in `instance_image`, in id order."""
+    found = ndimage.find_objects(instance_image)
+    out = []
+    rotation_t = optical.rotation.T
+    for instance in lookup.instances:
+        where = found[instance.id - 1] if instance.id - 1 < len(found) else None
+        if where is None:
+            continue
+        rows, cols = where
+        body = instance.root_body
+        pose = Pose(
+            rotation_t @ (data.xpos[body] - optical.position),
+            rotation_t @ data.xmat[body].reshape(3, 3),
+        )
+        box = (cols.start, rows.start, cols.stop - 1, rows.stop - 1)
+        out.append(Detection(instance, box, pose))
+    return out
+
+
+class LiveLabeller:
+    """A camera's label outputs under its topic namespace, and their messages per frame."""
+
+    def __init__(self, namespace: str, labelers: Sequence[str]) -> None:
+        self.topics = {name: f"{namespace}/{_SUFFIXES[name]}" for name in labelers}
+        """Labeler -> topic, for the labelers asked for."""
+        self._lookup: LabelLookup | None = None
+
+    @property
+    def outputs(self) -> dict[str, str]:
+        """Topic -> ROS 1 message type of each label output."""
+        return {topic: _TYPES[name] for name, topic in self.topics.items()}
+
+    @property
+    def bound(self) -> bool:
+        """Whether a scene's labels were bound (without them nothing can be labelled)."""
+        return self._lookup is not None
+
+    def bind(self, lookup: LabelLookup) -> None:
+        """Take ids and classes from `lookup` (a scene's label table)."""
+        self._lookup = lookup
+
+    def messages(
+        self,
+        wanted: Sequence[str],
+        segmentation: NDArray[np.int32],
+        data: mujoco.MjData,
+        optical: Pose,
+        header: Any,
+    ) -> list[tuple[str, Any]]:
+        """(topic, message) of each wanted label topic for one segmentation image;
+        `header` is called with a topic and gives its stamped header."""
+        lookup = self._lookup
+        assert lookup is not None, "LiveLabeller.bind first"
+        height, width = segmentation.shape[:2]
+        out: list[tuple[str, Any]] = []
+        instances = lookup.instance_image(segmentation)
+        for name in ("instance", "semantic"):
+            topic = self.topics.get(name)
+            if topic is None or topic not in wanted:
+                continue
+            ids = instances if name == "instance" else lookup.category_image(segmentation)
+            out.append((topic, _image(header(topic), ids, width, height)))
+        topic = self.topics.get("boxes_2d")
+        if topic is not None and topic in wanted:
+            found = detections(lookup, instances, data, optical)
+            out.append((topic, _detection_array(header(topic), found)))
+        return out
+
+
+def _image(header: Any, ids: NDArray[np.uint16], width: int, height: int) -> Any:
+    """A 16UC1 little-endian Image of ids."""
+    little = np.ascontiguousarray(ids, dtype="<u2")
+    return new_message(
+        "sensor_msgs/Image",
+        header=header,
+        height=height,
+        width=width,
+        encoding="16UC1",
+        is_bigendian=0,
+        step=2 * width,
+        data=little.reshape(-1).view(np.uint8),
+    )
+
+
+def _detection_array(header: Any, found: Sequence[Detection]) -> Any:
+    """vision_msgs/Detection2DArray: per instance its box, class (score 1) and pose."""
+    items = []
+    for detection in found:
+        u, v = detection.center
+        size_x, size_y = detection.size
+        centre = new_message(
+            "vision_msgs/Pose2D",
+            position=new_message("vision_msgs/Point2D", x=u, y=v),
+            theta=0.0,
+        )
+        hypothesis = new_message(
+            "vision_msgs/ObjectHypothesisWithPose",
+            hypothesis=new_message(
+                "vision_msgs/ObjectHypothesis", class_id=detection.instance.category, score=1.0
+            ),
+            pose=new_message(
+                "geometry_msgs/PoseWithCovariance",
+                pose=pose_message(detection.pose),
+                covariance=np.zeros(36),
+            ),
+        )
+        items.append(
+            new_message(
+                "vision_msgs/Detection2D",
+                header=header,
+                results=[hypothesis],
+                bbox=new_message(
+                    "vision_msgs/BoundingBox2D", center=centre, size_x=size_x, size_y=size_y
+                ),
+                id=str(detection.instance.id),
+            )
+        )
+    return new_message("vision_msgs/Detection2DArray", header=header, detections=items)

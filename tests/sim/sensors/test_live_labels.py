@@ -1,0 +1,146 @@
+"""Live labels on the local backend: a camera with labelers publishes instance and semantic
+segmentation and vision_msgs/Detection2DArray next to its image; the crate's box matches
+its projected corners, the ids and classes are the scene's (as a dataset of it has them),
+and the segmentation images agree with the boxes."""
+
+from __future__ import annotations
+
+import queue
+import time
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+import pytest
+
+from simbridge.endpoint import EndpointOptions, EndpointThread, LocalBus, Node
+from simbridge.errors import SimError
+from simbridge.perception import FrameMaker
+from simbridge.sim.labels import scene_label_table
+from simbridge.sim.runner import SimulationSession
+from simbridge.sim.scene import load_scene
+from simbridge.sim.sensors import Camera, sensor_config
+from tests.sim.sensors.labelled_scene import (
+    CAMERA_TOPIC,
+    CLASSES,
+    HEIGHT,
+    WIDTH,
+    crate_pixel_box,
+    labelled_scene,
+)
+
+TOPICS = {
+    f"{CAMERA_TOPIC}/instances": "sensor_msgs/Image",
+    f"{CAMERA_TOPIC}/semantic": "sensor_msgs/Image",
+    f"{CAMERA_TOPIC}/detections": "vision_msgs/Detection2DArray",
+}
+
+
+def _ids(image: Any) -> np.ndarray:
+    assert (image.encoding, image.is_bigendian, image.step) == ("16UC1", 0, 2 * WIDTH)
+    assert (image.width, image.height) == (WIDTH, HEIGHT)
+    return np.frombuffer(bytes(image.data), dtype="<u2").reshape(HEIGHT, WIDTH)
+
+
+def _stamp(header: Any) -> tuple[int, int]:
+    return (int(header.stamp.sec), int(header.stamp.nanosec))
+
+
+@pytest.mark.parametrize("protocol", ["ROS1", "ROS2"])
+def test_live_labels_match_the_geometry_and_the_scene(
+    tmp_path: Path, protocol: Literal["ROS1", "ROS2"]
+) -> None:
+    scene = labelled_scene(tmp_path)
+    got: dict[str, queue.Queue[Any]] = {topic: queue.Queue() for topic in TOPICS}
+    with (
+        EndpointThread(EndpointOptions(port=0), LocalBus(protocol)) as endpoint,
+        Node(endpoint.backend, "/labels_tester") as node,
+    ):
+        for topic, msg_type in TOPICS.items():
+            node.subscribe(topic, msg_type, got[topic].put)
+        address = f"127.0.0.1:{endpoint.port}"
+        with SimulationSession(scene, address, connect_timeout=60) as session:
+            sensors = session.sensors
+            assert sensors is not None
+            camera = sensors.suite["cam"]
+            assert isinstance(camera, Camera)
+            publishers = [sensors.publisher(topic) for topic in TOPICS]
+            deadline = time.monotonic() + 60
+            while any(p.subscriber_count != 1 for p in publishers) and time.monotonic() < deadline:
+                time.sleep(0.01)
+            session.run(duration=0.25)  # frames at 0, 0.1 and 0.2 s
+            assert session.connector is not None
+            assert session.connector.flush(60)
+            frames = {topic: [got[topic].get(timeout=60) for _ in range(2)] for topic in TOPICS}
+            expected = crate_pixel_box(session.world, camera)
+    instances = _ids(frames[f"{CAMERA_TOPIC}/instances"][0])
+    semantic = _ids(frames[f"{CAMERA_TOPIC}/semantic"][0])
+    detections = frames[f"{CAMERA_TOPIC}/detections"][0]
+    # One frame: every topic carries the same stamp and the camera's optical frame.
+    headers = [frames[topic][0].header for topic in TOPICS]
+    assert len({_stamp(h) for h in headers}) == 1
+    assert {h.frame_id for h in headers} == {"cam_optical_frame"}
+    assert _stamp(frames[f"{CAMERA_TOPIC}/detections"][1].header) > _stamp(detections.header)
+    # Instance ids in scene order: objects with a label (crate, ball), then labels: entries.
+    by_id = {int(d.id): d for d in detections.detections}
+    assert set(by_id) == {1, 2, 3} == set(np.unique(instances)) - {0}
+    names = {1: "crate", 2: "ball", 3: "post"}
+    for instance_id, detection in by_id.items():
+        (result,) = detection.results
+        assert result.hypothesis.class_id == names[instance_id]
+        assert result.hypothesis.score == 1.0
+        assert _stamp(detection.header) == _stamp(detections.header)
+        # The segmentation agrees with the box: the instance's pixels span it exactly, and
+        # they carry the instance's class id in the semantic image.
+        rows, cols = np.nonzero(instances == instance_id)
+        box = detection.bbox
+        assert (box.center.position.x, box.center.position.y) == (
+            (cols.min() + cols.max()) / 2,
+            (rows.min() + rows.max()) / 2,
+        )
+        assert box.size_x == cols.max() - cols.min() + 1
+        assert box.size_y == rows.max() - rows.min() + 1
+        assert box.center.theta == 0.0
+        assert set(np.unique(semantic[rows, cols])) == {CLASSES.index(names[instance_id]) + 1}
+    assert set(np.unique(semantic[instances == 0])) <= {0}
+    # The crate's box is its projected corners' box, within a pixel: the visible pixels'
+    # centres lie inside the projection, the outermost within a pixel of its edges.
+    crate = by_id[1].bbox
+    u0 = crate.center.position.x - (crate.size_x - 1) / 2
+    v0 = crate.center.position.y - (crate.size_y - 1) / 2
+    u1, v1 = u0 + crate.size_x - 1, v0 + crate.size_y - 1
+    for got_edge, want in zip((u0, v0, u1, v1), expected, strict=True):
+        assert abs(got_edge - want) <= 1.0, (got_edge, want)
+    assert expected[0] - 1e-9 <= u0
+    assert u1 <= expected[2] + 1e-9
+    # Its pose is the crate's, in the optical frame (z forward, about 1.7 m ahead).
+    position = by_id[1].results[0].pose.pose.position
+    assert 1.5 < position.z < 1.9
+    assert abs(position.x) < 0.5
+
+
+def test_live_ids_are_those_of_a_dataset_of_the_scene(tmp_path: Path) -> None:
+    """The live camera's label table and datagen's give every instance the same id and
+    class id (what the published images and detections carry)."""
+    scene = labelled_scene(tmp_path, ros=False)
+    with SimulationSession(scene) as session:
+        bodies = {n: list(r.bodies.values()) for n, r in session.world.robots.items()}
+        live = scene_label_table(session.world.model, session.world.scene, bodies)
+    maker = FrameMaker(scene)
+    try:
+        datagen = maker.table
+    finally:
+        maker.close()
+    rows = [(i.id, i.name, i.category, i.category_id) for i in live.instances]
+    assert rows == [(i.id, i.name, i.category, i.category_id) for i in datagen.instances]
+    assert rows == [(1, "crate", "crate", 2), (2, "ball", "ball", 1), (3, "pillar", "post", 3)]
+    assert live.categories == datagen.categories == CLASSES
+
+
+def test_unknown_labeler_is_named_with_its_line(tmp_path: Path) -> None:
+    scene = labelled_scene(tmp_path).read_text().replace("boxes_2d]", "boxes2d]")
+    (tmp_path / "bad.yaml").write_text(scene)
+    with pytest.raises(SimError, match=r"bad\.yaml:\d+: .*unknown labeler 'boxes2d'.*boxes_2d"):
+        load_scene(tmp_path / "bad.yaml")
+    with pytest.raises(SimError, match="labelers: listed twice"):
+        sensor_config({"type": "camera", "name": "c", "body": "", "labelers": ["instance"] * 2})
