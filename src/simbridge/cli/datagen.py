@@ -101,40 +101,33 @@ def run_datagen(
 
 
 def _run(args: argparse.Namespace) -> int:
-    if args.ray:
-        from .datagen_ray import run_datagen_on_ray
-
-        return run_datagen_on_ray(
-            scene_path(args.scene),
-            args.frames,
-            Path(args.out),
-            formats=parse_formats(args.format),
-            seed=args.seed,
-            resume=args.resume,
-            address=args.ray,
-            chunk=args.chunk,
-        )
-    return run_datagen(
-        scene_path(args.scene),
-        args.frames,
-        Path(args.out),
-        formats=parse_formats(args.format),
-        seed=args.seed,
-        resume=args.resume,
-        workers=args.workers,
-    )
+    return _make(scene_path(args.scene), args, ray=args.ray)
 
 
 def run_demo(args: argparse.Namespace) -> int:
     """`simbridge demo datagen`: the shipped pick-and-place table."""
+    return _make(scene_path("pick-and-place"), args)
+
+
+def _make(scene: Path, args: argparse.Namespace, *, ray: str | None = None) -> int:
+    """The dataset `args` asks for of `scene`: on the Ray cluster at `ray`, else here."""
+    frames, out, formats = args.frames, Path(args.out), parse_formats(args.format)
+    seed, resume = args.seed, args.resume
+    if ray:
+        from .datagen_ray import run_datagen_on_ray
+
+        return run_datagen_on_ray(
+            scene,
+            frames,
+            out,
+            formats=formats,
+            seed=seed,
+            resume=resume,
+            address=ray,
+            chunk=args.chunk,
+        )
     return run_datagen(
-        scene_path("pick-and-place"),
-        args.frames,
-        Path(args.out),
-        formats=parse_formats(args.format),
-        seed=args.seed,
-        resume=args.resume,
-        workers=args.workers,
+        scene, frames, out, formats=formats, seed=seed, resume=resume, workers=args.workers
     )
 
 
