@@ -16,7 +16,8 @@ from typing import Any
 import pytest
 
 from simbridge.sim.runner import SimulationSession
-from tests.ros2support import ActionDriver, start_endpoint
+from tests.ros2.action_rig import ActionRig, action_rig
+from tests.ros2support import ActionDriver
 from tests.sim.worlds import arm_scene
 
 pytestmark = [pytest.mark.ros2, pytest.mark.timeout(300)]
@@ -97,37 +98,24 @@ class Sim:
 
 
 @pytest.fixture(scope="module")
-def endpoint() -> Iterator[int]:
-    proc, port = start_endpoint("--idle-timeout", "0")
-    try:
-        yield port
-    finally:
-        proc.stop()
-
-
-@pytest.fixture(scope="module")
-def driver(endpoint: int) -> Iterator[ActionDriver]:
-    made = ActionDriver()
-    try:
-        made.expect(lambda o: o.get("up") is True)
-        yield made
-    finally:
-        made.proc.stop()
+def rig() -> Iterator[ActionRig]:
+    yield from action_rig()
 
 
 @pytest.fixture
-def sim(tmp_path: Path, endpoint: int, driver: ActionDriver) -> Iterator[Sim]:
-    running = Sim(_scene(tmp_path), endpoint)
+def sim(tmp_path: Path, rig: ActionRig) -> Iterator[Sim]:
+    running = Sim(_scene(tmp_path), rig.port)
     try:
-        driver.wait_ready(ARM, FOLLOW)
+        rig.driver.wait_ready(ARM, FOLLOW)
         yield running
     finally:
         running.close()
 
 
 def test_goal_succeeds_with_feedback_and_the_joints_reach_the_target(
-    sim: Sim, driver: ActionDriver
+    sim: Sim, rig: ActionRig
 ) -> None:
+    driver = rig.driver
     driver.send(op="state", topic="/arm_left/arm_controller/state")
     state = driver.expect(lambda o: "state" in o)["state"]
     assert state["joint_names"] == ["shoulder", "elbow", "wrist"]
@@ -145,9 +133,10 @@ def test_goal_succeeds_with_feedback_and_the_joints_reach_the_target(
     assert joints["shoulder"] == pytest.approx(0.4, abs=0.05)
 
 
-def test_error_codes_as_on_ros1(sim: Sim, driver: ActionDriver) -> None:
+def test_error_codes_as_on_ros1(sim: Sim, rig: ActionRig) -> None:
     """INVALID_JOINTS and INVALID_GOAL (accepted, then aborted with the code: a ROS 2
     rejection carries no result), PATH_TOLERANCE_VIOLATED, GOAL_TOLERANCE_VIOLATED."""
+    driver = rig.driver
     arm_goal(driver, "joints", _trajectory(["shoulder", "grip_a"], [(0.2, [0.1, 0.01])]))
     arm_goal(driver, "empty", _trajectory(["shoulder"], []))
     # A jump no drive follows within 0.001 rad; the wrist cannot reach 3 rad in 0.07 s.
@@ -177,7 +166,8 @@ def test_error_codes_as_on_ros1(sim: Sim, driver: ActionDriver) -> None:
     assert "wrist" in results["end"]["values"]["error_string"]
 
 
-def test_feedback_then_cancel_ends_the_goal_canceled(sim: Sim, driver: ActionDriver) -> None:
+def test_feedback_then_cancel_ends_the_goal_canceled(sim: Sim, rig: ActionRig) -> None:
+    driver = rig.driver
     arm_goal(driver, "long", _trajectory(["elbow"], [(20.0, [1.0])]))
     assert driver.reply("accepted", "long")["ok"] is True
     # 20 Hz of sim time; the first may come late (the feedback topic's own discovery).
@@ -192,7 +182,8 @@ def test_feedback_then_cancel_ends_the_goal_canceled(sim: Sim, driver: ActionDri
     assert driver.expect(lambda o: "joints" in o)["joints"]["elbow"] < 0.9  # stopped early
 
 
-def test_a_new_goal_preempts_the_running_one(sim: Sim, driver: ActionDriver) -> None:
+def test_a_new_goal_preempts_the_running_one(sim: Sim, rig: ActionRig) -> None:
+    driver = rig.driver
     arm_goal(driver, "first", _trajectory(["elbow"], [(20.0, [1.0])]))
     assert driver.reply("accepted", "first")["ok"] is True
     arm_goal(driver, "second", _trajectory(["elbow"], [(1.0, [-0.5])]))
@@ -204,7 +195,8 @@ def test_a_new_goal_preempts_the_running_one(sim: Sim, driver: ActionDriver) -> 
     assert (second["status"], second["values"]["error_code"]) == (SUCCEEDED, 0)
 
 
-def test_gripper_reaches_its_goal_and_stalls_at_the_limit(sim: Sim, driver: ActionDriver) -> None:
+def test_gripper_reaches_its_goal_and_stalls_at_the_limit(sim: Sim, rig: ActionRig) -> None:
+    driver = rig.driver
     driver.wait_ready(GRIP, GRIPPER)
     command = {"command": {"position": 0.03, "max_effort": 5.0}}
     driver.goal("grip", command, action=GRIP, kind=GRIPPER)
@@ -218,10 +210,9 @@ def test_gripper_reaches_its_goal_and_stalls_at_the_limit(sim: Sim, driver: Acti
     assert stalled["values"]["position"] == pytest.approx(0.05, abs=5e-3)
 
 
-def test_the_sim_going_away_aborts_its_goals(
-    tmp_path: Path, endpoint: int, driver: ActionDriver
-) -> None:
-    running = Sim(_scene(tmp_path), endpoint)
+def test_the_sim_going_away_aborts_its_goals(tmp_path: Path, rig: ActionRig) -> None:
+    driver = rig.driver
+    running = Sim(_scene(tmp_path), rig.port)
     try:
         driver.wait_ready(ARM, FOLLOW)
         arm_goal(driver, "orphan", _trajectory(["elbow"], [(30.0, [1.0])]))

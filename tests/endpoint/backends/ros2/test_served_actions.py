@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 from tests.endpoint.rawclient import RawClient
-from tests.ros2support import ActionDriver, require_ros2, start_endpoint
+from tests.ros2.action_rig import ActionRig, action_rig
 
 from simbridge.messages import ROS2_STORE, MessageRegistry
 from simbridge.protocol import (
@@ -53,35 +53,20 @@ def unique_action() -> str:
 
 
 @pytest.fixture(scope="module")
-def endpoint() -> Iterator[int]:
-    require_ros2()
-    proc, port = start_endpoint("--idle-timeout", "0")
-    try:
-        yield port
-    finally:
-        proc.stop()
-
-
-@pytest.fixture(scope="module")
-def driver(endpoint: int) -> Iterator[ActionDriver]:
-    made = ActionDriver()
-    try:
-        made.expect(lambda o: o.get("up") is True)
-        yield made
-    finally:
-        made.proc.stop()
+def rig() -> Iterator[ActionRig]:
+    yield from action_rig()
 
 
 @pytest.fixture
-def served(endpoint: int, driver: ActionDriver) -> Iterator[tuple[RawClient, str]]:
+def served(rig: ActionRig) -> Iterator[tuple[RawClient, str]]:
     """A raw client serving a new Fibonacci action, which the driver has found."""
-    raw = RawClient(endpoint)
+    raw = RawClient(rig.port)
     action = unique_action()
     try:
         handshake = raw.expect(lambda e: is_command(e, Handshake)).command
         assert ACTION_SERVERS_EXTENSION in handshake.metadata["extensions"]
         raw.send(ServeAction(action, FIB).encode())
-        driver.wait_ready(action, FIB_ROS2)
+        rig.driver.wait_ready(action, FIB_ROS2)
         yield raw, action
     finally:
         raw.close()
@@ -93,10 +78,9 @@ def next_goal(raw: RawClient) -> ServedGoalRequest:
     return request
 
 
-def test_goal_feedback_result_and_rejection(
-    served: tuple[RawClient, str], driver: ActionDriver
-) -> None:
+def test_goal_feedback_result_and_rejection(served: tuple[RawClient, str], rig: ActionRig) -> None:
     raw, action = served
+    driver = rig.driver
     driver.goal("fib", {"order": 4}, action=action, kind=FIB_ROS2)
     request = next_goal(raw)
     assert request.action == action
@@ -116,8 +100,9 @@ def test_goal_feedback_result_and_rejection(
     assert driver.reply("accepted", "no")["ok"] is False
 
 
-def test_cancel_request_and_preemption(served: tuple[RawClient, str], driver: ActionDriver) -> None:
+def test_cancel_request_and_preemption(served: tuple[RawClient, str], rig: ActionRig) -> None:
     raw, action = served
+    driver = rig.driver
     driver.goal("asked", {"order": 9}, action=action, kind=FIB_ROS2)
     first = next_goal(raw)
     raw.send(ServedAccept(first.goal_id, True).encode())
@@ -138,9 +123,10 @@ def test_cancel_request_and_preemption(served: tuple[RawClient, str], driver: Ac
 
 
 def test_bad_frames_get_errors_and_the_connection_stays(
-    served: tuple[RawClient, str], driver: ActionDriver, endpoint: int
+    served: tuple[RawClient, str], rig: ActionRig
 ) -> None:
     raw, action = served
+    driver = rig.driver
 
     def error() -> str:
         return str(raw.expect(lambda e: is_command(e, ErrorMessage), timeout=60).command.text)
@@ -155,7 +141,7 @@ def test_bad_frames_get_errors_and_the_connection_stays(
     assert driver.reply("accepted", "bad")["ok"] is True
     raw.send(ServedResult(request.goal_id, STATUS_SUCCEEDED, b"\x00\x01\x00\x00\xff").encode())
     assert "is not a CDR" in error()
-    other = RawClient(endpoint)
+    other = RawClient(rig.port)
     try:
         other.send(ServeAction(action, FIB).encode())
         text = str(other.expect(lambda e: is_command(e, ErrorMessage), timeout=60).command.text)
@@ -169,10 +155,9 @@ def test_bad_frames_get_errors_and_the_connection_stays(
     assert raw.stats()["session"]["errors_sent"] == 4
 
 
-def test_the_client_leaving_aborts_its_goals(
-    served: tuple[RawClient, str], driver: ActionDriver
-) -> None:
+def test_the_client_leaving_aborts_its_goals(served: tuple[RawClient, str], rig: ActionRig) -> None:
     raw, action = served
+    driver = rig.driver
     driver.goal("left", {"order": 5}, action=action, kind=FIB_ROS2)
     raw.send(ServedAccept(next_goal(raw).goal_id, True).encode())
     assert driver.reply("accepted", "left")["ok"] is True
