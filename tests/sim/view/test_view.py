@@ -10,64 +10,25 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import yaml
 
-from simbridge.sim.scene import load_scene
-from simbridge.sim.view import LiveView, ViewOptions, visual_shapes
+from simbridge.sim.view import LiveView, visual_shapes
 from simbridge.sim.world import World
 from tests.sim.browser import CHROMIUM, open_page
+from tests.sim.view.red_arm import RED, red_arm_world, viewed
 from tests.waiting import wait_for
 
 pytest.importorskip("viser")
 
-RED = (0.9, 0.05, 0.05, 1.0)
-ARM = f"""<?xml version="1.0"?>
-<robot name="red_arm">
-  <material name="red"><color rgba="{" ".join(map(str, RED))}"/></material>
-  <link name="base">
-    <inertial><mass value="5"/>
-      <inertia ixx="0.05" iyy="0.05" izz="0.05" ixy="0" ixz="0" iyz="0"/></inertial>
-    <visual><geometry><cylinder radius="0.08" length="0.1"/></geometry>
-      <material name="red"/></visual>
-  </link>
-  <link name="upper">
-    <inertial><origin xyz="0 0 0.2"/><mass value="1"/>
-      <inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>
-    <visual><origin xyz="0 0 0.2"/><geometry><box size="0.08 0.08 0.4"/></geometry>
-      <material name="red"/></visual>
-  </link>
-  <joint name="shoulder" type="revolute"><parent link="base"/><child link="upper"/>
-    <origin xyz="0 0 0.05"/><axis xyz="0 1 0"/>
-    <limit lower="-1.5" upper="1.5" effort="50" velocity="2"/></joint>
-</robot>
-"""
-
-
-def _world(tmp_path: Path) -> World:
-    (tmp_path / "arm.urdf").write_text(ARM)
-    scene = {
-        "physics": {"timestep": 0.002, "realtime_factor": 1},
-        "robots": [{"urdf": "arm.urdf", "fixed_base": True}],
-        "ros": {"enabled": False},
-    }
-    (tmp_path / "scene.yaml").write_text(yaml.safe_dump(scene))
-    return World.from_scene(load_scene(tmp_path / "scene.yaml"))
-
 
 @pytest.fixture
 def running(tmp_path: Path) -> Iterator[tuple[World, LiveView]]:
-    world = _world(tmp_path)
-    view = LiveView(world, ViewOptions(port=0, rate=30))
-    runner = threading.Thread(target=world.run, kwargs={"realtime_factor": 1.0})
-    runner.start()
-    yield world, view
-    world.stop()
-    runner.join(10)
-    view.close()
+    world = red_arm_world(tmp_path)
+    with viewed(world) as view:
+        yield world, view
 
 
 def test_shapes_are_the_urdf_visuals(tmp_path: Path) -> None:
-    world = _world(tmp_path)
+    world = red_arm_world(tmp_path)
     shapes = [s for s in visual_shapes(world.model) if s.rgba == pytest.approx(RED)]
     kinds = sorted((s.kind, tuple(round(v, 6) for v in s.size)) for s in shapes)
     assert kinds == [("box", (0.08, 0.08, 0.4)), ("cylinder", (0.08, 0.1))]

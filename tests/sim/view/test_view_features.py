@@ -11,13 +11,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import yaml
 
 from simbridge.errors import SimError
-from simbridge.sim.scene import load_scene
 from simbridge.sim.view import LiveView, ViewOptions, free_bodies
 from simbridge.sim.world import World
-from tests.sim.view.test_view import ARM
+from tests.sim.view.red_arm import red_arm_world, viewed
 
 pytest.importorskip("viser")
 
@@ -26,39 +24,21 @@ import viser._messages as messages
 from tests.sim.viser_client import ViserClient
 from tests.waiting import wait_for
 
-
-def _world(tmp_path: Path) -> World:
-    (tmp_path / "arm.urdf").write_text(ARM)
-    scene = {
-        "physics": {"timestep": 0.002, "realtime_factor": 1},
-        "robots": [{"urdf": "arm.urdf", "fixed_base": True}],
-        "objects": [
-            {"name": "floor", "type": "plane"},
-            {
-                "name": "crate",
-                "type": "box",
-                "size": [0.1, 0.1, 0.1],
-                "pose": {"xyz": [0.4, 0.0, 0.05]},
-                "dynamic": True,
-                "mass": 0.5,
-            },
-        ],
-        "ros": {"enabled": False},
-    }
-    (tmp_path / "scene.yaml").write_text(yaml.safe_dump(scene))
-    return World.from_scene(load_scene(tmp_path / "scene.yaml"))
+CRATE = {
+    "name": "crate",
+    "type": "box",
+    "size": [0.1, 0.1, 0.1],
+    "pose": {"xyz": [0.4, 0.0, 0.05]},
+    "dynamic": True,
+    "mass": 0.5,
+}
 
 
 @pytest.fixture
 def running(tmp_path: Path) -> Iterator[tuple[World, LiveView]]:
-    world = _world(tmp_path)
-    view = LiveView(world, ViewOptions(port=0, rate=30))
-    runner = threading.Thread(target=world.run, kwargs={"realtime_factor": 1.0})
-    runner.start()
-    yield world, view
-    world.stop()
-    runner.join(10)
-    view.close()
+    world = red_arm_world(tmp_path, ({"name": "floor", "type": "plane"}, CRATE))
+    with viewed(world) as view:
+        yield world, view
 
 
 def test_tf_frames_appear_and_go_with_their_checkbox(running: tuple[World, LiveView]) -> None:

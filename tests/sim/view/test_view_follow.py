@@ -10,7 +10,6 @@ import re
 import signal
 import subprocess
 import sys
-import threading
 import time
 import urllib.request
 from collections.abc import Iterator
@@ -25,6 +24,7 @@ from simbridge.errors import SimError
 from simbridge.sim.scene import load_scene
 from simbridge.sim.world import World
 from tests.sim.browser import CHROMIUM, keep_screenshot, open_page
+from tests.sim.view.red_arm import viewed
 
 pytest.importorskip("viser")
 
@@ -109,13 +109,8 @@ def driving() -> Iterator[tuple[World, LiveView]]:
     base = replace(scene.robots[0].base, xyz=(-1.1, 0.9, 0.05), rpy=(0.0, 0.0, yaw))
     robot = replace(scene.robots[0], base=base)
     world = World.from_scene(replace(scene, robots=(robot,)))
-    view = LiveView(world, ViewOptions(port=0, rate=20))
-    runner = threading.Thread(target=world.run, kwargs={"realtime_factor": 1.0})
-    runner.start()
-    yield world, view
-    world.stop()
-    runner.join(10)
-    view.close()
+    with viewed(world, rate=20) as view:
+        yield world, view
 
 
 @pytest.mark.skipif(CHROMIUM is None, reason="Debian's chromium is not installed")
