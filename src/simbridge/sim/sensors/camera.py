@@ -107,8 +107,11 @@ class Camera(Sensor):
         """Take instance and class ids from a scene's label table (needed by `labelers`)."""
         self.labeller.bind(lookup)
 
-    def segmentation(self, model: mujoco.MjModel, data: mujoco.MjData) -> NDArray[np.int32]:
-        """The current view as (height, width, 2) MuJoCo object id and type per pixel."""
+    def segmentation(
+        self, model: mujoco.MjModel, data: mujoco.MjData
+    ) -> tuple[NDArray[np.uint32], NDArray[np.int32]]:
+        """The current view's segments: an image of segment numbers and each segment's
+        MuJoCo object id and type (`OffscreenRenderer.render_segments`)."""
         if self._label_renderer is None:
             if self.config.multisamples == 0:
                 self._label_renderer = self._image_renderer(model)
@@ -116,7 +119,7 @@ class Camera(Sensor):
                 self._label_renderer = OffscreenRenderer(
                     model, self.config.width, self.config.height
                 )
-        return self._label_renderer.render_segmentation(
+        return self._label_renderer.render_segments(
             data, self.world_pose(data), self.config.fovy, self.config.near, self.config.far
         )
 
@@ -177,12 +180,14 @@ class Camera(Sensor):
                     f"camera {self.name!r} has labelers {list(self.config.labelers)} but no "
                     "scene labels were bound (Camera.bind_labels with the scene's LabelTable)"
                 )
+            segments, objects = self.segmentation(model, data)
             messages = self.labeller.messages(
                 labels,
-                self.segmentation(model, data),
-                data,
-                optical_pose(self.world_pose(data)),
-                lambda topic: header(now, self.frame_id, self._next_seq(topic)),
+                segments,
+                objects,
+                data=data,
+                optical=optical_pose(self.world_pose(data)),
+                header=lambda topic: header(now, self.frame_id, self._next_seq(topic)),
             )
             out += [self._publication(topic, message) for topic, message in messages]
         return out

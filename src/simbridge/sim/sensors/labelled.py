@@ -134,23 +134,27 @@ class LiveLabeller:
     def messages(
         self,
         wanted: Sequence[str],
-        segmentation: NDArray[np.int32],
+        segments: NDArray[np.uint32],
+        objects: NDArray[np.int32],
+        *,
         data: mujoco.MjData,
         optical: Pose,
         header: Any,
     ) -> list[tuple[str, Any]]:
-        """(topic, message) of each wanted label topic for one segmentation image;
-        `header` is called with a topic and gives its stamped header."""
+        """(topic, message) of each wanted label topic for one segmentation (an image of
+        segment numbers and each segment's object id and type); `header` is called with
+        a topic and gives its stamped header."""
         lookup = self._lookup
         assert lookup is not None, "LiveLabeller.bind first"
-        height, width = segmentation.shape[:2]
+        height, width = segments.shape
         out: list[tuple[str, Any]] = []
-        instances = lookup.instance_image(segmentation)
+        # Ids per segment (a few dozen), then one look-up per pixel.
+        instances = lookup.instance_image(objects)[segments]
         for name in ("instance", "semantic"):
             topic = self.topics.get(name)
             if topic is None or topic not in wanted:
                 continue
-            ids = instances if name == "instance" else lookup.category_image(segmentation)
+            ids = instances if name == "instance" else lookup.category_image(objects)[segments]
             out.append((topic, _image(header(topic), ids, width, height)))
         topic = self.topics.get("boxes_2d")
         if topic is not None and topic in wanted:

@@ -77,6 +77,7 @@ class OffscreenRenderer:
         self._rect = mujoco.MjrRect(0, 0, width, height)
         self._rgb = np.empty((height, width, 3), dtype=np.uint8)
         self._depth = np.empty((height, width), dtype=np.float32)
+        self._segments: NDArray[np.uint8] | None = None
 
     def _prepare(
         self, data: mujoco.MjData, pose: Pose, fovy: float, near: float, far: float
@@ -137,6 +138,18 @@ class OffscreenRenderer:
         """An (height, width, 2) image of MuJoCo object id and object type per pixel
         (what `mujoco.Renderer`'s segmentation mode gives), (-1, -1) where nothing was
         drawn. Needs a renderer without multisampling: blended edges would mix ids."""
+        segments, objects = self.render_segments(data, pose, fovy, near, far)
+        out: NDArray[np.int32] = objects[segments]
+        return out
+
+    def render_segments(
+        self, data: mujoco.MjData, pose: Pose, fovy: float, near: float, far: float
+    ) -> tuple[NDArray[np.uint32], NDArray[np.int32]]:
+        """The segmentation in two parts: an (height, width) image of segment numbers and
+        a (segments, 2) table of each one's object id and type (row 0: nothing drawn).
+        Labels look the few segments up and index the image once, which is much faster
+        than going through `render_segmentation`'s full-size (id, type) image. The image
+        is a view of the renderer's buffer: the next render overwrites it."""
         self._prepare(data, pose, fovy, near, far)
         flags = self._scene.flags
         flags[mujoco.mjtRndFlag.mjRND_SEGMENT] = True
@@ -147,17 +160,21 @@ class OffscreenRenderer:
             flags[mujoco.mjtRndFlag.mjRND_SEGMENT] = False
             flags[mujoco.mjtRndFlag.mjRND_IDCOLOR] = False
         mujoco.mjr_readPixels(self._rgb, None, self._rect, self._mjr)
-        colour = np.flipud(self._rgb).astype(np.int32)
-        # IDCOLOR paints scene geom i (its segid) as the 24-bit colour i + 1; 0 is nothing.
-        segid = colour[..., 0] + (colour[..., 1] << 8) + (colour[..., 2] << 16)
+        # IDCOLOR paints scene geom i (its segid) in the 24-bit colour i + 1 (0: nothing):
+        # the colour bytes with a zero fourth byte read as one little-endian uint32.
+        if self._segments is None:
+            self._segments = np.zeros((self.height, self.width, 4), dtype=np.uint8)
+        self._segments[..., :3] = self._rgb
+        segments = np.flipud(self._segments.view("<u4")[..., 0])
         scene = self._scene
-        lookup = np.full((scene.ngeom + 1, 2), -1, dtype=np.int32)
+        objects = np.full((scene.ngeom + 2, 2), -1, dtype=np.int32)
         for index in range(scene.ngeom):
             geom = scene.geoms[index]
             if geom.segid >= 0:
-                lookup[geom.segid + 1] = (geom.objid, geom.objtype)
-        out: NDArray[np.int32] = lookup[np.clip(segid, 0, scene.ngeom)]
-        return out
+                objects[geom.segid + 1] = (geom.objid, geom.objtype)
+        # Any colour no geom has (none expected) reads as the last row: nothing drawn.
+        np.minimum(segments, scene.ngeom + 1, out=segments)
+        return segments, objects
 
     def close(self) -> None:
         """Free the GL resources; the renderer cannot be used afterwards."""
