@@ -10,6 +10,8 @@ endpoint -> the Connector (ros -> sim). Publishing starts once the subscriber pr
 has matched its publisher too (a sample sent before that waits for reliability's
 repair). Both publish with rclpy's `publish_raw`, as the endpoint does. The endpoint's
 memory budget fits the image burst, so a lagging Connector costs time, not messages.
+The sim as its own ROS 2 node (`simbridge sim --ros2`): bench_ros2_node.py, a ROS 2 venv
+process publishing through `Ros2SimNode`'s connector -> the same subscriber process.
 QoS is reliable with a history as deep as the run, so loss should be zero. A rate counts
 from the first message sent to the last one received, so a path that hands its first
 message over late (a batch arriving at once) does not look faster for it. Payloads:
@@ -57,6 +59,8 @@ if ros2_python() is None:  # benchmarks/run.py reports the suite as skipped
 
 SCALE = float(os.environ.get("SIMBRIDGE_BENCH_SCALE", "1"))
 """Multiplies the message counts (smaller for a quick look)."""
+SIM_NODE = Path(__file__).with_name("bench_ros2_node.py")
+"""The publisher of the sim's own node rows (`simbridge sim --ros2`)."""
 IDLE_END = 4.0
 """Seconds without a message after which a receiver stops counting (more than Fast DDS's
 3 s heartbeat, so a sample repaired by reliability still counts)."""
@@ -337,9 +341,10 @@ def _node(env: dict[str, str], script: Path, role: str, topic: str, p: Payload,
 
 
 def _ceiling(env: dict[str, str], script: Path, data: Path, p: Payload, topic: str,
-             *, cpu: bool = False) -> Any:  # fmt: skip
+             *, cpu: bool = False, publisher: Path | None = None) -> Any:  # fmt: skip
+    """The rclpy -> rclpy row; with `publisher` (SIM_NODE) the sim's own node's row."""
     sub = _node(env, script, "sub", topic, p)
-    pub = _node(env, script, "pub", topic, p, payload_file=data)
+    pub = _node(env, publisher or script, "pub", topic, p, payload_file=data)
     sampler = None
     try:
         assert sub.line() == "READY"
@@ -354,7 +359,8 @@ def _ceiling(env: dict[str, str], script: Path, data: Path, p: Payload, topic: s
         pub.stop()
         sub.stop()
     last = result["times"][1] if result["times"] else start
-    row = _row("rclpy -> rclpy (ceiling)", p, result["count"], start, last)
+    direction = "sim -> ros2 (in-process node)" if publisher else "rclpy -> rclpy (ceiling)"
+    row = _row(direction, p, result["count"], start, last)
     if sampler is not None:
         row["cpu_us"] = sampler.span(start, last, result["count"])
     return row
@@ -523,10 +529,10 @@ def _memory_mb() -> str:
 
 
 def run(repeats: int = REPEATS) -> dict[str, list[dict[str, Any]]]:
-    """Ceiling and endpoint rows per payload in `repeats` interleaved rounds, or the
-    payload's `min_rounds` if more (each share taken against the same round's ceiling;
-    rows give best and median), then the latency rows. Bounded: at most 30,000 messages
-    per row, each receiver stops after IDLE_END s without a message."""
+    """Ceiling, endpoint and in-process node rows per payload in `repeats` interleaved
+    rounds, or the payload's `min_rounds` if more (each share taken against the same
+    round's ceiling; rows give best and median), then the latency rows. Bounded: at most
+    30,000 messages per row, each receiver stops after IDLE_END s without a message."""
     from tests.ros2support import child_env, start_endpoint
 
     env = child_env()
@@ -550,6 +556,7 @@ def run(repeats: int = REPEATS) -> dict[str, list[dict[str, Any]]]:
                             _ceiling(env, script, data, p, topic + "/ceiling"),
                             _sim_to_ros(env, script, port, p, topic + "/sim_to_ros"),
                             _ros_to_sim(env, script, data, port, p, topic=topic + "/ros_to_sim"),
+                            _ceiling(env, script, data, p, topic + "/node", publisher=SIM_NODE),
                         ]
                     )
                 rows += [
@@ -580,8 +587,8 @@ def run(repeats: int = REPEATS) -> dict[str, list[dict[str, Any]]]:
 def cpu_accounting(
     payloads: tuple[Payload, ...] = PAYLOADS, rounds: int = 5
 ) -> list[dict[str, Any]]:
-    """Per payload, its three rows (ceiling, sim -> ros2, ros2 -> sim) in `rounds`
-    interleaved rounds with each process's CPU per message: per row the medians of the rate
+    """Per payload, its four rows (ceiling, sim -> ros2, ros2 -> sim, the sim's own node) in
+    `rounds` interleaved rounds with each process's CPU per message: per row the medians of the rate
     and of each process's CPU, their sum, the rate that sum allows on this machine's cores,
     and the share of the ceiling it allows (the same round's ceiling sum over the row's)."""
     from tests.ros2support import child_env, start_endpoint
@@ -607,8 +614,11 @@ def cpu_accounting(
                     back = _ros_to_sim(
                         env, script, data, port, p, topic=topic + "/ros_to_sim", endpoint_pid=pid
                     )
-                    runs.append([ceiling, out, back])
-                rows += [_cpu_row(runs, k, load, cores) for k in range(3)]
+                    node = _ceiling(
+                        env, script, data, p, topic + "/node", cpu=True, publisher=SIM_NODE
+                    )
+                    runs.append([ceiling, out, back, node])
+                rows += [_cpu_row(runs, k, load, cores) for k in range(4)]
         finally:
             endpoint.stop()
     return rows

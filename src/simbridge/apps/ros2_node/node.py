@@ -65,6 +65,7 @@ class Ros2SimNode:
         self._domain_id = domain_id
         self._drain_timeout = drain_timeout
         self._thread: EndpointThread | None = None
+        self._connectors: list[Connector] = []
 
     @property
     def endpoint(self) -> EndpointThread:
@@ -94,11 +95,16 @@ class Ros2SimNode:
         self, options: ConnectorOptions | None = None, wait: float | None = 10.0
     ) -> Connector:
         """A new connection of the sim to the node, connected (within `wait` s)."""
-        endpoint = self.endpoint
-        return NodeConnector(endpoint, f"ros2 node {self.node_name}", options).connect(wait)
+        connector = NodeConnector(self.endpoint, f"ros2 node {self.node_name}", options)
+        self._connectors.append(connector)
+        return connector.connect(wait)
 
     def close(self) -> None:
-        """Deliver what was published (up to `drain_timeout`) and leave the graph."""
+        """Close the connectors it made (if still open), deliver what was published (up to
+        `drain_timeout`) and leave the graph."""
+        for connector in self._connectors:
+            connector.close()
+        self._connectors.clear()
         if self._thread is not None:
             self._thread.stop(timeout=self._drain_timeout + 10.0)
             self._thread = None

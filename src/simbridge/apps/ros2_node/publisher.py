@@ -13,6 +13,7 @@ of dropping.
 from __future__ import annotations
 
 import logging
+import threading
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
@@ -36,23 +37,32 @@ class DirectPublisher(Publisher):
     calling thread (rcl publishing is thread-safe); nothing is queued, so nothing is
     dropped here (DDS keeps `queue_size` samples per subscriber, as for the endpoint)."""
 
-    __slots__ = ("sink",)
+    __slots__ = ("sink", "using")
 
     def __init__(self, sink: BackendPublisher, **kwargs: Any) -> None:
         super().__init__(**kwargs)
         self.sink = sink
         """The backend's publisher (owned by the endpoint's loop: closed there)."""
+        self.using = threading.Lock()
+        """Held while publishing and while `retire()` marks it closed, so the endpoint
+        never destroys the rclpy publisher under a publish in progress."""
 
     def publish(self, msg: object) -> None:
         """Serialize (unless bytes) and publish now; ConnectorError once unregistered."""
-        if self.closed:
-            raise ConnectorError(f"the publisher on {self.topic!r} was unregistered")
         payload = msg if type(msg) is bytes else self._codec.encode(msg, self.msg_type)
-        if self.latch:
-            self._last = payload
-        for tap in self._taps:
-            tap(self.topic, self.msg_type, payload, True)
-        self.sink.publish(payload)
+        with self.using:
+            if self.closed:
+                raise ConnectorError(f"the publisher on {self.topic!r} was unregistered")
+            if self.latch:
+                self._last = payload
+            for tap in self._taps:
+                tap(self.topic, self.msg_type, payload, True)
+            self.sink.publish(payload)
+
+    def retire(self) -> None:
+        """Mark closed once no publish is in progress; later ones raise ConnectorError."""
+        with self.using:
+            self.closed = True
 
     def set_subscribers(self, count: int) -> None:
         """The backend's subscriber count (called on the endpoint's loop)."""
@@ -160,7 +170,7 @@ class NodeConnector(Connector):
         if not pubs:
             return
         for pub in pubs:
-            pub.closed = True
+            pub.retire()
         server = self._endpoint.server
         pairs = [(pub.topic, pub.sink) for pub in pubs]
         try:

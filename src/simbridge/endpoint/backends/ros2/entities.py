@@ -60,6 +60,9 @@ _LEND_FROM = 64 * 1024
 buffer (`rcl.DirectTake`) once one was at least this long, and through rclpy (bytes;
 a ctypes call costs more than the copy of a small message) once one was shorter."""
 
+_IN_PLACE_MIN = 64 * 1024
+"""Bytes payloads this large or larger are published in place (`rcl.direct_publish`):
+there publish_raw's copy outweighs the ctypes call's few microseconds."""
 _ERROR_LOG_INTERVAL = 5.0
 """Shortest time between two log lines about failed publishes."""
 
@@ -146,8 +149,9 @@ class Ros2Publisher(NodeEntity, BackendPublisher):
         self.msg_class = cls
         self._publish_raw = _raw_publish(self._publisher)
         self._publish_lent = direct_publish(self._publisher) or self._publish_raw
-        """Large payloads arrive as the bytearray they were received into (lent by the
-        session): published in place, without publish_raw's copy (`rcl`)."""
+        """Large payloads (a bytearray lent by the session, or large bytes from a publisher in
+        this process, `simbridge.apps.ros2_node`): published in place, without publish_raw's
+        copy (`rcl`)."""
         if is_empty_interface(cls):  # the CDR header alone (Unity) needs the placeholder
             self._publish_raw = self._publish_lent = _spelled_for_ros2(
                 self._publish_raw, interface_name(cls)
@@ -158,7 +162,7 @@ class Ros2Publisher(NodeEntity, BackendPublisher):
         if self.closed:
             raise EndpointError(f"publisher of {self.topic!r} is closed")
         try:
-            if type(payload) is bytearray:
+            if type(payload) is bytearray or len(payload) >= _IN_PLACE_MIN:
                 self._publish_lent(payload)
             else:
                 self._publish_raw(payload)

@@ -124,10 +124,11 @@ def _error(functions: _Rcl, what: str, ret: int) -> EndpointError:
     return EndpointError(f"{what} returned {ret}: {text}")
 
 
-def direct_publish(publisher: Any) -> Callable[[bytearray], None] | None:
-    """A function that publishes a bytearray of CDR through `publisher` (an rclpy
-    Publisher) without copying it first; None when rcl or the publisher's pointer cannot
-    be reached. The caller keeps the publisher alive (not destroyed) while calling it."""
+def direct_publish(publisher: Any) -> Callable[[bytes | bytearray], None] | None:
+    """A function that publishes CDR through `publisher` (an rclpy Publisher) without
+    copying it first: a bytearray in place, bytes from the object's own (read-only) buffer,
+    which rcl only reads; None when rcl or the publisher's pointer cannot be reached. The
+    caller keeps the publisher alive (not destroyed) while calling it."""
     inner = getattr(publisher, "_Publisher__publisher", None)
     pointer = getattr(inner, "pointer", None)
     functions = _rcl()
@@ -135,10 +136,15 @@ def direct_publish(publisher: Any) -> Callable[[bytearray], None] | None:
         return None
     publish = functions.publish
 
-    def publish_in_place(payload: bytearray) -> None:
+    def publish_in_place(payload: bytes | bytearray) -> None:
         size = len(payload)
-        data = (ctypes.c_char * size).from_buffer(payload)
-        message = _SerializedMessage(ctypes.addressof(data), size, size)
+        if type(payload) is bytearray:
+            data: Any = (ctypes.c_char * size).from_buffer(payload)
+            address = ctypes.addressof(data)
+        else:
+            data = ctypes.c_char_p(payload)  # points into the bytes object, kept alive here
+            address = ctypes.cast(data, ctypes.c_void_p).value or 0
+        message = _SerializedMessage(address, size, size)
         ret = publish(pointer, ctypes.byref(message), None)
         if ret != 0:
             raise _error(functions, "rcl_publish_serialized_message", ret)
