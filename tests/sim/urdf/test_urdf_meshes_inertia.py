@@ -52,23 +52,30 @@ def _compile(
     return doc.compile(), [str(w.message) for w in caught if issubclass(w.category, UrdfWarning)]
 
 
+def _on_a_joint(tmp_path: Path, body: str, name: str = "arm") -> tuple[mujoco.MjModel, list[str]]:
+    """Link `name` of `body` (its XML) on revolute joint "j" from a link "base", compiled."""
+    urdf = robot(link("base"), link(name, body), joint("j", "revolute", "base", name, LIMIT))
+    return _compile(urdf, tmp_path)
+
+
+def _forward(model: mujoco.MjModel) -> mujoco.MjData:
+    """The model's data at its initial positions, positions and frames computed."""
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    return data
+
+
 @pytest.mark.parametrize("suffix", ["stl", "obj", "dae"])
 def test_meshes_load_in_place_as_visual_and_collision(tmp_path: Path, suffix: str) -> None:
     _box_mesh(tmp_path / "pkg" / "meshes" / f"box.{suffix}")
     (tmp_path / "pkg" / "package.xml").write_text("<package><name>pkg</name></package>")
     geom = f'<geometry><mesh filename="package://pkg/meshes/box.{suffix}"/></geometry>'
-    urdf = robot(
-        link("base"),
-        link(
-            "arm",
-            inertial() + f'<visual><origin xyz="0 0 0.5"/>{geom}</visual>'
-            f'<collision><origin xyz="0 0 0.5"/>{geom}</collision>',
-        ),
-        joint("j", "revolute", "base", "arm", LIMIT),
+    model, _ = _on_a_joint(
+        tmp_path,
+        inertial() + f'<visual><origin xyz="0 0 0.5"/>{geom}</visual>'
+        f'<collision><origin xyz="0 0 0.5"/>{geom}</collision>',
     )
-    model, _ = _compile(urdf, tmp_path)
-    data = mujoco.MjData(model)
-    mujoco.mj_forward(model, data)
+    data = _forward(model)
     vis = model.geom("arm/visual/0")
     col = model.geom("arm/collision/0")
     assert (vis.contype[0], vis.conaffinity[0], vis.group[0]) == (0, 0, VISUAL_GROUP)
@@ -99,8 +106,7 @@ def test_relative_and_file_uri_meshes_with_scale(tmp_path: Path) -> None:
         joint("j", "fixed", "a", "b"),
     )
     model, _ = _compile(urdf, tmp_path)
-    data = mujoco.MjData(model)
-    mujoco.mj_forward(model, data)
+    data = _forward(model)
     np.testing.assert_allclose(data.geom_xpos[model.geom("a/visual/0").id], [0.4, 0, 0], atol=1e-6)
     np.testing.assert_allclose(data.geom_xpos[model.geom("b/visual/0").id], [0.2, 0, 0], atol=1e-6)
 
@@ -159,16 +165,11 @@ def test_bad_xacro_is_a_urdf_error(tmp_path: Path) -> None:
 
 
 def test_missing_inertial_is_computed_from_collision_box(tmp_path: Path) -> None:
-    urdf = robot(
-        link("base"),
-        link(
-            "arm",
-            '<collision><origin xyz="0 0 0.5"/><geometry><box size="0.1 0.2 0.3"/></geometry>'
-            "</collision>",
-        ),
-        joint("j", "revolute", "base", "arm", LIMIT),
+    model, warns = _on_a_joint(
+        tmp_path,
+        '<collision><origin xyz="0 0 0.5"/><geometry><box size="0.1 0.2 0.3"/></geometry>'
+        "</collision>",
     )
-    model, warns = _compile(urdf, tmp_path)
     body = model.body("arm")
     mass = 1000 * 0.1 * 0.2 * 0.3
     assert body.mass[0] == pytest.approx(mass)
@@ -184,12 +185,7 @@ def test_two_collision_shapes_combine_with_parallel_axis(tmp_path: Path) -> None
     sphere = (
         '<collision><origin xyz="0 0 {z}"/><geometry><sphere radius="0.1"/></geometry></collision>'
     )
-    urdf = robot(
-        link("base"),
-        link("arm", sphere.format(z=0.5) + sphere.format(z=-0.5)),
-        joint("j", "revolute", "base", "arm", LIMIT),
-    )
-    model, _ = _compile(urdf, tmp_path)
+    model, _ = _on_a_joint(tmp_path, sphere.format(z=0.5) + sphere.format(z=-0.5))
     m1 = 1000 * 4 / 3 * np.pi * 0.1**3
     i_own = 0.4 * m1 * 0.01
     body = model.body("arm")
@@ -220,16 +216,11 @@ def test_two_collision_shapes_combine_with_parallel_axis(tmp_path: Path) -> None
 def test_invalid_inertials_are_replaced_with_a_warning(
     tmp_path: Path, inertia_xml: str, reason: str
 ) -> None:
-    urdf = robot(
-        link("base"),
-        link(
-            "arm",
-            inertia_xml
-            + '<collision><geometry><cylinder radius="0.1" length="0.2"/></geometry></collision>',
-        ),
-        joint("j", "revolute", "base", "arm", LIMIT),
+    model, warns = _on_a_joint(
+        tmp_path,
+        inertia_xml
+        + '<collision><geometry><cylinder radius="0.1" length="0.2"/></geometry></collision>',
     )
-    model, warns = _compile(urdf, tmp_path)
     mass = 1000 * np.pi * 0.01 * 0.2
     assert model.body("arm").mass[0] == pytest.approx(mass)
     assert model.body("arm").inertia[2] == pytest.approx(mass * 0.01 / 2)
@@ -256,18 +247,11 @@ def test_moving_link_without_any_volume_gets_a_small_mass(tmp_path: Path) -> Non
 
 
 def test_valid_inertial_with_rotated_frame_is_kept(tmp_path: Path) -> None:
-    urdf = robot(
-        link("base"),
-        link(
-            "arm",
-            '<inertial><origin xyz="0.1 0 0" rpy="0 0 1.5707963267948966"/><mass value="2"/>'
-            '<inertia ixx="0.1" iyy="0.2" izz="0.3" ixy="0" ixz="0" iyz="0"/></inertial>',
-        ),
-        joint("j", "revolute", "base", "arm", LIMIT),
+    model, warns = _on_a_joint(
+        tmp_path,
+        '<inertial><origin xyz="0.1 0 0" rpy="0 0 1.5707963267948966"/><mass value="2"/>'
+        '<inertia ixx="0.1" iyy="0.2" izz="0.3" ixy="0" ixz="0" iyz="0"/></inertial>',
     )
-    model, warns = _compile(urdf, tmp_path)
-    data = mujoco.MjData(model)
-    mujoco.mj_forward(model, data)
     assert warns == []
     assert model.body("arm").mass[0] == 2.0
     # the inertia about the body's world-aligned axes: x and y swapped by the 90 degree yaw
@@ -301,18 +285,12 @@ def test_flat_collision_mesh_becomes_a_thin_box(tmp_path: Path) -> None:
     )
     quad.export(str(tmp_path / "quad.stl"))
     geom = '<geometry><mesh filename="quad.stl"/></geometry>'
-    urdf = robot(
-        link("base"),
-        link(
-            "pad",
-            inertial() + f"<visual>{geom}</visual>"
-            f'<collision><origin xyz="0 0 1"/>{geom}</collision>',
-        ),
-        joint("j", "revolute", "base", "pad", LIMIT),
+    model, warns = _on_a_joint(
+        tmp_path,
+        inertial() + f'<visual>{geom}</visual><collision><origin xyz="0 0 1"/>{geom}</collision>',
+        name="pad",
     )
-    model, warns = _compile(urdf, tmp_path)
-    data = mujoco.MjData(model)
-    mujoco.mj_forward(model, data)
+    data = _forward(model)
     box = model.geom("pad/collision/0")
     assert box.type[0] == mujoco.mjtGeom.mjGEOM_BOX
     np.testing.assert_allclose(box.size, [0.2, 0.1, 0.0005])
