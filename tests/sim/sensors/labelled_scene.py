@@ -12,6 +12,7 @@ import numpy as np
 
 from simbridge.sim.sensors import Camera, PinholeModel, optical_pose
 from simbridge.sim.world import World
+from tests.sim.urdf_samples import GRAVITY_ARM
 
 __all__ = [
     "CAMERA_TOPIC",
@@ -30,13 +31,21 @@ CLASSES = ("ball", "crate", "post")
 CRATE_XYZ, CRATE_YAW, CRATE_SIZE = (1.6, 0.25, 0.2), 0.5, (0.3, 0.2, 0.25)
 
 
-def labelled_scene(folder: Path, *, rate: float = 10.0, ros: bool = True) -> Path:
-    """The scene file, written to `folder`; its camera publishes every label at `rate` Hz."""
+def labelled_scene(
+    folder: Path, *, rate: float = 10.0, ros: bool = True, multisamples: int = 0, arm: bool = False
+) -> Path:
+    """The scene file, written to `folder`; its camera publishes every label at `rate` Hz
+    (rendering its image with `multisamples`); with `arm`, a labelled arm (class arm)
+    stands behind the camera, out of its view."""
     x, y, z = CRATE_XYZ
     sx, sy, sz = CRATE_SIZE
+    robots = ""
+    if arm:
+        (folder / "arm.urdf").write_text(GRAVITY_ARM)
+        robots = "robots:\n  - {urdf: arm.urdf, name: arm, label: arm, base: {xyz: [-2, 0, 0]}}\n"
     text = f"""\
 ros: {{enabled: {str(ros).lower()}, tf: false}}
-objects:
+{robots}objects:
   - {{name: floor, type: plane, rgba: [0.4, 0.4, 0.4, 1]}}
   - {{name: crate, type: box, size: [{sx}, {sy}, {sz}], label: crate,
      pose: {{xyz: [{x}, {y}, {z}], rpy: [0, 0, {CRATE_YAW}]}}}}
@@ -47,7 +56,7 @@ lights:
 sensors:
   - {{type: camera, name: cam, body: world, xyz: [0, 0, 0.6], rpy: [0, 0.3, 0],
      topic: {CAMERA_TOPIC}, rate: {rate}, width: {WIDTH}, height: {HEIGHT}, fovy: 1.0,
-     labelers: [instance, semantic, boxes_2d]}}
+     multisamples: {multisamples}, labelers: [instance, semantic, boxes_2d]}}
 perception:
   classes: [{", ".join(CLASSES)}]
   labels:

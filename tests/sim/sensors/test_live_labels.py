@@ -19,7 +19,7 @@ from simbridge.perception import FrameMaker
 from simbridge.sim.labels import scene_label_table
 from simbridge.sim.runner import SimulationSession
 from simbridge.sim.scene import load_scene
-from simbridge.sim.sensors import Camera, sensor_config
+from simbridge.sim.sensors import Camera, SensorSuite, sensor_config
 from tests.sim.sensors.labelled_scene import (
     CAMERA_TOPIC,
     CLASSES,
@@ -121,8 +121,8 @@ def test_live_labels_match_the_geometry_and_the_scene(
 
 def test_live_ids_are_those_of_a_dataset_of_the_scene(tmp_path: Path) -> None:
     """The live camera's label table and datagen's give every instance the same id and
-    class id (what the published images and detections carry)."""
-    scene = labelled_scene(tmp_path, ros=False)
+    class id (what the published images and detections carry), a labelled robot's too."""
+    scene = labelled_scene(tmp_path, ros=False, arm=True)
     with SimulationSession(scene) as session:
         bodies = {n: list(r.bodies.values()) for n, r in session.world.robots.items()}
         live = scene_label_table(session.world.model, session.world.scene, bodies)
@@ -133,8 +133,67 @@ def test_live_ids_are_those_of_a_dataset_of_the_scene(tmp_path: Path) -> None:
         maker.close()
     rows = [(i.id, i.name, i.category, i.category_id) for i in live.instances]
     assert rows == [(i.id, i.name, i.category, i.category_id) for i in datagen.instances]
-    assert rows == [(1, "crate", "crate", 2), (2, "ball", "ball", 1), (3, "pillar", "post", 3)]
-    assert live.categories == datagen.categories == CLASSES
+    assert rows == [
+        (1, "crate", "crate", 2),
+        (2, "ball", "ball", 1),
+        (3, "arm", "arm", 4),
+        (4, "pillar", "post", 3),
+    ]
+    assert live.categories == datagen.categories == (*CLASSES, "arm")
+    assert live.by_name["arm"].bodies == datagen.by_name["arm"].bodies
+    assert len(live.by_name["arm"].bodies) > 1
+
+
+def _labels_of(scene: Path) -> dict[str, np.ndarray]:
+    """The label outputs of the scene's camera measured once, outside any ROS session."""
+    with SimulationSession(scene) as session:
+        world = session.world
+        suite = SensorSuite.from_config(world.model, world.scene.sensors)
+        try:
+            camera = suite["cam"]
+            assert isinstance(camera, Camera)
+            bodies = {n: list(r.bodies.values()) for n, r in world.robots.items()}
+            camera.bind_labels(scene_label_table(world.model, world.scene, bodies))
+            world.refresh()
+            return {
+                pub.topic: _ids(pub.message)
+                for pub in camera.measure(world.model, world.data)
+                if pub.msgtype == "sensor_msgs/Image" and "image_raw" not in pub.topic
+            }
+        finally:
+            suite.close()
+
+
+def test_labels_of_an_antialiased_camera_are_exact(tmp_path: Path) -> None:
+    """A camera rendering its image with MSAA labels with the same ids, pixel for pixel,
+    as one without (MuJoCo draws segmentation without multisampling; blended edges would
+    mix ids)."""
+    (tmp_path / "msaa").mkdir()
+    plain = _labels_of(labelled_scene(tmp_path))
+    smooth = _labels_of(labelled_scene(tmp_path / "msaa", multisamples=4))
+    assert set(plain) == {f"{CAMERA_TOPIC}/instances", f"{CAMERA_TOPIC}/semantic"}
+    for topic, ids in plain.items():
+        assert set(np.unique(ids)) == {0, 1, 2, 3}
+        assert (smooth[topic] == ids).all(), topic
+
+
+def test_labels_need_the_scene(tmp_path: Path) -> None:
+    """A labelling camera whose scene labels were never bound says so when it is asked
+    for labels (its image still works)."""
+    with SimulationSession(labelled_scene(tmp_path, ros=False)) as session:
+        world = session.world
+        suite = SensorSuite.from_config(world.model, world.scene.sensors)
+        try:
+            camera = suite["cam"]
+            world.refresh()
+            camera.set_all_wanted(False)
+            camera.set_wanted(f"{CAMERA_TOPIC}/image_raw", True)
+            assert len(camera.measure(world.model, world.data)) == 1
+            camera.set_wanted(f"{CAMERA_TOPIC}/detections", True)
+            with pytest.raises(SimError, match=r"camera .cam. has labelers .* no scene labels"):
+                camera.measure(world.model, world.data)
+        finally:
+            suite.close()
 
 
 def test_unknown_labeler_is_named_with_its_line(tmp_path: Path) -> None:

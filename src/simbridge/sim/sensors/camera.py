@@ -100,8 +100,6 @@ class Camera(Sensor):
             data_in_frame=Pose(np.zeros(3), OPTICAL_FROM_BODY),
         )
         self._renderer: OffscreenRenderer | None = None
-        self._label_renderer: OffscreenRenderer | None = None
-        """Segmentation needs a renderer without multisampling: the image's one, or its own."""
 
     def bind_labels(self, lookup: LabelLookup) -> None:
         """Take instance and class ids from a scene's label table (needed by `labelers`)."""
@@ -111,15 +109,9 @@ class Camera(Sensor):
         self, model: mujoco.MjModel, data: mujoco.MjData
     ) -> tuple[NDArray[np.uint32], NDArray[np.int32]]:
         """The current view's segments: an image of segment numbers and each segment's
-        MuJoCo object id and type (`OffscreenRenderer.render_segments`)."""
-        if self._label_renderer is None:
-            if self.config.multisamples == 0:
-                self._label_renderer = self._image_renderer(model)
-            else:
-                self._label_renderer = OffscreenRenderer(
-                    model, self.config.width, self.config.height
-                )
-        return self._label_renderer.render_segments(
+        MuJoCo object id and type (`OffscreenRenderer.render_segments`; the image's
+        renderer serves: MuJoCo draws segmentation without multisampling)."""
+        return self._image_renderer(model).render_segments(
             data, self.world_pose(data), self.config.fovy, self.config.near, self.config.far
         )
 
@@ -193,8 +185,7 @@ class Camera(Sensor):
         return out
 
     def close(self) -> None:
-        """Free the offscreen renderers."""
-        for renderer in (self._renderer, self._label_renderer):
-            if renderer is not None:
-                renderer.close()
-        self._renderer = self._label_renderer = None
+        """Free the offscreen renderer."""
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None

@@ -137,7 +137,7 @@ class OffscreenRenderer:
     ) -> NDArray[np.int32]:
         """An (height, width, 2) image of MuJoCo object id and object type per pixel
         (what `mujoco.Renderer`'s segmentation mode gives), (-1, -1) where nothing was
-        drawn. Needs a renderer without multisampling: blended edges would mix ids."""
+        drawn. Exact with multisampling too: MuJoCo draws segmentation without it."""
         segments, objects = self.render_segments(data, pose, fovy, near, far)
         out: NDArray[np.int32] = objects[segments]
         return out
