@@ -105,7 +105,9 @@ def test_any_frame_sequence_leaves_the_endpoint_serving(
 
 
 @settings(
-    max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+    max_examples=25,
+    deadline=None,
+    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
 )
 @given(prefix=st.binary(max_size=64), length=st.integers(2**27, 2**32 - 1))
 def test_broken_framing_gets_an_error_then_close(

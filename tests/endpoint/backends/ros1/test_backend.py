@@ -382,7 +382,9 @@ def uint8_multi_array(data: bytes) -> bytes:
 
 
 @settings(
-    max_examples=15, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+    max_examples=15,
+    deadline=None,
+    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
 )
 @given(st.lists(st.binary(max_size=3000), min_size=1, max_size=12))
 def test_payloads_cross_rospy_unchanged_and_in_order(
