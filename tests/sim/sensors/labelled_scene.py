@@ -18,6 +18,8 @@ __all__ = [
     "CAMERA_TOPIC",
     "CLASSES",
     "CRATE_SIZE",
+    "CRATE_XYZ",
+    "CRATE_YAW",
     "HEIGHT",
     "WIDTH",
     "crate_pixel_box",

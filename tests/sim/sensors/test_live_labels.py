@@ -12,6 +12,7 @@ from typing import Any, Literal
 
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 
 from simbridge.endpoint import EndpointOptions, EndpointThread, LocalBus, Node
 from simbridge.errors import SimError
@@ -19,10 +20,12 @@ from simbridge.perception import FrameMaker
 from simbridge.sim.labels import scene_label_table
 from simbridge.sim.runner import SimulationSession
 from simbridge.sim.scene import load_scene
-from simbridge.sim.sensors import Camera, SensorSuite, sensor_config
+from simbridge.sim.sensors import Camera, SensorSuite, optical_pose, sensor_config
 from tests.sim.sensors.labelled_scene import (
     CAMERA_TOPIC,
     CLASSES,
+    CRATE_XYZ,
+    CRATE_YAW,
     HEIGHT,
     WIDTH,
     crate_pixel_box,
@@ -73,6 +76,7 @@ def test_live_labels_match_the_geometry_and_the_scene(
             assert session.connector.flush(60)
             frames = {topic: [got[topic].get(timeout=60) for _ in range(2)] for topic in TOPICS}
             expected = crate_pixel_box(session.world, camera)
+            optical = optical_pose(camera.world_pose(session.world.data))
     instances = _ids(frames[f"{CAMERA_TOPIC}/instances"][0])
     semantic = _ids(frames[f"{CAMERA_TOPIC}/semantic"][0])
     detections = frames[f"{CAMERA_TOPIC}/detections"][0]
@@ -113,10 +117,16 @@ def test_live_labels_match_the_geometry_and_the_scene(
         assert abs(got_edge - want) <= 1.0, (got_edge, want)
     assert expected[0] - 1e-9 <= u0
     assert u1 <= expected[2] + 1e-9
-    # Its pose is the crate's, in the optical frame (z forward, about 1.7 m ahead).
-    position = by_id[1].results[0].pose.pose.position
-    assert 1.5 < position.z < 1.9
-    assert abs(position.x) < 0.5
+    # Its pose is the crate's, in the optical frame (z forward): its centre, and its yaw
+    # about the world's z, which the optical frame sees as its -y.
+    pose = by_id[1].results[0].pose.pose
+    centre = optical.rotation.T @ (np.array(CRATE_XYZ) - optical.position)
+    position = np.array([pose.position.x, pose.position.y, pose.position.z])
+    assert np.allclose(position, centre, atol=1e-9), (position, centre)
+    q = pose.orientation
+    crate_axes = Rotation.from_quat([q.x, q.y, q.z, q.w]).as_matrix()
+    world_axes = optical.rotation @ crate_axes
+    assert np.allclose(world_axes, Rotation.from_euler("z", CRATE_YAW).as_matrix(), atol=1e-9)
 
 
 def test_live_ids_are_those_of_a_dataset_of_the_scene(tmp_path: Path) -> None:
