@@ -85,6 +85,8 @@ def test_live_labels_match_the_geometry_and_the_scene(
     assert len({_stamp(h) for h in headers}) == 1
     assert {h.frame_id for h in headers} == {"cam_optical_frame"}
     assert _stamp(frames[f"{CAMERA_TOPIC}/detections"][1].header) > _stamp(detections.header)
+    # Ids are stable: the next frame of the still scene labels every pixel alike.
+    assert (_ids(frames[f"{CAMERA_TOPIC}/instances"][1]) == instances).all()
     # Instance ids in scene order: objects with a label (crate, ball), then labels: entries.
     by_id = {int(d.id): d for d in detections.detections}
     assert set(by_id) == {1, 2, 3} == set(np.unique(instances)) - {0}
