@@ -1,23 +1,20 @@
-"""BusyPollSelector: learns to spin for answers on another socket, not for streams or long
-waits; never spins past asyncio's timeout or its duty cap; an asyncio loop on it serves as
-the default one does."""
+"""BusyPollSelector: learns to spin for answers on another socket, not for streams; an asyncio
+loop on it serves as the default one does. The learning itself (`SpinPolicy`) is tested as
+arithmetic in test_spin_policy.py; here every event is on its socket before the selector
+looks, so what it does is decided by order, not by how fast the machine is."""
 
 from __future__ import annotations
 
 import asyncio
 import selectors
 import socket
-import threading
-import time
 from collections.abc import Iterator
 
 import pytest
 
 from simbridge.endpoint.speed.busypoll import MAX_BUSY_POLL_US, BusyPollSelector
+from simbridge.endpoint.speed.spin_policy import SHORTEST
 from simbridge.errors import EndpointError
-
-LIMIT_US = 50_000
-"""Limit of the selectors under test (50 ms): wide enough for thread timers' jitter."""
 
 
 class Wires:
@@ -29,28 +26,15 @@ class Wires:
         for reader, _ in self.pairs:
             selector.register(reader, selectors.EVENT_READ)
 
-    def send_later(self, which: int, delay: float) -> tuple[threading.Thread, threading.Event]:
-        """A byte on pair `which` `delay` s after the returned event is set (set it right
-        before selecting, so a loaded machine's late start does not shorten the wait)."""
-        armed = threading.Event()
-
-        def send() -> None:
-            armed.wait()
-            time.sleep(delay)
-            self.pairs[which][1].send(b"x")
-
-        thread = threading.Thread(target=send)
-        thread.start()
-        return thread, armed
-
-    def wait(self, which: int, delay: float, timeout: float | None = 1.0) -> None:
-        """An event on pair `which` after `delay` s; the selector must return it."""
-        thread, armed = self.send_later(which, delay)
-        armed.set()
+    def event(self, which: int, timeout: float | None = 60.0) -> None:
+        """A byte waiting on pair `which` before the selector looks: it must return that."""
+        self.pairs[which][1].send(b"x")
         ready = self.selector.select(timeout)
-        thread.join()
         assert [key.fileobj for key, _ in ready] == [self.pairs[which][0]]
         self.pairs[which][0].recv(16)
+
+    def window(self, which: int) -> float:
+        return self.selector.window(self.pairs[which][0])
 
     def close(self) -> None:
         for reader, writer in self.pairs:
@@ -60,27 +44,21 @@ class Wires:
 
 @pytest.fixture
 def wires() -> Iterator[Wires]:
-    with BusyPollSelector(LIMIT_US) as selector:
+    # the longest limit: a wait for a byte already there stays far below it on any machine
+    with BusyPollSelector(MAX_BUSY_POLL_US) as selector:
         w = Wires(selector)
         yield w
         w.close()
 
 
-def learned(wires: Wires, delay: float = 0.01) -> Wires:
-    """Work on pair 0, answered on pair 1 `delay` s later, and that answered on pair 0: a spin
-    of twice `delay` is learned after each, and the next event awaited is on pair 1."""
-    wires.wait(0, 0)
-    wires.wait(1, delay)
-    wires.wait(0, delay)
-    for reader, _ in wires.pairs:
-        # twice the wait it saw, which starts a moment after the sender's clock does
-        assert wires.selector.window(reader) >= 2 * delay * 0.9
-    assert wires.selector.polls == 0
+def learned(wires: Wires) -> Wires:
+    """Work on pair 0, answered on pair 1, answered on pair 0: both have learned a spin."""
+    for which in (0, 1, 0):
+        wires.event(which)
+    assert wires.window(0) > 0
+    assert wires.window(1) > 0
+    assert wires.selector.polls == 0  # learning is from blocking waits alone
     return wires
-
-
-def window(wires: Wires, which: int) -> float:
-    return wires.selector.window(wires.pairs[which][0])
 
 
 @pytest.mark.parametrize("limit_us", [-1, MAX_BUSY_POLL_US + 1, float("nan")])
@@ -96,66 +74,40 @@ def test_out_of_range_duty_is_refused_naming_it(duty: float) -> None:
 
 
 def test_an_idle_loop_blocks_without_spinning(wires: Wires) -> None:
-    started = time.perf_counter()
     assert wires.selector.select(0.05) == []
-    assert time.perf_counter() - started >= 0.04
-    assert wires.selector.polls == 0
-    assert wires.selector.spin_seconds == 0
+    assert (wires.selector.polls, wires.selector.spin_seconds) == (0, 0)
 
 
-def test_an_answer_within_the_limit_teaches_a_spin_that_catches_the_next(wires: Wires) -> None:
+def test_a_learned_spin_catches_the_next_answer(wires: Wires) -> None:
     selector = learned(wires).selector
-    wires.wait(1, 0.003)  # the next answer: found by polling, not by sleeping
-    assert selector.hits == 1
-    assert selector.polls > 1
-    assert 0.002 <= selector.spin_seconds < 0.05
+    wires.event(1)  # the answer to pair 0's work: found by polling, not by sleeping
+    assert (selector.hits, selector.misses) == (1, 0)
+    assert selector.polls >= 1
+    assert selector.spin_seconds > 0
 
 
 def test_a_stream_on_one_socket_never_spins(wires: Wires) -> None:
     for _ in range(6):
-        wires.wait(0, 0.003)
-    assert window(wires, 0) == 0
+        wires.event(0)
+    assert wires.window(0) == 0
     assert wires.selector.polls == 0
 
 
 def test_a_spin_that_finds_the_same_socket_again_shrinks(wires: Wires) -> None:
     selector = learned(wires).selector
-    before = window(wires, 0)
-    wires.wait(0, 0.002)  # pair 0 again: a stream, not an answer
+    before = wires.window(0)
+    wires.event(0)  # pair 0 again: a stream, not an answer
     assert selector.hits == 1
-    assert window(wires, 0) == before / 2
+    assert wires.window(0) == (before / 2 if before / 2 >= SHORTEST else 0.0)
 
 
-def test_a_wait_past_the_limit_turns_the_spin_off(wires: Wires) -> None:
+def test_a_spin_that_finds_nothing_is_a_miss_and_the_next_wait_sleeps(wires: Wires) -> None:
     selector = learned(wires).selector
-    wires.wait(1, 0.08)  # spins, finds nothing, then sleeps past the 50 ms limit
-    assert (selector.polls > 0, selector.hits) == (True, 0)
-    assert window(wires, 0) == 0
-    wires.wait(0, 0.002)  # after pair 1: still spins
-    assert selector.hits == 1
-    polls = selector.polls
-    wires.wait(1, 0.002)  # after pair 0: sleeps at once
-    assert selector.polls == polls
-
-
-def test_a_spin_that_finds_nothing_in_its_window_is_a_miss(wires: Wires) -> None:
-    selector = learned(wires, 0.002).selector
-    wires.wait(1, 0.04)  # the answer comes late, but within the limit: the window grows to it
+    assert selector.select(0.2) == []  # nothing comes: spin, then sleep
     assert (selector.hits, selector.misses) == (0, 1)
-    assert window(wires, 0) == 0.05
-
-
-def test_a_spin_ends_at_asyncio_timeout_and_the_next_wait_sleeps(wires: Wires) -> None:
-    selector = learned(wires).selector
-    learned_window = window(wires, 1)
-    assert selector.select(0.002) == []
-    # the spin was cut to the timeout: a spin of the whole window that finds nothing would
-    # count a miss and shrink the window
-    assert (selector.hits, selector.misses) == (0, 0)
-    assert window(wires, 1) == learned_window
     polls = selector.polls
     assert polls > 0
-    assert selector.select(0.002) == []  # nothing came: no more spinning
+    assert selector.select(0.01) == []  # the loop is idle now: no more spinning
     assert selector.polls == polls
 
 
@@ -165,21 +117,6 @@ def test_a_zero_timeout_look_neither_spins_nor_forgets_work(wires: Wires) -> Non
     assert selector.polls == 0
     assert selector.select(0.002) == []  # the wait after them still spins
     assert selector.polls > 0
-
-
-def test_spinning_takes_at_most_its_duty_share_of_wall_time() -> None:
-    with BusyPollSelector(LIMIT_US, duty=0.1) as selector:
-        wires = Wires(selector)
-        try:
-            learned(wires)
-            started = time.perf_counter()
-            for i in range(40):  # a closed loop whose answers take 5 ms: worth a full spin
-                wires.wait((i + 1) % 2, 0.005)
-            elapsed = time.perf_counter() - started
-        finally:
-            wires.close()
-    assert selector.hits > 0
-    assert selector.spin_seconds <= 0.1 * elapsed + 0.02 + 0.005  # duty, burst, one poll
 
 
 def test_an_asyncio_loop_on_it_echoes() -> None:
@@ -212,19 +149,19 @@ def test_a_socket_unregistered_and_registered_again_starts_unlearned(wires: Wire
     reader = wires.pairs[1][0]
     wires.selector.unregister(reader)
     wires.selector.register(reader, selectors.EVENT_READ)
-    assert window(wires, 1) == 0
-    assert window(wires, 0) > 0
+    assert wires.window(1) == 0
+    assert wires.window(0) > 0
 
 
 def test_room_to_write_on_another_socket_is_no_answer(wires: Wires) -> None:
     """An image going out in pieces alternates reads from the sim with room to write to ROS:
     a stream, which must not teach a spin."""
-    wires.wait(0, 0)
+    wires.event(0)
     writer = wires.pairs[1][1]
     wires.selector.register(writer, selectors.EVENT_WRITE)
-    ready = wires.selector.select(1.0)
+    ready = wires.selector.select(60.0)
     assert [(key.fileobj, events) for key, events in ready] == [(writer, selectors.EVENT_WRITE)]
     wires.selector.unregister(writer)
-    assert window(wires, 0) == 0
-    wires.wait(0, 0.002)  # and the sim's next read is not an answer either
-    assert window(wires, 0) == 0
+    assert wires.window(0) == 0
+    wires.event(0)  # and the sim's next read is not an answer either
+    assert wires.window(0) == 0
