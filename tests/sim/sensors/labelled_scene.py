@@ -63,8 +63,9 @@ perception:
   classes: [{", ".join(CLASSES)}]
   labels:
     - {{name: pillar, class: post, bodies: [pillar]}}
-  cameras:
-    - {{name: main, width: {WIDTH}, height: {HEIGHT}, eye: [0, 0, 0.6], target: [1.6, 0, 0.1]}}
+  cameras:  # the live camera's view: 0.3 rad down from (0, 0, 0.6), the same field of view
+    - {{name: main, width: {WIDTH}, height: {HEIGHT}, fovy: {math.degrees(1.0)!r},
+       eye: [0, 0, 0.6], target: [{math.cos(0.3)!r}, 0, {0.6 - math.sin(0.3)!r}]}}
 """
     path = folder / "labelled.yaml"
     path.write_text(text)

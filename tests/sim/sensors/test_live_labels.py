@@ -156,8 +156,35 @@ def test_live_ids_are_those_of_a_dataset_of_the_scene(tmp_path: Path) -> None:
     assert len(live.by_name["arm"].bodies) > 1
 
 
-def _labels_of(scene: Path) -> dict[str, np.ndarray]:
-    """The label outputs of the scene's camera measured once, outside any ROS session."""
+def test_live_labels_are_those_of_datagen_for_the_same_view(tmp_path: Path) -> None:
+    """The scene's dataset camera has the live camera's view: datagen's instance and
+    semantic images of frame 0 equal the live ones pixel for pixel, and its tight boxes
+    the live detections'."""
+    scene = labelled_scene(tmp_path)
+    live = _labels_of(scene)
+    maker = FrameMaker(scene)
+    try:
+        (view,) = maker.make(0).views
+    finally:
+        maker.close()
+    labels = view.labels
+    assert labels.instance_image is not None
+    assert labels.category_image is not None
+    assert set(np.unique(labels.instance_image)) == {0, 1, 2, 3}
+    assert (live[f"{CAMERA_TOPIC}/instances"] == labels.instance_image).all()
+    assert (live[f"{CAMERA_TOPIC}/semantic"] == labels.category_image).all()
+    boxes = {int(d.id): d.bbox for d in live[f"{CAMERA_TOPIC}/detections"].detections}
+    tight = {i.instance.id: i.tight_box for i in labels.instances if i.tight_box is not None}
+    assert set(boxes) == set(tight)
+    for instance_id, (u0, v0, u1, v1) in tight.items():
+        box = boxes[instance_id]
+        assert (box.center.position.x, box.center.position.y) == ((u0 + u1) / 2, (v0 + v1) / 2)
+        assert (box.size_x, box.size_y) == (u1 - u0 + 1, v1 - v0 + 1)
+
+
+def _labels_of(scene: Path) -> dict[str, Any]:
+    """The label outputs of the scene's camera measured once, outside any ROS session:
+    the images' ids as arrays, the detections as the message."""
     with SimulationSession(scene) as session:
         world = session.world
         suite = SensorSuite.from_config(world.model, world.scene.sensors)
@@ -168,9 +195,9 @@ def _labels_of(scene: Path) -> dict[str, np.ndarray]:
             camera.bind_labels(scene_label_table(world.model, world.scene, bodies))
             world.refresh()
             return {
-                pub.topic: _ids(pub.message)
+                pub.topic: _ids(pub.message) if pub.msgtype == "sensor_msgs/Image" else pub.message
                 for pub in camera.measure(world.model, world.data)
-                if pub.msgtype == "sensor_msgs/Image" and "image_raw" not in pub.topic
+                if pub.topic in TOPICS
             }
         finally:
             suite.close()
@@ -183,10 +210,9 @@ def test_labels_of_an_antialiased_camera_are_exact(tmp_path: Path) -> None:
     (tmp_path / "msaa").mkdir()
     plain = _labels_of(labelled_scene(tmp_path))
     smooth = _labels_of(labelled_scene(tmp_path / "msaa", multisamples=4))
-    assert set(plain) == {f"{CAMERA_TOPIC}/instances", f"{CAMERA_TOPIC}/semantic"}
-    for topic, ids in plain.items():
-        assert set(np.unique(ids)) == {0, 1, 2, 3}
-        assert (smooth[topic] == ids).all(), topic
+    for topic in (f"{CAMERA_TOPIC}/instances", f"{CAMERA_TOPIC}/semantic"):
+        assert set(np.unique(plain[topic])) == {0, 1, 2, 3}
+        assert (smooth[topic] == plain[topic]).all(), topic
 
 
 def test_labels_need_the_scene(tmp_path: Path) -> None:
