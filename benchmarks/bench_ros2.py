@@ -10,7 +10,7 @@ endpoint -> the Connector (ros -> sim). Publishing starts once the subscriber pr
 has matched its publisher too (a sample sent before that waits for reliability's
 repair). Both publish with rclpy's `publish_raw`, as the endpoint does. The endpoint's
 memory budget fits the image burst, so a lagging Connector costs time, not messages.
-The sim as its own ROS 2 node (`simbridge sim --ros2`): bench_ros2_node.py, a ROS 2 venv
+The sim as its own ROS 2 node (`simbridge sim --ros2`): bench_ros2_sim_node.py, a ROS 2 venv
 process publishing through `Ros2SimNode`'s connector -> the same subscriber process.
 QoS is reliable with a history as deep as the run, so loss should be zero. A rate counts
 from the first message sent to the last one received, so a path that hands its first
@@ -59,7 +59,7 @@ if ros2_python() is None:  # benchmarks/run.py reports the suite as skipped
 
 SCALE = float(os.environ.get("SIMBRIDGE_BENCH_SCALE", "1"))
 """Multiplies the message counts (smaller for a quick look)."""
-SIM_NODE = Path(__file__).with_name("bench_ros2_node.py")
+SIM_NODE = Path(__file__).with_name("bench_ros2_sim_node.py")
 """The publisher of the sim's own node rows (`simbridge sim --ros2`)."""
 IDLE_END = 4.0
 """Seconds without a message after which a receiver stops counting (more than Fast DDS's

@@ -21,7 +21,7 @@ __all__ = ["main"]
 
 
 def main(argv: list[str]) -> None:
-    """`bench_ros2_node.py pub TOPIC TYPE COUNT PAYLOAD_FILE`: READY once the subscriber is
+    """`bench_ros2_sim_node.py pub TOPIC TYPE COUNT PAYLOAD_FILE`: READY once the subscriber is
     matched, then on a line of stdin publish COUNT times and print {"sent", "start"}."""
     topic, msg_type, count = argv[2], argv[3], int(argv[4])
     with open(argv[5], "rb") as f:
