@@ -138,7 +138,7 @@ def direct_publish(publisher: Any) -> Callable[[bytes | bytearray], None] | None
 
     def publish_in_place(payload: bytes | bytearray) -> None:
         size = len(payload)
-        if type(payload) is bytearray:
+        if isinstance(payload, bytearray):
             data: Any = (ctypes.c_char * size).from_buffer(payload)
             address = ctypes.addressof(data)
         else:
