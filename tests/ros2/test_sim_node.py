@@ -134,3 +134,55 @@ def test_without_rclpy_it_says_which_python_has_it() -> None:
     assert done.returncode == 2, done.stderr
     assert "rclpy is not importable" in done.stderr
     assert ".venv-ros2/bin/simbridge sim" in done.stderr
+
+
+_PATTERN_SUBSCRIBER = """
+import hashlib, json, rclpy
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import Image
+rclpy.init()
+node = rclpy.create_node("simbridge_test_pattern_subscriber")
+got = []
+qos = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
+node.create_subscription(Image, "/pattern", got.append, qos)
+print(json.dumps({"ready": True}), flush=True)
+while len(got) < %(count)d:
+    rclpy.spin_once(node, timeout_sec=0.1)
+for msg in got:
+    print(json.dumps({"image": [msg.width, hashlib.sha256(bytes(msg.data)).hexdigest()]}),
+          flush=True)
+"""
+
+_PATTERN_PUBLISHER = """
+import hashlib, json, time
+from rclpy.serialization import serialize_message
+from sensor_msgs.msg import Image
+from simbridge.apps.ros2_node import Ros2SimNode
+widths = %(widths)r
+with Ros2SimNode("simbridge_test_pattern_sim") as node:
+    connector = node.connector()
+    pub = connector.register_publisher("/pattern", "sensor_msgs/Image", report_subscribers=True)
+    deadline = time.monotonic() + 60
+    while (pub.subscriber_count or 0) < 1 and time.monotonic() < deadline:
+        time.sleep(0.01)
+    for i, width in enumerate(widths):
+        data = bytes((i + k) %% 251 for k in range(width))
+        msg = Image(height=1, width=width, encoding="mono8", step=width, data=data)
+        pub.publish(serialize_message(msg))  # bytes: large ones published in place
+        print(json.dumps({"sent": [width, hashlib.sha256(data).hexdigest()]}), flush=True)
+    connector.close()  # the drain: delivered before the node leaves
+"""
+
+
+def test_images_arrive_byte_for_byte_through_the_direct_publisher() -> None:
+    """Serialized images of 48 KiB to 300 KiB published by the sim's own node (the larger
+    ones from the bytes object's buffer, in place) reach a separate rclpy subscriber whole,
+    in order, even though the publisher closes right after the last."""
+    widths = [49_152, 300_000, 70_000, 120_001]
+    with Ros2Process(["-c", _PATTERN_SUBSCRIBER % {"count": len(widths)}]) as subscriber:
+        assert subscriber.expect_json("ready", timeout=60) is True
+        with Ros2Process(["-c", _PATTERN_PUBLISHER % {"widths": widths}]) as publisher:
+            sent = [publisher.expect_json("sent", timeout=60) for _ in widths]
+            received = [subscriber.expect_json("image", timeout=60) for _ in widths]
+    assert received == sent
+    assert [width for width, _ in sent] == widths
