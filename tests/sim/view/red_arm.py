@@ -55,11 +55,11 @@ def red_arm_world(tmp_path: Path, objects: tuple[dict[str, Any], ...] = ()) -> W
 
 
 @contextmanager
-def viewed(world: World, rate: float = 30.0) -> Iterator[LiveView]:
-    """`world` stepping in real time on a thread, shown in a live view on a port the OS
-    picks; the run stopped and the view closed after."""
+def viewed(world: World, rate: float = 30.0, realtime_factor: float = 1.0) -> Iterator[LiveView]:
+    """`world` stepping at `realtime_factor` x real time on a thread, shown in a live view on
+    a port the OS picks; the run stopped and the view closed after."""
     view = LiveView(world, ViewOptions(port=0, rate=rate))
-    runner = threading.Thread(target=world.run, kwargs={"realtime_factor": 1.0})
+    runner = threading.Thread(target=world.run, kwargs={"realtime_factor": realtime_factor})
     runner.start()
     try:
         yield view
