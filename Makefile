@@ -45,7 +45,7 @@ STAMP_ROS2 := $(VENV_ROS2)/.installed
 $(STAMP_ROS2): requirements-ros2.txt constraints-ros2.txt pyproject.toml constraints.txt scripts/install-ros2.sh
 	@bash scripts/install-ros2.sh $(VENV_ROS2)
 
-# Interface packages without a wheel (control_msgs, tf2_msgs, moveit_msgs subset, niryo_moveit,
+# Interface packages without a wheel (control_msgs, tf2_msgs, vision_msgs, moveit_msgs subset, niryo_moveit,
 # simbridge_msgs) are built into the ROS 2 venv; unchanged ones are skipped.
 ros2: $(STAMP_ROS2)
 	@$(VENV_ROS2)/bin/python -m simbridge.cli msg build --shipped --venv $(VENV_ROS2)
@@ -65,8 +65,14 @@ lint: $(STAMP)
 typecheck: $(STAMP)
 	$(BIN)/mypy
 
+# Two pytest workers (pytest-xdist), a test file each at a time: most tests wait on other
+# processes (ROS nodes, a browser, a simulator), so two keep both cores busy. The suite is
+# safe beside itself: ports from the OS, a ROS domain per process, temporary folders.
+PYTEST_WORKERS ?= 2
+PYTEST := $(BIN)/pytest -n $(PYTEST_WORKERS) --dist loadfile
+
 pytest: $(STAMP)
-	$(BIN)/pytest
+	$(PYTEST)
 
 # The two venvs build at once (pip and the ROS 2 interface compiles overlap); the strict
 # site build runs in the suite (tests/test_docs.py).
@@ -75,7 +81,7 @@ test: sysdeps
 	$(BIN)/ruff check src tests benchmarks
 	$(BIN)/ruff format --check src tests benchmarks
 	$(BIN)/mypy
-	$(BIN)/pytest
+	$(PYTEST)
 
 # The documentation site (mkdocs-material) in site/; a broken link or page is an error.
 docs: $(STAMP)
@@ -84,7 +90,7 @@ docs: $(STAMP)
 # The suite again while stress-ng keeps every core busy: tests must wait on events, not on
 # the machine's speed.
 test-loaded: sysdeps $(STAMP) ros2
-	@bash scripts/test-loaded.sh
+	@bash scripts/test-loaded.sh -n $(PYTEST_WORKERS) --dist loadfile
 
 bench: sysdeps $(STAMP)
 	$(BIN)/python benchmarks/run.py --page docs/benchmarks.md

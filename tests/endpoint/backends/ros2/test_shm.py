@@ -1,4 +1,8 @@
-"""Fast DDS shared-memory files: a killed participant's are found and removed."""
+"""Fast DDS shared-memory files: a killed participant's are found and removed.
+
+The cleaner leaves files younger than its `min_age` alone (a participant starting this
+instant has not locked or mapped them yet), so these tests age their own files instead of
+calling it with no minimum age: files of another suite running beside this one are safe."""
 
 from __future__ import annotations
 
@@ -17,6 +21,13 @@ from simbridge.endpoint.backends.ros2 import clean_stale_shm
 pytestmark = [pytest.mark.ros2, pytest.mark.timeout(120)]
 
 SHM = Path("/dev/shm")
+
+
+def _age(names: set[str] | list[str]) -> None:
+    """Set the files' times an hour back: old enough for `clean_stale_shm` to judge."""
+    hour_ago = time.time() - 3600
+    for name in names:
+        os.utime(SHM / name, (hour_ago, hour_ago))
 
 
 def _locks_held_by(pid: int) -> set[str]:
@@ -45,7 +56,8 @@ def test_files_of_a_killed_node_are_cleaned() -> None:
         assert locks, "the node holds no Fast DDS lock file"
         bases = [name[: -len("_el")] for name in locks]
         mine = {f for b in bases for f in (b, f"{b}_el", f"sem.{b}_mutex") if (SHM / f).exists()}
-        assert not set(clean_stale_shm(min_age=0)) & mine, "a live node's files were removed"
+        _age(mine)
+        assert not set(clean_stale_shm()) & mine, "a live node's files were removed"
         os.killpg(node.proc.pid, signal.SIGKILL)  # no chance to clean up
         node.proc.wait(10)
     finally:
@@ -53,7 +65,7 @@ def test_files_of_a_killed_node_are_cleaned() -> None:
     time.sleep(0.2)
     left_behind = {f for f in mine if (SHM / f).exists()}
     assert left_behind, "a SIGKILLed node left nothing: the check below proves nothing"
-    removed = set(clean_stale_shm(min_age=0))
+    removed = set(clean_stale_shm())
     assert left_behind <= removed
     assert not any((SHM / f).exists() for f in left_behind)
 
@@ -65,9 +77,10 @@ def test_port_segments_nobody_maps_are_removed_and_mapped_ones_kept() -> None:
     paths = [SHM / name for name in (stale, f"sem.{stale}_mutex", live, f"sem.{live}_mutex")]
     for path in paths:
         path.write_bytes(bytes(4096))
+    _age([path.name for path in paths])
     try:
         with open(SHM / live, "r+b") as f, mmap.mmap(f.fileno(), 4096):
-            removed = clean_stale_shm(min_age=0)
+            removed = clean_stale_shm()
             assert {stale, f"sem.{stale}_mutex"} <= set(removed)
             assert (SHM / live).exists(), "a mapped port segment was removed"
     finally:
