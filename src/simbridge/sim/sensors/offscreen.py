@@ -114,14 +114,10 @@ class OffscreenRenderer:
         mujoco.mjr_readPixels(self._rgb, None, self._rect, self._mjr)
         return np.flipud(self._rgb).copy()
 
-    def render_depth(
-        self, data: mujoco.MjData, pose: Pose, fovy: float, near: float, far: float
-    ) -> NDArray[np.float64]:
-        """An (height, width) image of z-depth in metres; +inf where nothing was hit
-        between the near and far planes."""
-        self._prepare(data, pose, fovy, near, far)
+    def _render_id_colours(self) -> None:
+        """Render each geom in the flat colour of its segment id (MuJoCo's segmentation
+        mode), then restore the scene's flags."""
         flags = self._scene.flags
-        # Flat segmentation colours skip lighting and the skybox: faster, exact depth.
         flags[mujoco.mjtRndFlag.mjRND_SEGMENT] = True
         flags[mujoco.mjtRndFlag.mjRND_IDCOLOR] = True
         try:
@@ -129,6 +125,14 @@ class OffscreenRenderer:
         finally:
             flags[mujoco.mjtRndFlag.mjRND_SEGMENT] = False
             flags[mujoco.mjtRndFlag.mjRND_IDCOLOR] = False
+
+    def render_depth(
+        self, data: mujoco.MjData, pose: Pose, fovy: float, near: float, far: float
+    ) -> NDArray[np.float64]:
+        """An (height, width) image of z-depth in metres; +inf where nothing was hit
+        between the near and far planes."""
+        self._prepare(data, pose, fovy, near, far)
+        self._render_id_colours()  # no lighting or skybox: faster, and the depth is exact
         mujoco.mjr_readPixels(None, self._depth, self._rect, self._mjr)
         return _linear_depth(np.flipud(self._depth), near, far)
 
@@ -151,14 +155,7 @@ class OffscreenRenderer:
         than going through `render_segmentation`'s full-size (id, type) image. The image
         is a view of the renderer's buffer: the next render overwrites it."""
         self._prepare(data, pose, fovy, near, far)
-        flags = self._scene.flags
-        flags[mujoco.mjtRndFlag.mjRND_SEGMENT] = True
-        flags[mujoco.mjtRndFlag.mjRND_IDCOLOR] = True
-        try:
-            mujoco.mjr_render(self._rect, self._scene, self._mjr)
-        finally:
-            flags[mujoco.mjtRndFlag.mjRND_SEGMENT] = False
-            flags[mujoco.mjtRndFlag.mjRND_IDCOLOR] = False
+        self._render_id_colours()
         mujoco.mjr_readPixels(self._rgb, None, self._rect, self._mjr)
         # IDCOLOR paints scene geom i (its segid) in the 24-bit colour i + 1 (0: nothing):
         # the colour bytes with a zero fourth byte read as one little-endian uint32.
