@@ -116,15 +116,22 @@ def test_controllers_from_an_rclpy_action_client(arm_sim: Ros2Process) -> None:
     assert positions["shoulder"] == pytest.approx(0.4, abs=0.05)
 
 
-def test_without_rclpy_it_says_which_python_has_it() -> None:
-    """In an interpreter without rclpy (this one), --ros2 exits 2 naming the ROS 2 venv."""
+@pytest.mark.parametrize(
+    ("extra", "expected"),
+    [
+        ((), "rclpy is not importable"),
+        (("--endpoint", "127.0.0.1:9"), "give --endpoint HOST:PORT or --ros2, not both"),
+    ],
+)
+def test_without_rclpy_it_says_which_python_has_it(extra: tuple[str, ...], expected: str) -> None:
+    """In an interpreter without rclpy (this one), --ros2 exits 2 naming the ROS 2 venv's
+    command; with --endpoint too, it says to choose one."""
     require_ros2()
-    pytest.importorskip("mujoco")
     if importlib.util.find_spec("rclpy") is not None:
         pytest.skip("rclpy is importable here")
     env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
     done = subprocess.run(
-        [sys.executable, "-m", "simbridge.cli", "sim", "mobile-robot", "--ros2", "--duration", "1"],
+        [sys.executable, "-m", "simbridge.cli", "sim", "mobile-robot", "--ros2", *extra],
         env=env,
         capture_output=True,
         text=True,
@@ -132,8 +139,9 @@ def test_without_rclpy_it_says_which_python_has_it() -> None:
         check=False,
     )
     assert done.returncode == 2, done.stderr
-    assert "rclpy is not importable" in done.stderr
-    assert ".venv-ros2/bin/simbridge sim" in done.stderr
+    assert expected in done.stderr
+    if not extra:
+        assert ".venv-ros2/bin/simbridge sim" in done.stderr
 
 
 _PATTERN_SUBSCRIBER = """

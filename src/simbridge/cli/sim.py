@@ -152,11 +152,11 @@ def run_sim(args: argparse.Namespace) -> int:
     from simbridge.sim.scene import load_scene, with_overrides
     from simbridge.sim.view import ViewOptions
 
+    node = _ros2_node(args)  # before the scene loads: a wrong interpreter fails at once
     scene = with_overrides(
         load_scene(scene_file(args.scene)), _xacro_args(args), strict=args.strict
     )
     endpoint = f"{args.endpoint[0]}:{args.endpoint[1]}" if args.endpoint else None
-    node = _ros2_node(args)
     record = RecordOptions(Path(args.record), args.record_buffer) if args.record else None
     view = None
     realtime = args.realtime
