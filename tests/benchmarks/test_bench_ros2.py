@@ -134,3 +134,26 @@ def test_rclpy_reference_round_trip_gets_every_ping_back_from_a_real_echo_node(
     rtts = bench._rclpy_latency(child_env(), script, twist, "/test_bench/rt")
     assert len(rtts) == 30
     assert all(0 < rtt < 1.0 for rtt in rtts), rtts
+
+
+@pytest.mark.parametrize("kind", ["Twist", "Image"])
+def test_the_sim_node_row_counts_every_message_from_the_sim_s_own_node(
+    tmp_path: Path, kind: str
+) -> None:
+    """The "sim -> ros2 (in-process node)" row: bench_ros2_sim_node.py publishes through a
+    Ros2SimNode (real processes, this test's own ROS domain) to the bench's rclpy
+    subscriber, which counts every message (a Twist, an image published in place)."""
+    bench = pytest.importorskip("benchmarks.bench_ros2")
+    from tests.ros2support import child_env
+
+    data = bench._twist() if kind == "Twist" else bench._image(320, 240)
+    p = bench.Payload(kind, f"{'geometry' if kind == 'Twist' else 'sensor'}_msgs/{kind}", data, 40)
+    script = tmp_path / "node.py"
+    script.write_text(bench._NODE_SCRIPT % {"idle": bench.IDLE_END, "rate": bench.LATENCY_RATE})
+    payload = tmp_path / "payload.bin"
+    payload.write_bytes(data)
+    row = bench._ceiling(
+        child_env(), script, payload, p, f"/test_bench/node_{kind}", publisher=bench.SIM_NODE
+    )
+    assert row["direction"] == "sim -> ros2 (in-process node)"
+    assert (row["sent"], row["received"], row["loss"]) == (40, 40, 0)
