@@ -307,7 +307,7 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         metavar="FILE",
         default=None,
         help="record every topic in and out (sim-time stamps) to FILE: .mcap (rosbag2 "
-        "MCAP) or .bag (ROS 1); needs --endpoint",
+        "MCAP) or .bag (ROS 1); needs --endpoint or --ros2",
     )
     sim.add_argument(
         "--record-buffer",
