@@ -7,6 +7,8 @@ from __future__ import annotations
 import threading
 import time
 
+import pytest
+
 from simbridge.connector import Connector
 from simbridge.endpoint import EndpointOptions, EndpointThread
 from simbridge.endpoint.backends.local import LocalBus
@@ -62,3 +64,12 @@ def test_a_dialed_connection_publishes_subscribes_and_serves_without_a_port() ->
         assert (answer.success, answer.message) == (True, "done")
         assert set(stamps) == {7}
         assert set(got) == {0.5}
+
+
+def test_dialing_a_stopped_endpoint_is_refused_as_tcp_would_be() -> None:
+    """An OSError the Connector's reconnection handles (ConnectionRefusedError), not a
+    crash of its I/O thread."""
+    endpoint = EndpointThread(EndpointOptions(port=0), LocalBus("ROS2"), listen=False).start()
+    endpoint.stop()
+    with pytest.raises(ConnectionRefusedError, match="not running"):
+        endpoint.dial()

@@ -93,10 +93,21 @@ class EndpointThread:
 
     def dial(self, timeout: float = 10.0) -> socket.socket:
         """A new client connection to this endpoint within the process: one end of a
-        socketpair whose other end the endpoint serves (a Connector's `dial`)."""
+        socketpair whose other end the endpoint serves (a Connector's `dial`).
+        ConnectionRefusedError (an OSError, as from TCP) when the endpoint is not running."""
+        if not self._thread.is_alive() or self.loop.is_closed() or self._stopped.is_set():
+            raise ConnectionRefusedError("the endpoint in this process is not running")
         ours, theirs = socket.socketpair()
         try:
             asyncio.run_coroutine_threadsafe(self.server.adopt(theirs), self.loop).result(timeout)
+        except Exception as exc:
+            ours.close()
+            theirs.close()
+            if isinstance(exc, OSError):
+                raise
+            raise ConnectionRefusedError(
+                f"the endpoint in this process did not take the connection ({exc!r})"
+            ) from exc
         except BaseException:
             ours.close()
             theirs.close()
