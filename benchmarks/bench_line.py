@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from benchmarks.line_table import PARTS, SEEDS, delivery_row, summary_row
 from simbridge.apps.line import ARMS, CONVEYOR, SCENE_PATH, LineTask, line_scene, run_line
 from simbridge.apps.line.cells import FOLLOW
 from simbridge.apps.line.scene import grasp_contacts
@@ -34,8 +35,6 @@ from simbridge.sim.runner import SimulationSession
 
 __all__ = ["SEEDS", "run", "scene_rtf"]
 
-SEEDS = tuple(range(20))
-PARTS = 3
 STEADY_SIM_S = 20.0
 _SWEEPS = {  # robot -> (controller, joints, amplitude of a slow sweep)
     "arm_in": ("arm_controller", tuple(f"joint_{i}" for i in range(1, 7)), 0.4),
@@ -132,38 +131,8 @@ def scene_rtf(robots: tuple[str, ...], sim_s: float = STEADY_SIM_S) -> dict[str,
 
 
 def _delivery(seeds: tuple[int, ...]) -> list[dict[str, Any]]:
-    rows: list[dict[str, Any]] = []
-    for seed in seeds:
-        result = run_line(seed, PARTS, progress=None)
-        rows.append(
-            {
-                "seed": seed,
-                "delivered": f"{result.delivered}/{result.parts}",
-                "worst_error_cm": round(max(result.placement_error_m) * 100, 2),
-                "cycle_s": round(result.cycle_s, 2),
-                "sim_s": round(result.sim_s, 1),
-                "wall_s": round(result.wall_s, 1),
-                "rtf": round(result.realtime_factor, 1),
-                "rtf_cpu": round(result.sim_s / result.cpu_s, 1) if result.cpu_s else 0.0,
-                "error": (result.error or "")[:60],
-            }
-        )
-    delivered = sum(int(r["delivered"].split("/")[0]) for r in rows)
-    total = PARTS * len(rows)
-    rows.append(
-        {
-            "seed": "all",
-            "delivered": f"{delivered}/{total} ({100 * delivered / total:.0f}%)",
-            "worst_error_cm": max(r["worst_error_cm"] for r in rows),
-            "cycle_s": round(statistics.mean(r["cycle_s"] for r in rows), 2),
-            "sim_s": round(statistics.mean(r["sim_s"] for r in rows), 1),
-            "wall_s": round(statistics.mean(r["wall_s"] for r in rows), 1),
-            "rtf": round(statistics.median(r["rtf"] for r in rows), 1),
-            "rtf_cpu": round(statistics.median(r["rtf_cpu"] for r in rows), 1),
-            "error": "rtf: median",
-        }
-    )
-    return rows
+    rows = [delivery_row(seed, run_line(seed, PARTS, progress=None).to_dict()) for seed in seeds]
+    return [*rows, summary_row(rows, PARTS)]
 
 
 def _pick_and_place_rtf(seeds: tuple[int, ...] = (0, 1, 2)) -> tuple[float, float]:

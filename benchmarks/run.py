@@ -30,6 +30,7 @@ SUITES = {
     "urdf": "benchmarks.bench_urdf",
     "view": "benchmarks.bench_view",
     "line": "benchmarks.bench_line",
+    "line_ros2": "benchmarks.bench_line_ros2",
     "ray": "benchmarks.bench_ray",
     "perception": "benchmarks.bench_perception",
 }

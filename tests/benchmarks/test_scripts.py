@@ -13,11 +13,21 @@ import pytest
 from tests.ros2support import require_ros2
 
 ROOT = Path(__file__).resolve().parents[2]
-SCRIPTS = ("bench_ros1", "bench_ros2", "bench_drain", "bench_sim", "bench_attacks", "bench_ray")
+SCRIPTS = (
+    "bench_ros1",
+    "bench_ros2",
+    "bench_drain",
+    "bench_line_ros2",
+    "bench_sim",
+    "bench_attacks",
+    "bench_ray",
+)
+ROS2_SCRIPTS = ("bench_ros2", "bench_drain", "bench_line_ros2")
+"""Scripts that refuse to load without the ROS 2 venv."""
 
 
 def _run(args: list[str], cwd: Path) -> subprocess.CompletedProcess[str]:
-    if "bench_ros2" in args[-1] or "bench_drain" in args[-1]:
+    if any(name in args[-1] for name in ROS2_SCRIPTS):
         require_ros2()  # the module refuses to load without the ROS 2 venv
     env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
     return subprocess.run(
