@@ -55,7 +55,7 @@ SYSTEM_PYTHON = "/usr/bin/python3"
 
 FAST = ConnectorOptions(
     keepalive_interval=0.2,
-    dead_timeout=1.0,
+    dead_timeout=10.0,  # a loaded machine can leave the endpoint silent a while: no drops
     connect_timeout=1.0,
     reconnect_initial=0.1,
     reconnect_max=0.5,

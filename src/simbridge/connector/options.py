@@ -18,9 +18,11 @@ class ConnectorOptions:
 
     keepalive_interval: float = 1.0
     """Send a keepalive when nothing else was sent for this long."""
-    dead_timeout: float = 2.0
+    dead_timeout: float = 10.0
     """Drop the connection when an endpoint that announced keepalives (handshake metadata
-    `keepalive`) was silent this long, or for two of its announced periods if longer."""
+    `keepalive`) was silent this long, or for two of its announced periods if longer. As
+    long as the endpoint's own idle timeout: an endpoint busy reading a flood on a loaded
+    machine can miss a keepalive or two, and a dropped connection loses what was in it."""
     connect_timeout: float = 2.0
     """Give up one TCP connection attempt after this long."""
     reconnect_initial: float = 1.0
