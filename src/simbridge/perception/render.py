@@ -1,12 +1,14 @@
 """RGB, metric depth and segmentation of one camera view, with MuJoCo's classic renderer
-(`mujoco.Renderer`; its segmentation mode gives object id and type per pixel)."""
+in two passes: a lit one for RGB, and one in segment-id colours whose colour and depth
+buffers are read together (segmentation and depth from one render)."""
 
 from __future__ import annotations
 
 import atexit
 import math
+import time
 import weakref
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import mujoco
 import numpy as np
@@ -15,10 +17,14 @@ from numpy.typing import NDArray
 from simbridge.errors import PerceptionError
 from simbridge.perception.camera import CameraView
 from simbridge.sim.sensors import configure_gl
+from simbridge.sim.sensors.gl_backend import GLContext, create_gl_context
 
-__all__ = ["RenderSettings", "Rendered", "ViewRenderer"]
+__all__ = ["RenderSettings", "Rendered", "StageTimes", "ViewRenderer"]
 
 _OPEN: weakref.WeakSet[ViewRenderer] = weakref.WeakSet()
+
+_MAX_GEOM = 10000
+"""Scene geoms at most (what `mujoco.Renderer` allows by default)."""
 
 
 @atexit.register
@@ -52,6 +58,21 @@ class Rendered:
     """(H, W, 2): MuJoCo object id and object type; (-1, -1) where nothing was hit."""
 
 
+@dataclass
+class StageTimes:
+    """CPU seconds (this thread's) a renderer spent per stage since it was made, and how
+    many views it rendered: where a frame's time goes, robust to other processes' load."""
+
+    seconds: dict[str, float] = field(default_factory=dict)
+    views: int = 0
+
+    def add(self, stage: str, since: float) -> float:
+        """Charge the thread time since `since` to `stage`; the time now."""
+        now = time.thread_time()
+        self.seconds[stage] = self.seconds.get(stage, 0.0) + now - since
+        return now
+
+
 class ViewRenderer:
     """Renders views of one size; the model's depth range is set to `settings`' planes."""
 
@@ -71,59 +92,135 @@ class ViewRenderer:
         model.vis.global_.offheight = max(int(model.vis.global_.offheight), height)
         self.width, self.height = width, height
         self.settings = settings
-        # What mujoco.Renderer uses to linearise depth.
+        self.times = StageTimes()
+        # The planes depth is linearised with (what mujoco.Renderer uses).
         self.near = float(model.vis.map.znear) * extent
         self.far = float(model.vis.map.zfar) * extent
-        self._renderer: mujoco.Renderer | None = mujoco.Renderer(model, height, width)
+        self._model = model
+        self._context: GLContext | None = create_gl_context(width, height)
         _OPEN.add(self)
-        scene = self._renderer.scene
-        scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = settings.shadows
-        scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = settings.reflections
+        self._context.make_current()
+        self._mjr: mujoco.MjrContext | None = mujoco.MjrContext(
+            model, mujoco.mjtFontScale.mjFONTSCALE_150
+        )
+        mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self._mjr)
+        self._mjr.readDepthMap = mujoco.mjtDepthMap.mjDEPTH_ZEROFAR
+        self._rect = mujoco.MjrRect(0, 0, width, height)
+        self._scene = mujoco.MjvScene(model, maxgeom=_MAX_GEOM)
+        self._scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = settings.shadows
+        self._scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = settings.reflections
         self._option = mujoco.MjvOption()
         self._option.sitegroup[:] = 0  # sites are markers, not things a camera sees
         self._camera = mujoco.MjvCamera()
         mujoco.mjv_defaultFreeCamera(model, self._camera)
+        self._colour = np.empty((height, width, 3), dtype=np.uint8)
+        self._ids = np.empty((height, width, 3), dtype=np.uint8)
+        self._zbuffer = np.empty((height, width), dtype=np.float32)
 
     def render(
         self, data: mujoco.MjData, view: CameraView, *, rgb: bool, depth: bool, segmentation: bool
     ) -> Rendered:
-        """The images asked for, of `data` seen from `view`."""
-        renderer = self._renderer
-        if renderer is None:
+        """The images asked for, of `data` seen from `view`: at most two renders (RGB; one
+        in segment colours giving segmentation and depth together)."""
+        if self._context is None or self._mjr is None:
             raise PerceptionError("render: the renderer was closed")
+        clock = time.thread_time()
+        self._context.make_current()
+        scene = self._scene
         # MuJoCo lays out infinite planes (and the headlight) around the scene's camera,
         # partly the one of the previous frame: set ours before and after the update, and
         # aim the free camera the same way, so a frame never depends on the one before.
-        for glcam in renderer.scene.camera:
+        for glcam in scene.camera:
             view.apply_to(glcam, self.near, self.far)
         forward = view.rotation[:, 2]
         self._camera.lookat[:] = view.position + forward
         self._camera.distance = 1.0
         self._camera.azimuth = math.degrees(math.atan2(forward[1], forward[0]))
         self._camera.elevation = math.degrees(math.asin(max(-1.0, min(1.0, float(forward[2])))))
-        renderer.update_scene(data, self._camera, self._option)
-        for glcam in renderer.scene.camera:
+        mujoco.mjv_updateScene(
+            self._model,
+            data,
+            self._option,
+            None,
+            self._camera,
+            mujoco.mjtCatBit.mjCAT_ALL,
+            scene,
+        )
+        for glcam in scene.camera:
             view.apply_to(glcam, self.near, self.far)
+        clock = self.times.add("scene update", clock)
         colour = seg = dist = None
         if rgb:
-            renderer.disable_depth_rendering()
-            renderer.disable_segmentation_rendering()
-            colour = renderer.render()
-        if segmentation:
-            renderer.enable_segmentation_rendering()
-            seg = renderer.render()
-            renderer.disable_segmentation_rendering()
-        if depth:
-            renderer.enable_depth_rendering()
-            dist = renderer.render()
-            renderer.disable_depth_rendering()
-            missed = seg[..., 0] < 0 if seg is not None else dist >= self.far * (1 - 1e-6)
-            dist[missed] = 0.0
+            mujoco.mjr_render(self._rect, scene, self._mjr)
+            clock = self.times.add("RGB render", clock)
+            mujoco.mjr_readPixels(self._colour, None, self._rect, self._mjr)
+            colour = np.flipud(self._colour).copy()  # GL rows run bottom-up
+            clock = self.times.add("RGB readPixels", clock)
+        if segmentation or depth:
+            self._render_id_colours()
+            clock = self.times.add("ID render", clock)
+            mujoco.mjr_readPixels(
+                self._ids if segmentation else None,
+                self._zbuffer if depth else None,
+                self._rect,
+                self._mjr,
+            )
+            clock = self.times.add("ID+depth readPixels", clock)
+            if segmentation:
+                seg = self._segmentation()
+            if depth:
+                dist = self._metric_depth()
+                missed = seg[..., 0] < 0 if seg is not None else dist >= self.far * (1 - 1e-6)
+                dist[missed] = 0.0
+            clock = self.times.add("decode segmentation and depth", clock)
+        self.times.views += 1
         return Rendered(colour, dist, seg)
+
+    def _render_id_colours(self) -> None:
+        """Render each geom in the flat colour of its segment id, as `mujoco.Renderer`'s
+        segmentation and depth modes do, then restore the scene's flags."""
+        flags = self._scene.flags
+        original = flags.copy()
+        flags[mujoco.mjtRndFlag.mjRND_SEGMENT] = True
+        flags[mujoco.mjtRndFlag.mjRND_IDCOLOR] = True
+        try:
+            mujoco.mjr_render(self._rect, self._scene, self._mjr)
+        finally:
+            np.copyto(flags, original)
+
+    def _segmentation(self) -> NDArray[np.int32]:
+        """(H, W, 2) object id and type from the id colours (colour i + 1 is scene geom
+        segid i; 0 is nothing), computed as `mujoco.Renderer` does."""
+        image = self._ids.astype(np.uint32)
+        segids = image[:, :, 0] + image[:, :, 1] * (2**8) + image[:, :, 2] * (2**16)
+        scene = self._scene
+        table = np.full((scene.ngeom + 1, 2), -1, dtype=np.int32)
+        for index in range(scene.ngeom):
+            geom = scene.geoms[index]
+            if geom.segid != -1:
+                table[geom.segid + 1] = (geom.objid, geom.objtype)
+        out: NDArray[np.int32] = np.flipud(table[segids]).copy()
+        return out
+
+    def _metric_depth(self) -> NDArray[np.float32]:
+        """z depth in metres from the reversed-Z buffer, in `mujoco.Renderer`'s arithmetic
+        (float32 coefficients, float64 division, float32 result)."""
+        zfar, znear = np.float32(self.far), np.float32(self.near)
+        c_coef = -(zfar + znear) / (zfar - znear)
+        d_coef = -(np.float32(2) * zfar * znear) / (zfar - znear)
+        c_coef = np.float32(-0.5) * c_coef - np.float32(0.5)
+        d_coef = np.float32(-0.5) * d_coef
+        metres = d_coef / (self._zbuffer.astype(np.float64) + c_coef)
+        out: NDArray[np.float32] = np.flipud(metres.astype(np.float32)).copy()
+        return out
 
     def close(self) -> None:
         """Free the GL context."""
         _OPEN.discard(self)
-        if self._renderer is not None:
-            self._renderer.close()
-            self._renderer = None
+        if self._context is not None:
+            self._context.make_current()
+            if self._mjr is not None:
+                self._mjr.free()
+            self._context.free()
+        self._mjr = None
+        self._context = None
