@@ -9,7 +9,7 @@ JSON summary (its last line): parts delivered within 2 cm, worst error, simulate
 part, the run's sim and wall seconds (the sim's run, planning pauses included; not the
 processes' start-up) and its real-time factor; `rtf_cpu` per CPU second of the sim's process
 (the driving process not counted). A seed without a summary counts as 0 delivered, with the
-reason as its error (its last output lines are printed). Run alone:
+reason as its error; a failed seed's last output lines are printed. Run alone:
 `python benchmarks/bench_line_ros2.py [--quick] [--markdown]` (`--quick`: 1 seed, 1 part).
 """
 
@@ -48,6 +48,8 @@ def _seed(seed: int, parts: int) -> dict[str, Any]:
             with contextlib.suppress(subprocess.TimeoutExpired):  # then stopped on exit
                 demo.proc.wait(60)
             summary: dict[str, Any] = json.loads(line)
+            if not summary["success"]:  # the run's log keeps why (the table cuts the error)
+                print(f"seed {seed} failed:\n{''.join(demo.output[-30:])}", flush=True)
             return summary
         except AssertionError as exc:  # Ros2Process: exited or timed out before the line
             print(f"seed {seed}: no summary:\n{exc}", flush=True)
