@@ -35,7 +35,7 @@ from simbridge.perception.dataset import (
     render_frames,
 )
 from simbridge.perception.frames import Frame, FrameMaker, View
-from simbridge.perception.render import Rendered, RenderSettings, ViewRenderer
+from simbridge.perception.render import Rendered, RenderSettings, StageTimes, ViewRenderer
 from simbridge.perception.rle import rle
 from simbridge.sim.labels import Instance, LabelTable
 
@@ -57,6 +57,7 @@ __all__ = [
     "PerceptionConfig",
     "RenderSettings",
     "Rendered",
+    "StageTimes",
     "View",
     "ViewLabels",
     "ViewRenderer",

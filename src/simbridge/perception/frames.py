@@ -20,7 +20,7 @@ from simbridge.perception.randomizers import (
     FrameState,
     frame_rng,
 )
-from simbridge.perception.render import Rendered, ViewRenderer
+from simbridge.perception.render import Rendered, StageTimes, ViewRenderer
 from simbridge.perception.shapes import ShapeCache
 from simbridge.sim import Scene, World, load_scene
 from simbridge.sim.labels import LabelTable
@@ -159,6 +159,16 @@ class FrameMaker:
                         )
             views.append(View(view, rgb, rendered.depth, labels))
         return Frame(index, views)
+
+    def render_times(self) -> StageTimes:
+        """CPU seconds per render stage and views rendered, summed over this maker's
+        renderers (benchmarks/bench_perception.py's stage table)."""
+        total = StageTimes()
+        for renderer in self._renderers.values():
+            for stage, seconds in renderer.times.seconds.items():
+                total.seconds[stage] = total.seconds.get(stage, 0.0) + seconds
+            total.views += renderer.times.views
+        return total
 
     def close(self) -> None:
         """Free the renderers."""

@@ -60,15 +60,16 @@ class Rendered:
 
 @dataclass
 class StageTimes:
-    """CPU seconds (this thread's) a renderer spent per stage since it was made, and how
-    many views it rendered: where a frame's time goes, robust to other processes' load."""
+    """CPU seconds of the process (llvmpipe's threads included) a renderer spent per stage
+    since it was made, and the views it rendered: where a frame's time goes, robust to
+    other processes' load (not to other threads of this one)."""
 
     seconds: dict[str, float] = field(default_factory=dict)
     views: int = 0
 
     def add(self, stage: str, since: float) -> float:
-        """Charge the thread time since `since` to `stage`; the time now."""
-        now = time.thread_time()
+        """Charge the process CPU time since `since` to `stage`; the time now."""
+        now = time.process_time()
         self.seconds[stage] = self.seconds.get(stage, 0.0) + now - since
         return now
 
@@ -124,7 +125,7 @@ class ViewRenderer:
         in segment colours giving segmentation and depth together)."""
         if self._context is None or self._mjr is None:
             raise PerceptionError("render: the renderer was closed")
-        clock = time.thread_time()
+        clock = time.process_time()
         self._context.make_current()
         scene = self._scene
         # MuJoCo lays out infinite planes (and the headlight) around the scene's camera,
