@@ -65,11 +65,12 @@ lint: $(STAMP)
 typecheck: $(STAMP)
 	$(BIN)/mypy
 
-# Two pytest workers (pytest-xdist), a test file each at a time: most tests wait on other
-# processes (ROS nodes, a browser, a simulator), so two keep both cores busy. The suite is
+# Two pytest workers (pytest-xdist): most tests wait on other processes (ROS nodes, a
+# browser, a simulator), so two keep both cores busy. Each test file runs on one worker, and
+# the files that start ROS 2 processes share one (tests/conftest.py says why). The suite is
 # safe beside itself: ports from the OS, a ROS domain per process, temporary folders.
 PYTEST_WORKERS ?= 2
-PYTEST := $(BIN)/pytest -n $(PYTEST_WORKERS) --dist loadfile
+PYTEST := $(BIN)/pytest -n $(PYTEST_WORKERS) --dist loadgroup
 
 pytest: $(STAMP)
 	$(PYTEST)
@@ -90,7 +91,7 @@ docs: $(STAMP)
 # The suite again while stress-ng keeps every core busy: tests must wait on events, not on
 # the machine's speed.
 test-loaded: sysdeps $(STAMP) ros2
-	@bash scripts/test-loaded.sh -n $(PYTEST_WORKERS) --dist loadfile
+	@bash scripts/test-loaded.sh -n $(PYTEST_WORKERS) --dist loadgroup
 
 bench: sysdeps $(STAMP)
 	$(BIN)/python benchmarks/run.py --page docs/benchmarks.md
