@@ -6,7 +6,9 @@ clock, so on a loaded machine (or beside another pytest worker) they fail correc
 Under pytest-xdist (`make test`: `--dist loadgroup`) each test file is a group of its own,
 so a module's fixtures start once, except that every file that runs ROS 2 processes joins
 one group, "dds": two Fast DDS graphs in different domains at once met shared-memory port
-clashes ("open_and_lock_file failed") and a matched subscriber that never got a sample.
+clashes ("open_and_lock_file failed" on fastrtps_port7000/7001, ports every domain shares;
+Fast DDS gives up waiting for a port's lock after 2 s, eProsima/Fast-DDS#6117) and a matched
+subscriber that never got a sample.
 """
 
 from __future__ import annotations
