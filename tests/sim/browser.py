@@ -15,6 +15,7 @@ import os
 import shutil
 import signal
 import subprocess
+import tempfile
 import time
 import urllib.request
 from collections.abc import Iterator
@@ -53,8 +54,16 @@ class Browser:
             "--remote-debugging-port=0",  # a free port, written to DevToolsActivePort
             url,
         ]
+        # Chromium keeps its singleton socket in a folder of TMPDIR that a killed browser leaves
+        # behind: give it a short one of its own (a socket path has at most 107 bytes), removed
+        # on close.
+        self._scratch = tempfile.mkdtemp(prefix="sbchrome")
         self.proc = subprocess.Popen(
-            command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True
+            command,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+            start_new_session=True,
+            env={**os.environ, "TMPDIR": self._scratch},
         )
         self._ids = itertools.count(1)
         self.socket: Any = None
@@ -132,6 +141,7 @@ class Browser:
         with contextlib.suppress(ProcessLookupError):
             os.killpg(self.proc.pid, signal.SIGKILL)
         self.proc.wait()
+        shutil.rmtree(self._scratch, ignore_errors=True)
 
 
 @contextlib.contextmanager
