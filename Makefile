@@ -65,11 +65,12 @@ lint: $(STAMP)
 typecheck: $(STAMP)
 	$(BIN)/mypy
 
-# Two pytest workers (pytest-xdist): most tests wait on other processes (ROS nodes, a
-# browser, a simulator), so two keep both cores busy. Each test file runs on one worker, and
-# the files that start ROS 2 processes share one (tests/conftest.py says why). The suite is
-# safe beside itself: ports from the OS, a ROS domain per process, temporary folders.
-PYTEST_WORKERS ?= 2
+# pytest workers (pytest-xdist): `make test PYTEST_WORKERS=2` runs the suite in about two
+# thirds of the time (most tests wait on other processes), each test file on one worker and
+# the files that start ROS 2 processes on one (tests/conftest.py says why). The default stays
+# one process until the ROS 1 and ROS 2 tests that still miss a deadline beside a second
+# worker are fixed (issue 30's closing note names them).
+PYTEST_WORKERS ?= 0
 PYTEST := $(BIN)/pytest -n $(PYTEST_WORKERS) --dist loadgroup
 
 pytest: $(STAMP)
