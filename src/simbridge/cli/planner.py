@@ -28,8 +28,7 @@ def _stop_on_signals() -> Iterator[threading.Event]:
 
     The handler sets it from a thread of its own: Python runs handlers in the main thread
     between bytecodes, possibly inside `stop.wait()` while that holds the event's lock, and
-    `stop.set()` there would wait for that lock forever (a signal sent just as the planner
-    started waiting was lost that way).
+    `stop.set()` there would wait for that lock forever. Wait for it with `wait_for_stop`.
     """
     stop = threading.Event()
 
@@ -42,6 +41,18 @@ def _stop_on_signals() -> Iterator[threading.Event]:
     finally:
         for sig, handler in previous.items():
             signal.signal(sig, handler)
+
+
+def wait_for_stop(stop: threading.Event) -> None:
+    """Block until `stop` is set, waking every 0.2 s to let signal handlers run.
+
+    CPython runs a signal's Python handler only when the main thread next runs bytecode; a
+    signal that lands while that thread is on its way into a lock wait (handing the GIL to a
+    busy rospy thread) leaves it asleep with the handler pending: 2 of 5 SIGTERMs sent just
+    as the ROS 1 planner started serving were never handled with a plain `stop.wait()`.
+    """
+    while not stop.wait(0.2):
+        pass
 
 
 def run_planner(args: argparse.Namespace) -> int:
@@ -63,7 +74,7 @@ def run_planner(args: argparse.Namespace) -> int:
                     f"node /{args.node_name.lstrip('/')}",
                     flush=True,
                 )
-                stop.wait()
+                wait_for_stop(stop)
             return 0
         if args.backend == "ros1":
             from simbridge.apps.pick_and_place.ros1_planner import serve
@@ -87,7 +98,7 @@ def run_planner(args: argparse.Namespace) -> int:
                 f"{args.host}:{endpoint.port} (local bus)",
                 flush=True,
             )
-            stop.wait()
+            wait_for_stop(stop)
     return 0
 
 

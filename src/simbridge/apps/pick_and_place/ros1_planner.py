@@ -66,7 +66,8 @@ def serve(
     rospy.loginfo("serving %s [%s]", PLANNER_SERVICE, SERVICE_TYPE)
     print(f"{rospy.get_name()}: serving {PLANNER_SERVICE} [{SERVICE_TYPE}]", flush=True)
     try:
-        stop.wait()
+        while not stop.wait(0.2):  # in slices, so a signal's handler runs (cli.planner says why)
+            pass
     finally:
         external = list(shut_down)
         server.shutdown("planner node stopping")

@@ -13,7 +13,7 @@ import os
 import signal
 import subprocess
 import sys
-import threading
+import time
 import uuid
 import xmlrpc.client
 from pathlib import Path
@@ -41,9 +41,9 @@ def main(argv: list[str]) -> int:
     if len(argv) != 2:
         print("usage: core_launch.py URI_FILE", file=sys.stderr)
         return 2
-    stop = threading.Event()
+    stopped: list[int] = []  # a handler that took a lock could wait on one its own thread holds
     for signum in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(signum, lambda *_: stop.set())
+        signal.signal(signum, lambda sig, _frame: stopped.append(sig))
     master = rosmaster.master.Master(0)
     master.start()
     uri: str = master.uri
@@ -63,8 +63,8 @@ def main(argv: list[str]) -> int:
     partial.replace(target)  # readers see the whole URI or nothing
     print(f"master at {uri}, /rosout pid {rosout.pid}", flush=True)
     try:
-        while not stop.wait(0.2) and master.ok():
-            pass
+        while not stopped and master.ok():
+            time.sleep(0.2)
     finally:
         rosout.terminate()
         try:
