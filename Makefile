@@ -65,12 +65,11 @@ lint: $(STAMP)
 typecheck: $(STAMP)
 	$(BIN)/mypy
 
-# pytest workers (pytest-xdist): `make test PYTEST_WORKERS=2` runs the suite in about two
-# thirds of the time (most tests wait on other processes), each test file on one worker and
-# the files that start ROS 2 processes on one (tests/conftest.py says why). The default stays
-# one process until the ROS 1 and ROS 2 tests that still miss a deadline beside a second
-# worker are fixed (issue 30's closing note names them).
-PYTEST_WORKERS ?= 0
+# pytest workers (pytest-xdist): two, since most tests wait on other processes (ROS nodes,
+# Chromium, a simulator) and one worker leaves a core idle; each test file runs on one worker
+# and the files that start ROS 2 processes share one (tests/conftest.py says why).
+# `make test PYTEST_WORKERS=0` runs the suite in one process.
+PYTEST_WORKERS ?= 2
 PYTEST := $(BIN)/pytest -n $(PYTEST_WORKERS) --dist loadgroup
 
 pytest: $(STAMP)

@@ -24,7 +24,7 @@ import threading
 import time
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import pytest
 
@@ -38,7 +38,13 @@ __all__ = [
     "domain_id",
     "require_ros2",
     "start_endpoint",
+    "until_discovered",
 ]
+
+T = TypeVar("T")
+
+UNDISCOVERED = "no ROS 2 server"
+"""What a ROS 2 endpoint's `__error` says of a call whose server it has not discovered."""
 
 NODE_SCRIPT = Path(__file__).parent / "ros2" / "ros2_node.py"
 DRIVER_SCRIPT = Path(__file__).parent / "ros2" / "action_driver.py"
@@ -223,3 +229,16 @@ def start_endpoint(*extra: str) -> tuple[Ros2Process, int]:
     )
     match = proc.expect_line(r"listening on 127\.0\.0\.1:(\d+)", timeout=60)
     return proc, int(match.group(1))
+
+
+def until_discovered(call: Callable[[], T], timeout: float = 120.0) -> T:
+    """`call()` again while it fails because the endpoint has not discovered the ROS 2
+    server yet: the endpoint gives up on discovery after 5 s, and a server's own "ready"
+    does not bound when the endpoint's node sees it on a busy machine."""
+    deadline = time.monotonic() + timeout
+    while True:
+        try:
+            return call()
+        except Exception as exc:
+            if UNDISCOVERED not in str(exc) or time.monotonic() > deadline:
+                raise

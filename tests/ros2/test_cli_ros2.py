@@ -9,7 +9,7 @@ from collections.abc import Iterator
 import pytest
 
 from simbridge.cli import main
-from tests.ros2support import Ros2Process, start_endpoint
+from tests.ros2support import Ros2Process, start_endpoint, until_discovered
 
 pytestmark = [pytest.mark.ros2, pytest.mark.timeout(240)]
 
@@ -69,7 +69,12 @@ def test_service_call_reaches_an_rclpy_server(
             "--timeout",
             "20",
         ]
-        assert main([*call, "--endpoint", address]) == 0
+
+        def call_once() -> None:
+            if main([*call, "--endpoint", address]) != 0:
+                raise AssertionError(capsys.readouterr().err)
+
+        until_discovered(call_once)
         assert server.expect_json("request", timeout=30) == {"data": True}
     out = capsys.readouterr().out
     assert "success: true" in out

@@ -36,7 +36,7 @@ from simbridge.protocol import (
     ServiceRequestReceived,
 )
 from tests.endpoint.rawclient import RawClient
-from tests.ros2support import Ros2Process, require_ros2, start_endpoint
+from tests.ros2support import Ros2Process, require_ros2, start_endpoint, until_discovered
 
 pytestmark = [pytest.mark.ros2, pytest.mark.timeout(300)]
 
@@ -161,13 +161,13 @@ def test_unity_calls_a_ros2_trigger_service_with_either_spelling(unity: RawClien
         server.expect_json("ready")
         unity.send(registration("__ros_service", service, "std_srvs/Trigger"))
         for first_id, request in ((5, BARE), (50, PLACEHOLDER)):
-            answer = unity.call_ros2_service(
-                lambda srv_id, request=request: (
-                    unity_command("__request", f'{{"srv_id":{srv_id}}}')
-                    + unity_message(service, request)
-                ),
-                first_id,
-            )
+
+            def call(srv_id: int, request: bytes = request) -> bytes:
+                return unity_command("__request", f'{{"srv_id":{srv_id}}}') + unity_message(
+                    service, request
+                )
+
+            answer = unity.call_ros2_service(call, first_id)
             assert answer.service == service
             assert decode_trigger_response(answer.payload) == (True, "triggered")
             assert server.expect_json("request") == {}
@@ -312,7 +312,9 @@ def test_connector_messages_and_services_of_empty_types(connector: Connector) ->
     ) as server:
         server.expect_json("ready")
         connector.register_ros_service(service, "std_srvs/Trigger")
-        response = connector.call(service, REG.new("std_srvs/TriggerRequest"), timeout=30)
+        response = until_discovered(
+            lambda: connector.call(service, REG.new("std_srvs/TriggerRequest"), timeout=30)
+        )
         assert (response.success, response.message) == (True, "ok")
         assert server.expect_json("request") == {}
 
