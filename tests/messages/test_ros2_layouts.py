@@ -188,6 +188,34 @@ def test_user_package_in_ros2_layout(tmp_path: Path) -> None:
     )
 
 
+def test_a_ros2_folder_holds_the_ros2_variants(tmp_path: Path) -> None:
+    """`<pkg>/ros2/` files replace the package's own in ROS 2 mode and add ROS 2-only types;
+    ROS 1 mode never reads them."""
+    pkg = tmp_path / "arm_msgs"
+    for folder in ("msg", "action", "ros2/msg", "ros2/action"):
+        (pkg / folder).mkdir(parents=True)
+    (pkg / "msg" / "Grip.msg").write_text("float64 width\n")
+    (pkg / "msg" / "State.msg").write_text("float64 desired\n")
+    (pkg / "ros2" / "msg" / "State.msg").write_text("float64 reference\nExtra extra\n")
+    (pkg / "ros2" / "msg" / "Extra.msg").write_text("uint16 axis\n")
+    (pkg / "action" / "Move.action").write_text("float64 to\n---\n---\n")
+    (pkg / "ros2" / "action" / "Move.action").write_text("float64 to\nuint16 axis\n---\n---\n")
+    ros1 = MessageRegistry(shipped=False)
+    ros1.load_packages(tmp_path)
+    ros2 = MessageRegistry(store=ROS2_STORE, shipped=False)
+    ros2.load_packages(tmp_path)
+
+    def fields(reg: MessageRegistry, name: str) -> list[str]:
+        return [f.name for f in reg.schema(name).fields]
+
+    assert fields(ros1, "arm_msgs/State") == ["desired"]
+    assert fields(ros2, "arm_msgs/State") == ["reference", "extra"]
+    assert fields(ros1, "arm_msgs/MoveGoal") == ["to"]
+    assert fields(ros2, "arm_msgs/MoveGoal") == ["to", "axis"]
+    assert (ros1.has("arm_msgs/Extra"), ros2.has("arm_msgs/Extra")) == (False, True)
+    assert fields(ros1, "arm_msgs/Grip") == fields(ros2, "arm_msgs/Grip") == ["width"]
+
+
 def test_translator_ros1_to_ros2(ros2: MessageRegistry) -> None:
     from simbridge.messages import Translator
 

@@ -5,10 +5,13 @@ line on stdout. Every rclpy call runs on the executor's thread (a timer takes th
     {"op": "wait", "action": A, "type": "pkg/action/T"}  ->  {"ready": A, "ok": bool}
     {"op": "goal", "tag": G, "action": A, "type": T, "goal": {...}}
         ->  {"accepted": G, "ok": bool}, then {"result": G, "status": s, "values": {...},
-            "feedback": n}, and {"feedback": G, "joint_names": [...]} at the first feedback
+            "feedback": n}, and {"feedback": G, "joint_names": [...], "values": {...}} at the
+            first feedback
     {"op": "cancel", "tag": G}  ->  {"cancel": G, "return_code": rc, "canceling": n}
     {"op": "joints", "topic": T}  ->  {"joints": {name: position}} (the next JointState)
     {"op": "state", "topic": T}  ->  {"state": {...}} (the next controller state)
+    {"op": "type_hashes", "topic": T}  ->  {"type_hashes": T, "hashes": ["RIHS01_...", ...]}
+        (the type hash each publisher of T announces on the graph)
 """
 
 from __future__ import annotations
@@ -105,7 +108,8 @@ class Driver:
             counts["feedback"] += 1
             if counts["feedback"] == 1:
                 names = list(getattr(msg.feedback, "joint_names", []))
-                emit({"feedback": tag, "joint_names": names})
+                values = message_to_ordereddict(msg.feedback)
+                emit({"feedback": tag, "joint_names": names, "values": values})
 
         def on_result(future: Any) -> None:
             response = future.result()
@@ -163,6 +167,10 @@ class Driver:
             "control_msgs/msg/JointTrajectoryControllerState",
             lambda m: {"state": message_to_ordereddict(m)},
         )
+
+    def op_type_hashes(self, topic: str) -> None:
+        infos = self.node.get_publishers_info_by_topic(topic)
+        emit({"type_hashes": topic, "hashes": [str(i.topic_type_hash) for i in infos]})
 
 
 def main() -> None:

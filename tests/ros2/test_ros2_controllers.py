@@ -4,6 +4,8 @@ ActionClient, through `simbridge endpoint --backend ros2` (the `action_servers` 
 The sim runs here (its connector takes ROS 2 from the handshake and serves the controllers'
 actions through the endpoint); the endpoint and the action client (tests/ros2/action_driver.py)
 are processes of the ROS 2 venv. Trajectories are a second or so of sim time, run in real time.
+The messages have control_msgs 5.x (Jazzy) layouts, and the type hashes the graph announces
+are Jazzy's: those of a client built against the real control_msgs (MoveIt 2's).
 """
 
 from __future__ import annotations
@@ -28,6 +30,20 @@ ARM = "/arm_left/arm_controller/follow_joint_trajectory"
 GRIP = "/arm_left/gripper_controller/gripper_cmd"
 SUCCEEDED, CANCELED, ABORTED = 4, 5, 6
 WAIT = 60.0
+JAZZY_TYPE_HASHES = {
+    "control_msgs/msg/JointTrajectoryControllerState": (
+        "RIHS01_51d8dd89cc624cbe9daaeeb4d80d6de9b86168ffdc3be41fefc0953e3c26e480"
+    ),
+    "control_msgs/action/FollowJointTrajectory_FeedbackMessage": (
+        "RIHS01_80398fcb9674a79081a9906e2ccf0c804dd7cb15e22e362e606ee87186beab71"
+    ),
+    "control_msgs/action/GripperCommand_FeedbackMessage": (
+        "RIHS01_392ff03fcd872f9dc2405cbeb2897fcf011ad9998458b6aa85c603b8a49e431d"
+    ),
+}
+"""RIHS01 hashes of control_msgs 5.8.0 (Jazzy), computed by rosidl_generator_type_description
+4.6.6 from that release's definitions; the state's is also what `ros2 topic info -v` shows for
+a ros2_control joint_trajectory_controller on Jazzy."""
 
 
 def arm_goal(driver: ActionDriver, tag: str, values: dict[str, Any]) -> None:
@@ -55,6 +71,13 @@ def _trajectory(
         "path_tolerance": [{"name": n, "position": v} for n, v in (path_tolerance or {}).items()],
         "goal_time_tolerance": _duration(goal_time),
     }
+
+
+def announced_type_hashes(driver: ActionDriver, topic: str) -> set[str]:
+    """The type hashes the publishers of `topic` announce on the ROS 2 graph (one publisher;
+    a previous test's sim may still be leaving)."""
+    driver.send(op="type_hashes", topic=topic)
+    return set(driver.reply("type_hashes", topic)["hashes"])
 
 
 def _scene(tmp_path: Path) -> Path:
@@ -119,6 +142,14 @@ def test_goal_succeeds_with_feedback_and_the_joints_reach_the_target(
     driver.send(op="state", topic="/arm_left/arm_controller/state")
     state = driver.expect(lambda o: "state" in o)["state"]
     assert state["joint_names"] == ["shoulder", "elbow", "wrist"]
+    # Jazzy's state: the loop's terms, no multi-DOF joints, no speed scaling.
+    for term in ("reference", "feedback", "error", "output"):
+        assert len(state[term]["positions"]) == 3, term
+    assert (state["multi_dof_joint_names"], state["speed_scaling_factor"]) == ([], 1.0)
+    assert state["multi_dof_reference"]["transforms"] == []
+    assert announced_type_hashes(driver, "/arm_left/arm_controller/state") == {
+        JAZZY_TYPE_HASHES["control_msgs/msg/JointTrajectoryControllerState"]
+    }
     arm_goal(
         driver,
         "reach",
@@ -135,9 +166,16 @@ def test_goal_succeeds_with_feedback_and_the_joints_reach_the_target(
 
 def test_error_codes_as_on_ros1(sim: Sim, rig: ActionRig) -> None:
     """INVALID_JOINTS and INVALID_GOAL (accepted, then aborted with the code: a ROS 2
-    rejection carries no result), PATH_TOLERANCE_VIOLATED, GOAL_TOLERANCE_VIOLATED."""
+    rejection carries no result), PATH_TOLERANCE_VIOLATED, GOAL_TOLERANCE_VIOLATED, and
+    INVALID_JOINTS for ROS 2's multi-DOF trajectory (the sim has no multi-DOF joints)."""
     driver = rig.driver
     arm_goal(driver, "joints", _trajectory(["shoulder", "grip_a"], [(0.2, [0.1, 0.01])]))
+    floating = {
+        "joint_names": ["base"],
+        "points": [{"transforms": [{"rotation": {"w": 1.0}}], "time_from_start": _duration(1)}],
+    }
+    multi_dof = {**_trajectory(["shoulder"], [(1.0, [0.1])]), "multi_dof_trajectory": floating}
+    arm_goal(driver, "multi_dof", multi_dof)
     arm_goal(driver, "empty", _trajectory(["shoulder"], []))
     # A jump no drive follows within 0.001 rad; the wrist cannot reach 3 rad in 0.07 s.
     arm_goal(
@@ -147,7 +185,8 @@ def test_error_codes_as_on_ros1(sim: Sim, rig: ActionRig) -> None:
             ["shoulder"], [(0.05, [1.5]), (1.0, [1.5])], path_tolerance={"shoulder": 0.001}
         ),
     )
-    results = {tag: driver.reply("result", tag) for tag in ("joints", "empty", "path")}
+    tags = ("joints", "multi_dof", "empty", "path")
+    results = {tag: driver.reply("result", tag) for tag in tags}
     arm_goal(
         driver,
         "end",
@@ -157,11 +196,13 @@ def test_error_codes_as_on_ros1(sim: Sim, rig: ActionRig) -> None:
     codes = {tag: (r["status"], r["values"]["error_code"]) for tag, r in results.items()}
     assert codes == {
         "joints": (ABORTED, -2),
+        "multi_dof": (ABORTED, -2),
         "empty": (ABORTED, -1),
         "path": (ABORTED, -4),
         "end": (ABORTED, -5),
     }
     assert "grip_a" in results["joints"]["values"]["error_string"]
+    assert "['base']" in results["multi_dof"]["values"]["error_string"]
     assert "shoulder" in results["path"]["values"]["error_string"]
     assert "wrist" in results["end"]["values"]["error_string"]
 
@@ -173,6 +214,15 @@ def test_feedback_then_cancel_ends_the_goal_canceled(sim: Sim, rig: ActionRig) -
     # 20 Hz of sim time; the first may come late (the feedback topic's own discovery).
     feedback = driver.reply("feedback", "long")
     assert feedback["joint_names"] == ["shoulder", "elbow", "wrist"]
+    values = feedback["values"]
+    for term in ("desired", "actual", "error"):
+        assert len(values[term]["positions"]) == 3, term
+    desired, actual = values["desired"]["positions"][1], values["actual"]["positions"][1]
+    assert values["error"]["positions"][1] == pytest.approx(desired - actual)
+    assert (values["multi_dof_joint_names"], values["multi_dof_error"]["transforms"]) == ([], [])
+    assert announced_type_hashes(driver, f"{ARM}/_action/feedback") == {
+        JAZZY_TYPE_HASHES["control_msgs/action/FollowJointTrajectory_FeedbackMessage"]
+    }
     driver.send(op="cancel", tag="long")
     answer = driver.reply("cancel", "long")
     assert (answer["return_code"], answer["canceling"]) == (0, 1)
@@ -198,6 +248,9 @@ def test_a_new_goal_preempts_the_running_one(sim: Sim, rig: ActionRig) -> None:
 def test_gripper_reaches_its_goal_and_stalls_at_the_limit(sim: Sim, rig: ActionRig) -> None:
     driver = rig.driver
     driver.wait_ready(GRIP, GRIPPER)
+    assert announced_type_hashes(driver, f"{GRIP}/_action/feedback") == {
+        JAZZY_TYPE_HASHES["control_msgs/action/GripperCommand_FeedbackMessage"]
+    }
     command = {"command": {"position": 0.03, "max_effort": 5.0}}
     driver.goal("grip", command, action=GRIP, kind=GRIPPER)
     assert driver.reply("accepted", "grip")["ok"] is True

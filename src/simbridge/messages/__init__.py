@@ -44,8 +44,10 @@ ROS 2 mode: `ros2_registry()` (or `registry_for("ROS2")`, `MessageRegistry(store
 holds Jazzy layouts: Header without seq, `builtin_interfaces/Time` (int32 sec, uint32
 nanosec, spelled `{sec, nanosec}` in dicts), CameraInfo with `d k r p`. Its `protocol` is
 "ROS2" and its `wire_format` (the default of encode/decode) is "cdr". Packages load from
-the same `pkg/msg`, `pkg/srv`, `pkg/action` layout; actions expand as rosidl does
-(`pkg/FooGoal`, `pkg/FooFeedbackMessage`, services `pkg/FooSendGoal`, `pkg/FooGetResult`).
+the same `pkg/msg`, `pkg/srv`, `pkg/action` layout, where a package's `ros2/` folder holds
+the files whose ROS 2 layout differs (shipped control_msgs: Jazzy's, ROS 1 keeps noetic's);
+actions expand as rosidl does (`pkg/FooGoal`, `pkg/FooFeedbackMessage`, services
+`pkg/FooSendGoal`, `pkg/FooGetResult`).
 `ros2_name(name)` gives the rosidl spelling (`pkg/msg/Type`, `pkg/srv/Srv_Request`,
 `pkg/action/Foo_Goal`); every such spelling is accepted as input. A type without fields
 (std_msgs/Empty, std_srvs/Trigger's request) is written in CDR as rclpy writes it (header,
@@ -59,7 +61,14 @@ differ.
 from __future__ import annotations
 
 from .codec import Codec, WireFormat
-from .loader import InterfaceSources, expand_action, expand_action_ros2, load_interface_dirs
+from .loader import (
+    ROS2_VARIANTS,
+    InterfaceSources,
+    expand_action,
+    expand_action_ros2,
+    interface_files,
+    load_interface_dirs,
+)
 from .names import TypeName, parse_type_name
 from .registry import (
     ROS2_STORE,
@@ -75,6 +84,7 @@ from .translate import Translator
 
 __all__ = [
     "ROS2_STORE",
+    "ROS2_VARIANTS",
     "SHIPPED_DEFINITIONS",
     "Codec",
     "ConstantSpec",
@@ -89,6 +99,7 @@ __all__ = [
     "default_registry",
     "expand_action",
     "expand_action_ros2",
+    "interface_files",
     "load_interface_dirs",
     "md5",
     "parse_type_name",

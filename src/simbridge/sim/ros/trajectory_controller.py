@@ -3,7 +3,11 @@
 `<ns>/<name>/command` topic (trajectory_msgs/JointTrajectory) and `<ns>/<name>/state`
 (control_msgs/JointTrajectoryControllerState), with the real controller's semantics:
 path and goal tolerances, goal_time_tolerance, preemption by a new goal or command,
-cancel (hold position), feedback at `action_monitor_rate`, result error codes."""
+cancel (hold position), feedback at `action_monitor_rate`, result error codes. On ROS 2 the
+messages have control_msgs 5.x (Jazzy) layouts: the state's reference/feedback/error/output,
+empty multi-DOF fields; a goal with a multi-DOF trajectory is refused (INVALID_JOINTS: the
+sim has no multi-DOF joints), so its component tolerances, which only address those, are
+never used."""
 
 from __future__ import annotations
 
@@ -82,6 +86,8 @@ class JointTrajectoryController:
         self._actuators = world.drives.actuators(self.joints)
         self._goal_check: _Check | None = None
         self._stamps = StampMaker(connector.registry)
+        self._fields: dict[str, frozenset[str]] = {}
+        """Field names of the state and feedback types (ROS 1 or ROS 2 layout), by type."""
         self._server: ActionServer | Ros2ActionServer | None = None
         self._callbacks: list[CallbackHandle] = []
         self.state_topic = f"{self.prefix}/state"
@@ -209,6 +215,7 @@ class JointTrajectoryController:
     def _on_goal(self, goal: AnyServerGoal) -> None:
         msg = goal.goal
         try:
+            _refuse_multi_dof(msg)
             trajectory = self._trajectory_of(msg.trajectory)
             if trajectory is None:
                 raise _InvalidGoalError(INVALID_GOAL, "the trajectory has no points")
@@ -302,9 +309,10 @@ class JointTrajectoryController:
             self._goal, self._trajectory = None, None
             goal.abort(self._result(GOAL_TOLERANCE_VIOLATED, text), text=text)
 
-    def _points(self) -> tuple[Any, Any, Any]:
-        """(desired, actual, error) JointTrajectoryPoints over the controller's joints (built
-        only when feedback or state is due, from index arrays: no per-joint dicts)."""
+    def _points(self) -> tuple[Any, Any, Any, Any]:
+        """(desired, actual, error, output) JointTrajectoryPoints over the controller's
+        joints, output being the drives' position targets (what the controller commands);
+        built only when feedback or state is due, from index arrays: no per-joint dicts."""
         data = self.world.data
         actual_q, actual_v = data.qpos[self._all_qpos], data.qvel[self._all_dofs]
         desired_v = np.zeros(len(self.joints))
@@ -337,18 +345,39 @@ class JointTrajectoryController:
             point(desired_q, desired_v),
             point(actual_q, actual_v),
             point(desired_q - actual_q, desired_v - actual_v),
+            point(self.world.drives.positions(self._actuators), np.zeros(0)),
         )
 
     def _message(self, name: str) -> Any:
-        """`name` (the state or the feedback: header, joint names, the three points) now."""
-        desired, actual, error = self._points()
-        return self._stamps.cls(name)(
-            header=self._stamps.header(self.world.time),
-            joint_names=list(self.ros_joints),
-            desired=desired,
-            actual=actual,
-            error=error,
-        )
+        """`name` (the state or the feedback) now, in the registry's layout: header, joint
+        names and the points (ROS 1 and ROS 2 feedback: desired, actual, error; ROS 2 state:
+        reference, feedback, error, output), multi-DOF fields empty, speed scaling 1."""
+        fields = self._fields.get(name)
+        if fields is None:
+            schema = self.connector.registry.schema(name)
+            fields = self._fields[name] = frozenset(f.name for f in schema.fields)
+        desired, actual, error, output = self._points()
+        values: dict[str, Any] = {
+            "header": self._stamps.header(self.world.time),
+            "joint_names": list(self.ros_joints),
+            "error": error,
+        }
+        if "reference" in fields:
+            values.update(reference=desired, feedback=actual, output=output)
+        else:
+            values.update(desired=desired, actual=actual)
+        if "multi_dof_joint_names" in fields:
+            values["multi_dof_joint_names"] = []
+            empty = self._stamps.cls("trajectory_msgs/MultiDOFJointTrajectoryPoint")
+            zero = self._stamps.cls("builtin_interfaces/Duration")
+            for field in fields - values.keys():
+                if field.startswith("multi_dof_"):
+                    values[field] = empty(
+                        transforms=[], velocities=[], accelerations=[], time_from_start=zero(0, 0)
+                    )
+        if "speed_scaling_factor" in fields:
+            values["speed_scaling_factor"] = 1.0
+        return self._stamps.cls(name)(**values)
 
     def _publish_feedback(self) -> None:
         goal = self._goal
@@ -363,6 +392,18 @@ class JointTrajectoryController:
 
 
 _Check = tuple[NDArray[np.intp], NDArray[np.float64]]
+
+
+def _refuse_multi_dof(goal: Any) -> None:
+    """INVALID_JOINTS for a ROS 2 goal that moves multi-DOF (planar, floating) joints."""
+    multi_dof = getattr(goal, "multi_dof_trajectory", None)
+    if multi_dof is not None and (multi_dof.joint_names or multi_dof.points):
+        raise _InvalidGoalError(
+            INVALID_JOINTS,
+            f"multi_dof_trajectory moves {list(multi_dof.joint_names)} with "
+            f"{len(multi_dof.points)} point(s): multi-DOF joints are not supported; "
+            "expected an empty multi_dof_trajectory",
+        )
 
 
 def _tolerance_check(joints: tuple[str, ...], tolerances: dict[str, float]) -> _Check | None:

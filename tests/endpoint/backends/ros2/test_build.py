@@ -46,6 +46,23 @@ def test_shipped_moveit_depends_on_what_it_uses() -> None:
     assert "moveit_msgs" not in pkg.dependencies
 
 
+def test_shipped_control_msgs_builds_its_ros2_variants() -> None:
+    pkg = load_package(SHIPPED_DEFINITIONS / "control_msgs")
+    assert sorted(pkg.files) == [
+        "action/FollowJointTrajectory.action",
+        "action/GripperCommand.action",
+        "msg/GripperCommand.msg",
+        "msg/JointComponentTolerance.msg",
+        "msg/JointTolerance.msg",
+        "msg/JointTrajectoryControllerState.msg",
+    ]
+    assert (
+        "trajectory_msgs/MultiDOFJointTrajectory multi_dof_trajectory"
+        in (pkg.files["action/FollowJointTrajectory.action"])
+    )
+    assert "JointTrajectoryPoint reference" in pkg.files["msg/JointTrajectoryControllerState.msg"]
+
+
 def test_a_directory_without_interfaces_is_refused(tmp_path: Path) -> None:
     with pytest.raises(InterfaceBuildError, match="neither an interface package"):
         build_packages([tmp_path], tmp_path)

@@ -1,7 +1,8 @@
 """Build ROS 2 interface packages that have no wheel into the ROS 2 venv.
 
 A package is a directory with `msg/`, `srv/` and/or `action/` (ROS 1 or ROS 2
-layout). It becomes a standard `rosidl_generate_interfaces` package (package.xml
+layout; files in its `ros2/` folder replace those of the same name). It becomes a
+standard `rosidl_generate_interfaces` package (package.xml
 and CMakeLists.txt are generated; `Header`, `time` and `duration` become
 `std_msgs/Header`, `builtin_interfaces/Time` and `builtin_interfaces/Duration`),
 configured with cmake, built with ninja and installed into the venv, whose prefix
@@ -27,6 +28,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from simbridge.errors import EndpointError
+from simbridge.messages.loader import interface_files
 
 __all__ = [
     "SHIPPED_ROS2_PACKAGES",
@@ -117,17 +119,17 @@ def _package_name(path: Path) -> str:
 
 
 def load_package(path: Path) -> InterfacePackage:
-    """Read one package directory (msg/, srv/, action/)."""
+    """Read one package directory (msg/, srv/, action/; a `ros2/` folder's files replace
+    those of the same name, as in the ROS 2 message registry)."""
     name = _package_name(path)
     files: dict[str, str] = {}
     deps: set[str] = set()
-    for kind in _KINDS:
-        for file in sorted((path / kind).glob(f"*.{kind}")):
-            text, used = ros2_definition(file.read_text(), name)
-            files[f"{kind}/{file.name}"] = text
-            deps |= used
-            if kind == "action":
-                deps |= {"action_msgs", "builtin_interfaces", "unique_identifier_msgs"}
+    for rel, file in interface_files(path, ros2=True).items():
+        text, used = ros2_definition(file.read_text(), name)
+        files[rel] = text
+        deps |= used
+        if rel.startswith("action/"):
+            deps |= {"action_msgs", "builtin_interfaces", "unique_identifier_msgs"}
     if not files:
         raise InterfaceBuildError(
             f"{path} has no interface files: expected msg/*.msg, srv/*.srv or action/*.action"
