@@ -166,7 +166,7 @@ def _keypoints(
         parent = int(model.body_parentid[child])
         if parent in neighbours:
             neighbours[parent].add(child)
-    seg, depth = rendered.segmentation, rendered.depth
+    depth = rendered.depth
     for k, body in enumerate(inst.bodies):
         if not ahead[k]:
             continue
@@ -175,8 +175,10 @@ def _keypoints(
             out[k, :2] = 0.0 if not np.isfinite(out[k, :2]).all() else out[k, :2]
             continue
         seen = False
-        if seg is not None and seg[row, col, 1] == int(mujoco.mjtObj.mjOBJ_GEOM):
-            seen = int(model.geom_bodyid[seg[row, col, 0]]) in neighbours[body]
+        if rendered.segments is not None:
+            shown, kind = rendered.object_at(row, col)
+            if kind == int(mujoco.mjtObj.mjOBJ_GEOM):
+                seen = int(model.geom_bodyid[shown]) in neighbours[body]
         if not seen and depth is not None:
             drawn = float(depth[row, col])
             seen = drawn == 0.0 or drawn >= points[k, 2] - KEYPOINT_DEPTH_TOLERANCE
@@ -197,10 +199,11 @@ def annotate(
 ) -> ViewLabels:
     """Labels of one rendered view (`labelers` chooses which are computed)."""
     instance_image = category_image = None
-    if rendered.segmentation is not None:
-        instance_image = table.instance_image(rendered.segmentation)
+    if rendered.segments is not None and rendered.objects is not None:
+        # Ids per segment (a few dozen), then one look-up per pixel.
+        instance_image = table.instance_image(rendered.objects)[rendered.segments]
         if "semantic" in labelers:
-            category_image = table.category_image(rendered.segmentation)
+            category_image = table.category_image(rendered.objects)[rendered.segments]
     labels = ViewLabels(view, instance_image, category_image)
     wants_2d = "boxes_2d" in labelers or "instance" in labelers
     if not (wants_2d or "boxes_3d" in labelers or "poses" in labelers or "keypoints" in labelers):

@@ -24,7 +24,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from simbridge.perception.frames import Frame
-from simbridge.perception.native import json_bytes, png_bytes, write_atomic
+from simbridge.perception.native import json_bytes, write_atomic
+from simbridge.perception.png import png_bytes
 
 __all__ = ["BOP_SPLIT", "bop_documents", "write_bop_frame"]
 

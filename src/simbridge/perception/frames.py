@@ -97,8 +97,9 @@ class FrameMaker:
         }
         labelers = self.config.labelers
         image_steps = [r for r in self.config.randomizers if r.image_step]
-        self._want_seg = bool(labelers & _SEGMENTATION_LABELERS) or any(
-            r.needs_segmentation for r in image_steps
+        self._image_steps_need_segmentation = any(r.needs_segmentation for r in image_steps)
+        self._want_seg = (
+            bool(labelers & _SEGMENTATION_LABELERS) or self._image_steps_need_segmentation
         )
 
     def _renderer(self, width: int, height: int) -> ViewRenderer:
@@ -152,11 +153,10 @@ class FrameMaker:
             )
             rgb = rendered.rgb
             if rgb is not None:
+                empty = rendered.nothing_drawn() if self._image_steps_need_segmentation else None
                 for k, step in enumerate(self.config.randomizers):
                     if step.image_step:
-                        rgb = step.post(
-                            rgb, rendered.segmentation, frame_rng(self.seed, index, k, c)
-                        )
+                        rgb = step.post(rgb, empty, frame_rng(self.seed, index, k, c))
             views.append(View(view, rgb, rendered.depth, labels))
         return Frame(index, views)
 

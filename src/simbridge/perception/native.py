@@ -4,31 +4,32 @@ function of its content: PNGs and NPZs carry no time stamps, JSON keys keep thei
 
 from __future__ import annotations
 
-import io
 import json
 import os
 import zipfile
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
-from typing import Any
+from typing import Any, BinaryIO
 
 import numpy as np
 from numpy.typing import NDArray
-from PIL import Image
 
 from simbridge.perception.annotate import InstanceLabel, ViewLabels
 from simbridge.perception.frames import Frame, View
+from simbridge.perception.png import png_bytes
 from simbridge.perception.rle import rle
 
 __all__ = [
     "FRAMES_DIR",
+    "atomic_file",
     "frame_json_path",
     "frame_record",
     "json_bytes",
-    "npz_bytes",
-    "png_bytes",
     "read_frame",
     "write_atomic",
     "write_native",
+    "write_npz",
 ]
 
 FRAMES_DIR = "native/frames"
@@ -47,33 +48,36 @@ def labels_path(camera: str, index: int) -> str:
     return f"native/{camera}/{index:06d}.npz"
 
 
-def write_atomic(path: Path, data: bytes) -> None:
-    """Write `data` to `path` whole or not at all (a sibling file renamed into place)."""
+@contextmanager
+def atomic_file(path: Path) -> Iterator[BinaryIO]:
+    """A file to write that appears at `path` whole when the block ends, or not at all
+    (a sibling file renamed into place)."""
     path.parent.mkdir(parents=True, exist_ok=True)
     # One partial file per process: workers of one dataset write the same dataset.json.
     partial = path.with_name(f".{path.name}.{os.getpid()}.partial")
-    partial.write_bytes(data)
+    try:
+        with partial.open("wb") as file:
+            yield file
+    except BaseException:
+        partial.unlink(missing_ok=True)
+        raise
     os.replace(partial, path)
 
 
-def png_bytes(image: NDArray[Any], level: int) -> bytes:
-    """A PNG of an 8-bit RGB/grey or 16-bit grey image at zlib `level`."""
-    out = io.BytesIO()
-    Image.fromarray(image).save(out, format="PNG", compress_level=level)
-    return out.getvalue()
+def write_atomic(path: Path, data: bytes) -> None:
+    """Write `data` to `path` whole or not at all."""
+    with atomic_file(path) as file:
+        file.write(data)
 
 
-def npz_bytes(arrays: dict[str, NDArray[Any]]) -> bytes:
+def write_npz(path: Path, arrays: dict[str, NDArray[Any]]) -> None:
     """An uncompressed .npz (np.load reads it) with fixed member dates, so equal arrays give
-    equal bytes."""
-    out = io.BytesIO()
-    with zipfile.ZipFile(out, "w", zipfile.ZIP_STORED) as archive:
+    equal bytes; streamed into the file (no copy of the arrays' bytes), whole or not at all."""
+    with atomic_file(path) as file, zipfile.ZipFile(file, "w", zipfile.ZIP_STORED) as archive:
         for name, array in arrays.items():
-            member = io.BytesIO()
-            np.lib.format.write_array(member, np.ascontiguousarray(array), allow_pickle=False)
             info = zipfile.ZipInfo(f"{name}.npy", date_time=(1980, 1, 1, 0, 0, 0))
-            archive.writestr(info, member.getvalue())
-    return out.getvalue()
+            with archive.open(info, "w") as member:
+                np.lib.format.write_array(member, np.ascontiguousarray(array), allow_pickle=False)
 
 
 def _r(value: float, digits: int = 6) -> float:
@@ -168,12 +172,12 @@ def write_native(
             write_atomic(root / rgb_path(name, frame.index), png)
         arrays: dict[str, NDArray[Any]] = {}
         if view.depth is not None:
-            arrays["depth"] = view.depth.astype(np.float32)
+            arrays["depth"] = view.depth
         if view.labels.instance_image is not None:
             arrays["instance"] = view.labels.instance_image
         if view.labels.category_image is not None:
             arrays["semantic"] = view.labels.category_image
-        write_atomic(root / labels_path(name, frame.index), npz_bytes(arrays))
+        write_npz(root / labels_path(name, frame.index), arrays)
     return frame_record(frame), pngs
 
 

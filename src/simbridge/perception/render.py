@@ -54,8 +54,25 @@ class Rendered:
     rgb: NDArray[np.uint8] | None
     depth: NDArray[np.float32] | None
     """z distance along the optical axis (m); 0 where nothing was hit."""
-    segmentation: NDArray[np.int32] | None
-    """(H, W, 2): MuJoCo object id and object type; (-1, -1) where nothing was hit."""
+    segments: NDArray[np.uint32] | None
+    """(H, W) segment number per pixel, a row of `objects` (0: nothing drawn)."""
+    objects: NDArray[np.int32] | None
+    """(segments, 2): each segment's MuJoCo object id and object type; (-1, -1) for
+    nothing drawn. Labels look the few segments up, then index the image once."""
+
+    def nothing_drawn(self) -> NDArray[np.bool_] | None:
+        """Where no geometry was drawn (the sky), if the segmentation was rendered."""
+        if self.segments is None or self.objects is None:
+            return None
+        empty: NDArray[np.bool_] = (self.objects[:, 0] < 0)[self.segments]
+        return empty
+
+    def object_at(self, row: int, col: int) -> tuple[int, int]:
+        """(object id, object type) drawn at one pixel; (-1, -1) for nothing."""
+        if self.segments is None or self.objects is None:
+            raise PerceptionError("render: the segmentation was not rendered")
+        found = self.objects[self.segments[row, col]]
+        return int(found[0]), int(found[1])
 
 
 @dataclass
@@ -150,7 +167,7 @@ class ViewRenderer:
         for glcam in scene.camera:
             view.apply_to(glcam, self.near, self.far)
         clock = self.times.add("scene update", clock)
-        colour = seg = dist = None
+        colour = segments = objects = dist = None
         if rgb:
             mujoco.mjr_render(self._rect, scene, self._mjr)
             clock = self.times.add("RGB render", clock)
@@ -160,22 +177,18 @@ class ViewRenderer:
         if segmentation or depth:
             self._render_id_colours()
             clock = self.times.add("ID render", clock)
-            mujoco.mjr_readPixels(
-                self._ids if segmentation else None,
-                self._zbuffer if depth else None,
-                self._rect,
-                self._mjr,
-            )
+            zbuffer = self._zbuffer if depth else None
+            mujoco.mjr_readPixels(self._ids, zbuffer, self._rect, self._mjr)
             clock = self.times.add("ID+depth readPixels", clock)
-            if segmentation:
-                seg = self._segmentation()
+            segments, objects = self._segments()
             if depth:
                 dist = self._metric_depth()
-                missed = seg[..., 0] < 0 if seg is not None else dist >= self.far * (1 - 1e-6)
-                dist[missed] = 0.0
+                dist[(objects[:, 0] < 0)[segments]] = 0.0
+            if not segmentation:
+                segments = objects = None
             clock = self.times.add("decode segmentation and depth", clock)
         self.times.views += 1
-        return Rendered(colour, dist, seg)
+        return Rendered(colour, dist, segments, objects)
 
     def _render_id_colours(self) -> None:
         """Render each geom in the flat colour of its segment id, as `mujoco.Renderer`'s
@@ -189,19 +202,22 @@ class ViewRenderer:
         finally:
             np.copyto(flags, original)
 
-    def _segmentation(self) -> NDArray[np.int32]:
-        """(H, W, 2) object id and type from the id colours (colour i + 1 is scene geom
-        segid i; 0 is nothing), computed as `mujoco.Renderer` does."""
-        image = self._ids.astype(np.uint32)
-        segids = image[:, :, 0] + image[:, :, 1] * (2**8) + image[:, :, 2] * (2**16)
+    def _segments(self) -> tuple[NDArray[np.uint32], NDArray[np.int32]]:
+        """The segment image (top row first) and each segment's (object id, type): IDCOLOR
+        paints scene geom i (its segid) in the 24-bit colour i + 1 (0: nothing), so the
+        colour bytes with a zero fourth byte read as one little-endian uint32."""
+        quads = np.zeros((self.height, self.width, 4), dtype=np.uint8)
+        quads[::-1, :, :3] = self._ids  # GL rows run bottom-up
+        segments: NDArray[np.uint32] = quads.view("<u4")[..., 0]
         scene = self._scene
-        table = np.full((scene.ngeom + 1, 2), -1, dtype=np.int32)
+        objects = np.full((scene.ngeom + 2, 2), -1, dtype=np.int32)
         for index in range(scene.ngeom):
             geom = scene.geoms[index]
-            if geom.segid != -1:
-                table[geom.segid + 1] = (geom.objid, geom.objtype)
-        out: NDArray[np.int32] = np.flipud(table[segids]).copy()
-        return out
+            if geom.segid >= 0:
+                objects[geom.segid + 1] = (geom.objid, geom.objtype)
+        # Any colour no geom has (none expected) reads as the last row: nothing drawn.
+        np.minimum(segments, scene.ngeom + 1, out=segments)
+        return segments, objects
 
     def _metric_depth(self) -> NDArray[np.float32]:
         """z depth in metres from the reversed-Z buffer, in `mujoco.Renderer`'s arithmetic
@@ -211,9 +227,10 @@ class ViewRenderer:
         d_coef = -(np.float32(2) * zfar * znear) / (zfar - znear)
         c_coef = np.float32(-0.5) * c_coef - np.float32(0.5)
         d_coef = np.float32(-0.5) * d_coef
-        metres = d_coef / (self._zbuffer.astype(np.float64) + c_coef)
-        out: NDArray[np.float32] = np.flipud(metres.astype(np.float32)).copy()
-        return out
+        metres = self._zbuffer[::-1].astype(np.float64)  # GL rows run bottom-up
+        metres += c_coef
+        np.divide(d_coef, metres, out=metres)
+        return metres.astype(np.float32)
 
     def close(self) -> None:
         """Free the GL context."""

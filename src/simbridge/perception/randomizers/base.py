@@ -102,13 +102,14 @@ class Randomizer:
     def post(
         self,
         rgb: NDArray[np.uint8],
-        segmentation: NDArray[np.int32] | None,
+        empty: NDArray[np.bool_] | None,
         rng: np.random.Generator,
     ) -> NDArray[np.uint8]:
-        """Change a rendered image; labels are never touched."""
+        """Change a rendered image (`empty`: where nothing was drawn, when
+        `needs_segmentation`); labels are never touched."""
         return rgb
 
     @property
     def needs_segmentation(self) -> bool:
-        """Whether `post` reads the segmentation image."""
+        """Whether `post` reads where nothing was drawn (from the segmentation render)."""
         return False

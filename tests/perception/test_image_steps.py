@@ -1,0 +1,83 @@
+"""The fast image code of datagen: its own PNG encoder (read back by Pillow, pixel for
+pixel) and the integer blur and noise of the `noise` randomiser."""
+
+from __future__ import annotations
+
+import io
+
+import numpy as np
+import pytest
+from numpy.typing import NDArray
+from PIL import Image
+from scipy import ndimage
+
+from simbridge.errors import PerceptionError
+from simbridge.perception.png import png_bytes
+from simbridge.perception.randomizers.image_effects import NoiseRandomizer, gaussian_blur
+from simbridge.perception.section import Section
+from simbridge.sim.scene.located import Where
+
+
+def _read(data: bytes) -> NDArray[np.generic]:
+    return np.asarray(Image.open(io.BytesIO(data)))
+
+
+@pytest.mark.parametrize("level", [0, 1, 9])
+def test_png_round_trips_every_image_kind_datagen_writes(level: int) -> None:
+    rng = np.random.default_rng(3)
+    images: dict[str, NDArray[np.generic]] = {
+        "rgb": rng.integers(0, 256, (37, 53, 3), dtype=np.uint8),
+        "grey": rng.integers(0, 256, (37, 53), dtype=np.uint8),
+        "depth": rng.integers(0, 65536, (37, 53), dtype=np.uint16),
+        "mask": rng.random((37, 53)) < 0.3,  # 53 columns: the last byte of a row is partial
+    }
+    for name, image in images.items():
+        data = png_bytes(image, level)
+        back = _read(data)
+        assert back.shape == image.shape, name
+        assert np.array_equal(back.astype(image.dtype), image), name
+        assert png_bytes(image, level) == data, name  # a pure function of pixels and level
+
+
+def test_png_refuses_an_image_it_cannot_encode() -> None:
+    with pytest.raises(PerceptionError, match=r"float32 image of shape \(4, 4\)"):
+        png_bytes(np.zeros((4, 4), dtype=np.float32), 1)
+
+
+def test_blur_keeps_flat_images_and_matches_a_gaussian_filter() -> None:
+    flat = np.full((20, 30, 3), 201, dtype=np.uint8)
+    assert np.array_equal(gaussian_blur(flat, 2.5), flat)
+    rng = np.random.default_rng(5)
+    image = rng.integers(0, 256, (60, 80, 3), dtype=np.uint8)
+    for sigma in (0.5, 0.8, 1.5, 3.0):
+        ours = gaussian_blur(image, sigma).astype(float)
+        exact = ndimage.gaussian_filter(image.astype(float), (sigma, sigma, 0), mode="nearest")
+        assert np.abs(ours - exact).max() <= 2.0, sigma  # weights in 1/256 steps, rounded
+        assert ours.std() < image.std()
+    # A sigma too small to move a level leaves the image as it is.
+    assert gaussian_blur(image, 0.1) is image
+
+
+def _noise(gaussian: float, blur: float) -> NoiseRandomizer:
+    data = {"type": "noise", "gaussian": gaussian, "blur": blur}
+    return NoiseRandomizer(Section(data, Where("perception.randomizers[0]", None, None)))
+
+
+def test_noise_has_the_asked_standard_deviation_and_is_seeded() -> None:
+    grey = np.full((200, 300, 3), 128, dtype=np.uint8)
+    for sigma in (1.0, 4.0):
+        step = _noise(sigma, 0.0)
+        out = step.post(grey, None, np.random.default_rng(9))
+        noise = out.astype(float) - 128
+        assert abs(noise.mean()) < 0.05
+        assert noise.std() == pytest.approx(sigma, rel=0.05)
+        again = step.post(grey, None, np.random.default_rng(9))
+        assert np.array_equal(out, again)
+    # Clipped at the ends of the 8-bit range, never wrapped.
+    white = np.full((50, 50, 3), 255, dtype=np.uint8)
+    assert _noise(6.0, 0.0).post(white, None, np.random.default_rng(1)).min() > 200
+
+
+def test_blur_beyond_its_bound_is_refused() -> None:
+    with pytest.raises(PerceptionError, match="blur"):
+        _noise(1.0, 4.0)
