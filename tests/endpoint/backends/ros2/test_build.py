@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
 import textwrap
@@ -61,6 +62,35 @@ def test_shipped_control_msgs_builds_its_ros2_variants() -> None:
         in (pkg.files["action/FollowJointTrajectory.action"])
     )
     assert "JointTrajectoryPoint reference" in pkg.files["msg/JointTrajectoryControllerState.msg"]
+
+
+JAZZY_TYPE_HASHES = {
+    "action/FollowJointTrajectory": (
+        "RIHS01_738ebcb7a2d7cfa42f9f1001cc99ce3a4383d1cfe508015d9be8485e4b1c66f6"
+    ),
+    "action/GripperCommand": (
+        "RIHS01_e17c0e644eccf14bea84a0a93e0977182872c2eb7873ca6694900059b46dbc84"
+    ),
+    "msg/JointTrajectoryControllerState": (
+        "RIHS01_51d8dd89cc624cbe9daaeeb4d80d6de9b86168ffdc3be41fefc0953e3c26e480"
+    ),
+}
+"""control_msgs 5.8.0's (Jazzy) RIHS01 hashes, as rosidl_generator_type_description 4.6.6
+computes them from that release's files; an action's covers its goal, result, feedback and
+services."""
+
+
+@pytest.mark.ros2
+@pytest.mark.parametrize(("name", "expected"), sorted(JAZZY_TYPE_HASHES.items()))
+def test_shipped_control_msgs_has_jazzys_type_hashes(name: str, expected: str) -> None:
+    """What `make ros2` built, as rclpy announces it: a client built against the real
+    control_msgs (MoveIt 2) sees the same types."""
+    share = require_ros2().parent.parent / "share" / "control_msgs"
+    description = json.loads((share / f"{name}.json").read_text())
+    assert description["type_hashes"][0] == {
+        "type_name": f"control_msgs/{name}",
+        "hash_string": expected,
+    }, "stale build? run `make ros2`"
 
 
 def test_a_directory_without_interfaces_is_refused(tmp_path: Path) -> None:
