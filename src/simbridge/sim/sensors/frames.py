@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import mujoco
@@ -10,28 +9,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from simbridge.errors import SimError, did_you_mean
+from simbridge.sim.urdf.transforms import rpy_to_matrix
 
-__all__ = ["Mount", "MountedFrame", "Pose", "quat_wxyz_from_matrix", "rotation_from_rpy"]
+__all__ = ["Mount", "MountedFrame", "Pose", "quat_wxyz_from_matrix"]
 
 Vec3 = tuple[float, float, float]
 FloatArray = NDArray[np.float64]
 
 WORLD_BODY_NAMES = ("", "world")
-
-
-def rotation_from_rpy(rpy: Vec3) -> FloatArray:
-    """URDF-convention rotation matrix: R = Rz(yaw) @ Ry(pitch) @ Rx(roll)."""
-    roll, pitch, yaw = rpy
-    cr, sr = math.cos(roll), math.sin(roll)
-    cp, sp = math.cos(pitch), math.sin(pitch)
-    cy, sy = math.cos(yaw), math.sin(yaw)
-    return np.array(
-        [
-            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-            [-sp, cp * sr, cp * cr],
-        ]
-    )
 
 
 def quat_wxyz_from_matrix(rotation: FloatArray) -> FloatArray:
@@ -76,7 +61,7 @@ class Mount:
 
     def offset(self) -> Pose:
         """The sensor frame relative to the body frame."""
-        return Pose(np.array(self.xyz, dtype=np.float64), rotation_from_rpy(self.rpy))
+        return Pose(np.array(self.xyz, dtype=np.float64), rpy_to_matrix(self.rpy))
 
     def resolve(self, model: mujoco.MjModel) -> MountedFrame:
         """Bind this mount to a compiled model; raises SimError for an unknown body."""

@@ -12,7 +12,7 @@ from numpy.typing import NDArray
 from simbridge.errors import SimError
 from simbridge.sim.sensors.base import Sensor
 from simbridge.sim.sensors.config import SensorConfig
-from simbridge.sim.sensors.frames import Pose, rotation_from_rpy
+from simbridge.sim.sensors.frames import Pose
 from simbridge.sim.sensors.rosmsg import (
     Publication,
     header,
@@ -21,6 +21,7 @@ from simbridge.sim.sensors.rosmsg import (
     transform_stamped,
     vector3,
 )
+from simbridge.sim.urdf.transforms import rpy_to_matrix
 
 __all__ = [
     "DEFAULT_POSE_COVARIANCE",
@@ -119,7 +120,7 @@ class Odometry(Sensor):
                 self._odom_in_world = Pose(np.zeros(3), np.eye(3))
             else:
                 yaw = math.atan2(base.rotation[1, 0], base.rotation[0, 0])
-                self._odom_in_world = Pose(base.position.copy(), rotation_from_rpy((0, 0, yaw)))
+                self._odom_in_world = Pose(base.position.copy(), rpy_to_matrix((0, 0, yaw)))
         velocity = np.zeros(6)
         body = self.frame.body_id
         mujoco.mj_objectVelocity(model, data, mujoco.mjtObj.mjOBJ_XBODY, body, velocity, 1)
