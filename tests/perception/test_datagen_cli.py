@@ -8,6 +8,7 @@ import os
 import re
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from simbridge.cli import build_parser, main
@@ -67,6 +68,10 @@ def test_datagen_refuses_to_overwrite_or_resume_another_dataset(
     assert main(["datagen", str(scene), "--frames", "2", "--out", str(tmp_path / "out"),
                  "--seed", "5", "--resume"]) == 2  # fmt: skip
     assert "cannot be resumed with these options" in capsys.readouterr().err
+    # The scene renders at `high` (its default): a `fast` dataset is another dataset.
+    assert datagen(scene, tmp_path / "out", 2, "--resume", "--quality", "fast") == 2
+    assert "cannot be resumed with these options" in capsys.readouterr().err
+    assert datagen(scene, tmp_path / "out", 2, "--resume", "--quality", "high") == 0
     assert datagen(scene, tmp_path / "other", 1, "--format", "coco,yolo") == 2
     assert "unknown format 'yolo'" in capsys.readouterr().err
     assert main(["datagen", "pick-and-placee", "--frames", "1", "--out", str(tmp_path)]) == 2
@@ -88,6 +93,9 @@ BAD = [
      r"\(bodies: table\)"),
     ("  cameras: [{name: main}]\n  render: {near: 1, far: 0.5}\n",
      r"bad\.yaml:6: perception\.render\.far: far 0\.5 must be beyond near 1"),
+    ("  cameras: [{name: main}]\n  render: {quality: hihg}\n",
+     r"bad\.yaml:6: perception\.render\.quality: expected one of high, fast, got 'hihg'; "
+     r"did you mean 'high'"),
 ]  # fmt: skip
 
 
@@ -109,6 +117,7 @@ def test_demo_datagen_is_the_shipped_table_at_200_frames() -> None:
     args = build_parser().parse_args(["demo", "datagen"])
     assert (args.frames, args.format, args.seed, args.resume) == (200, "coco,bop", 0, False)
     assert args.workers == (os.cpu_count() or 1)  # one per CPU
+    assert args.quality is None  # the scene's: fast
     from simbridge.cli.datagen import scene_path
     from simbridge.perception import FrameMaker
 
@@ -116,5 +125,39 @@ def test_demo_datagen_is_the_shipped_table_at_200_frames() -> None:
     try:
         assert {i.category for i in maker.table.instances} == {"cube", "can", "robot", "distractor"}
         assert maker.config.output.contact_sheet > 0
+        render = maker.config.render
+        assert (render.shadows, render.multisamples) == (False, 0)  # quality: fast
     finally:
         maker.close()
+    assert build_parser().parse_args(["demo", "datagen", "--quality", "high"]).quality == "high"
+
+
+def test_quality_presets_change_the_look_not_the_labels(tmp_path: Path) -> None:
+    from simbridge.perception import FrameMaker
+
+    scene = random_scene(tmp_path, size=(96, 72))
+    frames = {}
+    for quality in ("fast", "high"):
+        maker = FrameMaker(scene, seed=2, quality=quality)
+        try:
+            render = maker.config.render
+            assert (render.shadows, render.multisamples > 0) == (quality == "high",) * 2
+            frames[quality] = maker.make(1).views[0]
+        finally:
+            maker.close()
+    fast, high = frames["fast"], frames["high"]
+    assert fast.rgb is not None
+    assert high.rgb is not None
+    assert not np.array_equal(fast.rgb, high.rgb)
+    assert fast.labels.instance_image is not None
+    assert high.labels.instance_image is not None
+    assert np.array_equal(fast.labels.instance_image, high.labels.instance_image)
+    assert fast.labels.category_image is not None
+    assert high.labels.category_image is not None
+    assert np.array_equal(fast.labels.category_image, high.labels.category_image)
+    assert [i.tight_box for i in fast.labels.instances] == [
+        i.tight_box for i in high.labels.instances
+    ]
+    assert fast.depth is not None
+    assert high.depth is not None
+    assert np.array_equal(fast.depth, high.depth)

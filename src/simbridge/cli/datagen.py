@@ -64,12 +64,13 @@ def run_datagen(
     seed: int,
     resume: bool,
     workers: int,
+    quality: str | None = None,
 ) -> int:
     """Make the dataset with a status line on stderr and print a summary line."""
     from simbridge.perception import DatagenJob, first_missing_frame, generate
     from simbridge.progress import Ticker, elapsed
 
-    job = DatagenJob(str(scene), seed=seed, formats=formats)
+    job = DatagenJob(str(scene), seed=seed, formats=formats, quality=quality)
     start = first_missing_frame(out, frames) if resume else 0
     todo = frames - start
     done = [0]
@@ -112,7 +113,7 @@ def run_demo(args: argparse.Namespace) -> int:
 def _make(scene: Path, args: argparse.Namespace, *, ray: str | None = None) -> int:
     """The dataset `args` asks for of `scene`: on the Ray cluster at `ray`, else here."""
     frames, out, formats = args.frames, Path(args.out), parse_formats(args.format)
-    seed, resume = args.seed, args.resume
+    seed, resume, quality = args.seed, args.resume, args.quality
     if ray:
         from .datagen_ray import run_datagen_on_ray
 
@@ -125,9 +126,17 @@ def _make(scene: Path, args: argparse.Namespace, *, ray: str | None = None) -> i
             resume=resume,
             address=ray,
             chunk=args.chunk,
+            quality=quality,
         )
     return run_datagen(
-        scene, frames, out, formats=formats, seed=seed, resume=resume, workers=args.workers
+        scene,
+        frames,
+        out,
+        formats=formats,
+        seed=seed,
+        resume=resume,
+        workers=args.workers,
+        quality=quality,
     )
 
 

@@ -21,6 +21,7 @@ def run_datagen_on_ray(
     resume: bool,
     address: str,
     chunk: int | None,
+    quality: str | None = None,
 ) -> int:
     """Make the dataset on the cluster at `address` in tasks of `chunk` frames (None: the
     default, CHUNK_FRAMES), with a status line on stderr, and print a summary line."""
@@ -29,7 +30,7 @@ def run_datagen_on_ray(
     from simbridge.perception import DatagenJob
     from simbridge.progress import Ticker, elapsed
 
-    job = DatagenJob(str(scene), seed=seed, formats=formats)
+    job = DatagenJob(str(scene), seed=seed, formats=formats, quality=quality)
     chunk = CHUNK_FRAMES if chunk is None else chunk
     latest: list[Progress] = []
     began = time.perf_counter()

@@ -6,7 +6,7 @@ output settings and randomisers.
       labelers: [rgb, depth, semantic, instance, boxes_2d, boxes_3d, poses, keypoints]
       labels:                     # instances beyond the `label:` keys of objects and robots
         - {name: gripper, class: gripper, bodies: ["gripper_*"]}
-      render: {near: 0.01, far: 50, shadows: true, reflections: false}
+      render: {quality: high, near: 0.01, far: 50, shadows: true, reflections: false}
       output: {depth_scale: 0.1, png_compression: 1, min_visible_px: 1, contact_sheet: 16}
       cameras:
         - {name: main, width: 640, height: 480, fovy: 60, eye: [1, 0.6, 0.7], target: [0, 0, 0]}
@@ -21,7 +21,7 @@ from pathlib import Path
 from simbridge.errors import PerceptionError, did_you_mean
 from simbridge.perception.camera import CameraSpec
 from simbridge.perception.randomizers import Randomizer, parse_randomizer
-from simbridge.perception.render import RenderSettings
+from simbridge.perception.render import QUALITIES, RenderSettings
 from simbridge.perception.section import Section
 from simbridge.sim.labels import BodyRule, parse_label_rules
 from simbridge.sim.scene import Scene
@@ -85,14 +85,15 @@ def parse_perception(scene: Scene) -> PerceptionConfig:
                 "labelers",
             )
     render = root.sub("render")
+    shadows, multisamples = QUALITIES[render.choice("quality", tuple(QUALITIES), "high")]
     settings = RenderSettings(
         near=render.number("near", 0.01, 1e-6),
         far=render.number("far", 50.0, 1e-3),
-        shadows=render.boolean("shadows", True),
+        shadows=render.boolean("shadows", shadows),
         reflections=render.boolean("reflections", False),
-        multisamples=render.integer("multisamples", 4, low=0),
+        multisamples=render.integer("multisamples", multisamples, low=0),
     )
-    render.done(("near", "far", "shadows", "reflections", "multisamples"))
+    render.done(("quality", "near", "far", "shadows", "reflections", "multisamples"))
     if settings.far <= settings.near:
         raise render.error(f"far {settings.far:g} must be beyond near {settings.near:g}", "far")
     output = root.sub("output")

@@ -2,8 +2,8 @@
 
 The API (stable; `simbridge datagen` and the Ray runner of simbridge.cluster both use it):
 
-- `DatagenJob(scene, seed, formats)`: what to make. Picklable; `scene` is a path every
-  worker can read.
+- `DatagenJob(scene, seed, formats, quality)`: what to make. Picklable; `scene` is a path
+  every worker can read; `quality` a render preset over the scene's (None: the scene's).
 - `render_frames(job, frames, folder, report=None)`: render the frame indices `frames`
   (any iterable of ints: a range, a list) into `folder`, calling `report(done)` after each
   frame. Frame i's randomness comes from `numpy.random.SeedSequence(seed,
@@ -45,6 +45,7 @@ from simbridge.perception.native import (
     write_atomic,
     write_native,
 )
+from simbridge.perception.render import QUALITIES
 
 __all__ = [
     "FORMATS",
@@ -65,16 +66,22 @@ META = "native/dataset.json"
 
 @dataclass(frozen=True)
 class DatagenJob:
-    """A dataset to make: the scene file, the seed, the formats beside the native one."""
+    """A dataset to make: the scene file, the seed, the formats beside the native one, and
+    a render quality preset over the scene's (None: the scene's own)."""
 
     scene: str
     seed: int = 0
     formats: tuple[str, ...] = FORMATS
+    quality: str | None = None
 
     def __post_init__(self) -> None:
         for name in self.formats:
             if name not in FORMATS:
                 raise PerceptionError(f"unknown format {name!r} (valid: {', '.join(FORMATS)})")
+        if self.quality is not None and self.quality not in QUALITIES:
+            raise PerceptionError(
+                f"unknown render quality {self.quality!r} (valid: {', '.join(QUALITIES)})"
+            )
         if self.seed < 0:
             raise PerceptionError(f"seed must be >= 0, got {self.seed}")
 
@@ -101,7 +108,7 @@ def _frame_maker(job: DatagenJob) -> FrameMaker:
     if _maker is None or _maker[0] != job:
         if _maker is not None:
             _maker[1].close()
-        _maker = (job, FrameMaker(job.scene, job.seed))
+        _maker = (job, FrameMaker(job.scene, job.seed, job.quality))
     return _maker[1]
 
 
@@ -129,6 +136,7 @@ def _meta(job: DatagenJob, maker: FrameMaker) -> dict[str, Any]:
         "scene": Path(job.scene).name,
         "seed": job.seed,
         "formats": list(job.formats),
+        "render": {"shadows": config.render.shadows, "multisamples": config.render.multisamples},
         "labelers": sorted(config.labelers),
         "depth_scale": config.output.depth_scale,
         "min_visible_px": config.output.min_visible_px,

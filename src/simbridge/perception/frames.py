@@ -50,14 +50,19 @@ class Frame:
 
 
 class FrameMaker:
-    """A scene built once for making frames; `make(i)` is a function of (seed, i) alone."""
+    """A scene built once for making frames; `make(i)` is a function of (seed, i) alone;
+    `quality` (a QUALITIES preset) overrides the scene's shadows and multisampling."""
 
-    def __init__(self, scene: Scene | str | Path, seed: int = 0) -> None:
+    def __init__(
+        self, scene: Scene | str | Path, seed: int = 0, quality: str | None = None
+    ) -> None:
         if not isinstance(scene, Scene):
             scene = load_scene(scene)
         self.scene = scene
         self.seed = seed
         self.config: PerceptionConfig = parse_perception(scene)
+        if quality is not None:  # a preset over the scene's render settings
+            self.config = replace(self.config, render=self.config.render.with_quality(quality))
 
         def extend(document: MjcfDocument) -> None:
             for randomizer in self.config.randomizers:

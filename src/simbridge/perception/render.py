@@ -8,7 +8,7 @@ import atexit
 import math
 import time
 import weakref
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import mujoco
 import numpy as np
@@ -19,7 +19,7 @@ from simbridge.perception.camera import CameraView
 from simbridge.sim.sensors import configure_gl
 from simbridge.sim.sensors.gl_backend import GLContext, create_gl_context
 
-__all__ = ["RenderSettings", "Rendered", "StageTimes", "ViewRenderer"]
+__all__ = ["QUALITIES", "RenderSettings", "Rendered", "StageTimes", "ViewRenderer"]
 
 _OPEN: weakref.WeakSet[ViewRenderer] = weakref.WeakSet()
 
@@ -34,6 +34,11 @@ def _close_at_exit() -> None:
         renderer.close()
 
 
+QUALITIES = {"high": (True, 4), "fast": (False, 0)}
+"""Render presets: (shadows, multisamples). On a CPU (llvmpipe) `fast` renders a 640x480
+frame of the datagen scene about 5x faster than `high`; labels are the same either way."""
+
+
 @dataclass(frozen=True)
 class RenderSettings:
     """How frames are drawn: clipping planes (m) and the classic renderer's effects."""
@@ -45,6 +50,15 @@ class RenderSettings:
     multisamples: int = 4
     """Multisample anti-aliasing of the offscreen buffer (MuJoCo's default 4; 0: none,
     much faster on a CPU)."""
+
+    def with_quality(self, quality: str) -> RenderSettings:
+        """These settings with a preset's shadows and multisampling (QUALITIES)."""
+        if quality not in QUALITIES:
+            raise PerceptionError(
+                f"render quality {quality!r} unknown (valid: {', '.join(QUALITIES)})"
+            )
+        shadows, multisamples = QUALITIES[quality]
+        return replace(self, shadows=shadows, multisamples=multisamples)
 
 
 @dataclass
