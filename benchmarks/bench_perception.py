@@ -1,13 +1,17 @@
 """Perception data (issue 34): labelled frames per second at 640x480 on one core (RGB,
 depth, instance and semantic segmentation, boxes, poses, keypoints, written to disk as the
 native layout, COCO and BOP) against bare renders of the same frames, the first-frame
-latency (a fresh process: imports, scene compile, first frame) and the memory of one worker.
+latency (a fresh process: imports, scene compile, first frame) and the memory of one worker,
+at each render quality (`fast`: the shipped datagen scene's; `high`: shadows and 4x MSAA).
 
 A second table splits a labelled frame's CPU time (the process's, llvmpipe's thread
 included: robust to other processes' load) by stage, and gives the most frames/s one core
-can render (1 / the renders' CPU time) and label and write (1 / all stages').
+can render (1 / the renders' CPU time) and label and write (1 / all stages'), and what
+labelling and writing cost over the bare renders (pose and renders) of the same frames.
 
-Run: `python benchmarks/bench_perception.py` (prints the tables); `run()` returns them.
+Run: `python benchmarks/bench_perception.py [--quick] [--markdown]` (prints the tables;
+`--quick`: 2 frames, 1 round, `fast` only, all modes in one process: a check that it
+runs, not a measurement); `run()` returns them.
 Each measurement runs in a fresh process pinned to one CPU (os.sched_setaffinity), with
 llvmpipe told to use one thread (LP_NUM_THREADS=1) when OSMesa renders.
 """
@@ -25,21 +29,23 @@ import time
 from pathlib import Path
 from typing import Any
 
-__all__ = ["FRAMES", "ROUNDS", "run", "stage_rows"]
+__all__ = ["FRAMES", "MODES", "QUALITIES", "ROUNDS", "run", "stage_rows"]
 
 FRAMES = 16
 """Frames each mode renders (after the first, timed apart)."""
 ROUNDS = 3
 """Rounds of all modes (rows give the best and the median)."""
+QUALITIES = ("fast", "high")
+"""Render presets measured (simbridge.perception.render.QUALITIES)."""
 
 
-def _child(mode: str, frames: int) -> dict[str, Any]:
+def _child(mode: str, frames: int, quality: str) -> dict[str, Any]:
     """One measurement in this (fresh, pinned) process."""
     began = time.perf_counter()
     from simbridge.apps.datagen import SCENE
     from simbridge.perception import DatagenJob, FrameMaker, render_frames
 
-    job = DatagenJob(str(SCENE), seed=0, formats=("coco", "bop"))
+    job = DatagenJob(str(SCENE), seed=0, formats=("coco", "bop"), quality=quality)
     with tempfile.TemporaryDirectory() as folder:
         if mode == "labelled":
             render_frames(job, [0], Path(folder))  # scene compile + first frame, written
@@ -48,7 +54,7 @@ def _child(mode: str, frames: int) -> dict[str, Any]:
             render_frames(job, range(1, frames + 1), Path(folder))
             spent = time.perf_counter() - start
         else:
-            maker = FrameMaker(SCENE, seed=0)
+            maker = FrameMaker(SCENE, seed=0, quality=quality)
             maker.render(maker.pose(0).views["main"], labelled=mode == "renders")
             first = time.perf_counter() - began
             start = time.perf_counter()
@@ -63,14 +69,14 @@ def _child(mode: str, frames: int) -> dict[str, Any]:
     }
 
 
-def _stages(frames: int) -> dict[str, Any]:
+def _stages(frames: int, quality: str) -> dict[str, Any]:
     """CPU seconds (the whole process's) per labelled frame, by stage, after a first frame."""
     from simbridge.apps.datagen import SCENE
     from simbridge.perception import FrameMaker
     from simbridge.perception.bop import write_bop_frame
     from simbridge.perception.native import frame_json_path, json_bytes, write_atomic, write_native
 
-    maker = FrameMaker(SCENE, seed=0)
+    maker = FrameMaker(SCENE, seed=0, quality=quality)
     output = maker.config.output
     cost = {"pose (randomisers, mj_forward)": 0.0, "make (pose, renders, labels)": 0.0}
     cost["write (native, BOP)"] = 0.0
@@ -97,7 +103,8 @@ def _stages(frames: int) -> dict[str, Any]:
     return {"ms": {k: 1000 * v / frames for k, v in stages.items()}, "renders": list(render)}
 
 
-def _measure(mode: str, frames: int) -> dict[str, Any]:
+def _measure(modes: tuple[str, ...], frames: int, quality: str) -> list[dict[str, Any]]:
+    """Each mode measured in turn in one fresh, pinned process."""
     env = dict(os.environ, LP_NUM_THREADS="1")
     env.setdefault("MUJOCO_GL", "osmesa")
     env.setdefault("PYOPENGL_PLATFORM", env["MUJOCO_GL"])
@@ -106,8 +113,9 @@ def _measure(mode: str, frames: int) -> dict[str, Any]:
         f"sys.path.insert(0, {str(Path(__file__).resolve().parents[1])!r}); "
         "import warnings; warnings.simplefilter('ignore'); "
         "from benchmarks.bench_perception import _child, _stages; "
-        f"mode, frames = {mode!r}, {frames}; "
-        "print(json.dumps(_stages(frames) if mode == 'stages' else _child(mode, frames)))"
+        f"modes, frames, quality = {modes!r}, {frames}, {quality!r}; "
+        "print(json.dumps([_stages(frames, quality) if mode == 'stages' "
+        "else _child(mode, frames, quality) for mode in modes]))"
     )
     done = subprocess.run(
         [sys.executable, "-c", code],
@@ -118,17 +126,36 @@ def _measure(mode: str, frames: int) -> dict[str, Any]:
         timeout=1800,
     )
     if done.returncode:
-        raise RuntimeError(f"bench_perception {mode}: {done.stderr.strip()[-2000:]}")
-    result: dict[str, Any] = json.loads(done.stdout.strip().splitlines()[-1])
+        raise RuntimeError(f"bench_perception {modes} {quality}: {done.stderr.strip()[-2000:]}")
+    result: list[dict[str, Any]] = json.loads(done.stdout.strip().splitlines()[-1])
     return result
 
 
-def stage_rows(frames: int = FRAMES, rounds: int = ROUNDS) -> list[dict[str, Any]]:
-    """CPU ms per labelled frame by stage (median and least of `rounds` fresh processes),
-    then the renders' sum and all stages' sum with the frames/s each allows one core."""
-    results = [_measure("stages", frames) for _ in range(rounds)]
+MODES = ("rgb", "renders", "labelled", "stages")
+
+
+def _rounds(frames: int, rounds: int, quality: str, fresh: bool) -> dict[str, list[dict[str, Any]]]:
+    """Each mode's results over `rounds` rounds that take the modes in turn: each in a
+    fresh process, or (`fresh` False, a quick check) all of a round in one."""
+    results: dict[str, list[dict[str, Any]]] = {mode: [] for mode in MODES}
+    for _ in range(rounds):
+        if fresh:
+            for mode in MODES:
+                results[mode] += _measure((mode,), frames, quality)
+        else:
+            for mode, result in zip(MODES, _measure(MODES, frames, quality), strict=True):
+                results[mode].append(result)
+    return results
+
+
+def stage_rows(results: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """CPU ms per labelled frame by stage (median and least of the rounds' `results`),
+    then the renders' sum and all stages' sum with the frames/s each allows one core, and
+    labelling and writing over the bare renders (pose and renders)."""
+    rounds = len(results)
     load = round(os.getloadavg()[0], 2)
     renders = set(results[0]["renders"])
+    pose = "pose (randomisers, mj_forward)"
     rows, sums = [], {"renders": [0.0] * rounds, "all": [0.0] * rounds}
     for stage in results[0]["ms"]:
         values = [r["ms"][stage] for r in results]
@@ -152,47 +179,70 @@ def stage_rows(frames: int = FRAMES, rounds: int = ROUNDS) -> list[dict[str, Any
             "frames_per_s_bound": round(1000 / least, 2),
             "load_1min": load,
         })  # fmt: skip
+    bare = [sums["renders"][k] + results[k]["ms"][pose] for k in range(rounds)]
+    over = [(sums["all"][k] - bare[k]) / bare[k] for k in range(rounds)]
+    rows.append({
+        "stage": "labelling + writing over the bare renders (pose + renders)",
+        "cpu_ms_median": f"{statistics.median(over):+.0%}",
+        "cpu_ms_least": f"{min(over):+.0%}",
+        "frames_per_s_bound": "",
+        "load_1min": load,
+    })  # fmt: skip
     return rows
 
 
-def run(frames: int = FRAMES, rounds: int = ROUNDS) -> dict[str, list[dict[str, Any]]]:
-    """Two tables: frames/s of bare RGB renders, RGB + depth + segmentation renders, and
+def run(
+    frames: int = FRAMES,
+    rounds: int = ROUNDS,
+    qualities: tuple[str, ...] = QUALITIES,
+    fresh: bool = True,
+) -> dict[str, list[dict[str, Any]]]:
+    """Per quality: frames/s of bare RGB renders, RGB + depth + segmentation renders, and
     labelled and written frames (best and median of `rounds` rounds that take each mode in
-    turn); and `stage_rows`."""
+    turn, each in a fresh process unless `fresh` is False); and `stage_rows`."""
     load = os.getloadavg()[0]
-    modes = ("rgb", "renders", "labelled")
-    results: dict[str, list[dict[str, Any]]] = {mode: [] for mode in modes}
-    for _ in range(rounds):
-        for mode in modes:
-            results[mode].append(_measure(mode, frames))
-    best = {mode: max(r["fps"] for r in results[mode]) for mode in modes}
-    median = {mode: statistics.median(r["fps"] for r in results[mode]) for mode in modes}
-    rows = []
-    for mode, what in (
-        ("rgb", "RGB render only (posed, randomised)"),
-        ("renders", "RGB + depth + segmentation renders (bare)"),
-        ("labelled", "labelled + written (native, COCO, BOP)"),
-    ):
-        rows.append({
-            "mode": what,
-            "fps_best": round(best[mode], 2),
-            "fps_median": round(median[mode], 2),
-            "cost_over_bare": (
-                f"{best['renders'] / best[mode] - 1:+.0%}" if mode == "labelled" else ""
-            ),
-            "first_frame_s": round(min(r["first_frame_s"] for r in results[mode]), 2),
-            "peak_rss_mb": round(max(r["peak_rss_mb"] for r in results[mode])),
-            "load_1min": round(load, 2),
-        })  # fmt: skip
-    return {
-        "Perception: frames/s on one core": rows,
-        "Perception: CPU per labelled frame, by stage": stage_rows(frames, rounds),
-    }
+    rows, stages = [], {}
+    for quality in qualities:
+        results = _rounds(frames, rounds, quality, fresh)
+        stages[quality] = stage_rows(results["stages"])
+        modes = ("rgb", "renders", "labelled")
+        best = {mode: max(r["fps"] for r in results[mode]) for mode in modes}
+        median = {mode: statistics.median(r["fps"] for r in results[mode]) for mode in modes}
+        for mode, what in (
+            ("rgb", "RGB render only (posed, randomised)"),
+            ("renders", "RGB + depth + segmentation renders (bare)"),
+            ("labelled", "labelled + written (native, COCO, BOP)"),
+        ):
+            rows.append({
+                "quality": quality,
+                "mode": what,
+                "fps_best": round(best[mode], 2),
+                "fps_median": round(median[mode], 2),
+                "cost_over_bare": (
+                    f"{best['renders'] / best[mode] - 1:+.0%}" if mode == "labelled" else ""
+                ),
+                "first_frame_s": round(min(r["first_frame_s"] for r in results[mode]), 2),
+                "peak_rss_mb": round(max(r["peak_rss_mb"] for r in results[mode])),
+                "load_1min": round(load, 2),
+            })  # fmt: skip
+    tables = {"Perception: frames/s on one core": rows}
+    for quality, table in stages.items():
+        tables[f"Perception: CPU per labelled frame, by stage ({quality})"] = table
+    return tables
 
 
 if __name__ == "__main__":
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
     from benchmarks.table import format_table
+    from benchmarks.usage import exit_on_help
 
-    for title, table in run().items():
-        print(f"{title}\n\n{format_table(table)}\n")
+    exit_on_help(
+        __doc__,
+        "  --quick     2 frames, 1 round, fast only, one process (a check that it runs)\n"
+        "  --markdown  Markdown tables",
+    )
+    quick = "--quick" in sys.argv
+    tables = run(2, 1, ("fast",), fresh=False) if quick else run()
+    for title, table in tables.items():
+        print(f"### {title}\n")
+        print(format_table(table, markdown="--markdown" in sys.argv) + "\n")
