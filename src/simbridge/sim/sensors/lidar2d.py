@@ -11,8 +11,9 @@ from numpy.typing import NDArray
 
 from simbridge.errors import SimError
 from simbridge.sim.sensors.base import Sensor
+from simbridge.sim.sensors.beams import LidarBeams
 from simbridge.sim.sensors.config import SensorConfig
-from simbridge.sim.sensors.raycast import RayCaster, body_ids, check_range_limits
+from simbridge.sim.sensors.raycast import check_range_limits
 from simbridge.sim.sensors.rosmsg import Publication, header, new_message
 
 __all__ = ["LaserScanResult", "Lidar2D", "Lidar2DConfig", "apply_range_limits"]
@@ -79,15 +80,7 @@ class Lidar2D(Sensor):
         directions = np.stack(
             [np.cos(self.angles), np.sin(self.angles), np.zeros_like(self.angles)], axis=1
         )
-        self._caster = RayCaster(
-            model,
-            directions,
-            exclude_body=frame.body_id,
-            cutoff=config.range_max * 1.01,
-            geomgroup=config.geomgroup,
-            ignore_bodies=body_ids(model, config.ignore_bodies),
-        )
-        self._rng = np.random.default_rng(config.seed)
+        self._beams = LidarBeams(model, directions, frame, config)
 
     @property
     def angle_increment(self) -> float:
@@ -96,11 +89,8 @@ class Lidar2D(Sensor):
 
     def scan(self, model: mujoco.MjModel, data: mujoco.MjData) -> LaserScanResult:
         """Cast all beams now and return REP 117 ranges and |cos(incidence)| intensities."""
-        hits = self._caster.cast(model, data, self.world_pose(data))
-        distance = hits.distance
-        if self.config.noise_stddev > 0:
-            distance = distance + self._rng.normal(0.0, self.config.noise_stddev, len(distance))
-        ranges = apply_range_limits(distance, self.config.range_min, self.config.range_max)
+        hits = self._beams.cast(model, data, self.world_pose(data))
+        ranges = apply_range_limits(hits.distance, self.config.range_min, self.config.range_max)
         intensities = np.where(np.isfinite(ranges), hits.cos_incidence, 0.0)
         return LaserScanResult(ranges.astype(np.float32), intensities.astype(np.float32))
 

@@ -11,8 +11,9 @@ from numpy.typing import NDArray
 
 from simbridge.errors import SimError
 from simbridge.sim.sensors.base import Sensor
+from simbridge.sim.sensors.beams import LidarBeams
 from simbridge.sim.sensors.config import SensorConfig
-from simbridge.sim.sensors.raycast import RayCaster, body_ids, check_range_limits
+from simbridge.sim.sensors.raycast import check_range_limits
 from simbridge.sim.sensors.rosmsg import Publication, header, point_cloud2
 
 __all__ = ["POINT_DTYPE", "Lidar3D", "Lidar3DConfig", "PointScan"]
@@ -87,30 +88,19 @@ class Lidar3D(Sensor):
             [np.cos(elev) * np.cos(azim), np.cos(elev) * np.sin(azim), np.sin(elev)], axis=-1
         ).reshape(-1, 3)
         self._rings = np.repeat(np.arange(config.channels, dtype=np.uint16), config.samples)
-        self._caster = RayCaster(
-            model,
-            directions,
-            exclude_body=frame.body_id,
-            cutoff=config.range_max * 1.01,
-            geomgroup=config.geomgroup,
-            ignore_bodies=body_ids(model, config.ignore_bodies),
-            threads=config.threads,
-        )
-        self._rng = np.random.default_rng(config.seed)
+        self._beams = LidarBeams(model, directions, frame, config, threads=config.threads)
 
     @property
     def beam_count(self) -> int:
         """Rays cast per sweep (channels x samples)."""
-        return len(self._caster)
+        return len(self._beams)
 
     def scan(self, model: mujoco.MjModel, data: mujoco.MjData) -> PointScan:
         """Cast every beam now; keep returns inside the range limits."""
-        hits = self._caster.cast(model, data, self.world_pose(data))
+        hits = self._beams.cast(model, data, self.world_pose(data))
         distance = hits.distance
-        if self.config.noise_stddev > 0:
-            distance = distance + self._rng.normal(0.0, self.config.noise_stddev, len(distance))
         keep = (distance >= self.config.range_min) & (distance <= self.config.range_max)
-        points = self._caster.directions[keep] * distance[keep, None]
+        points = self._beams.directions[keep] * distance[keep, None]
         return PointScan(
             points.astype(np.float32),
             hits.cos_incidence[keep].astype(np.float32),
@@ -136,4 +126,4 @@ class Lidar3D(Sensor):
 
     def close(self) -> None:
         """Stop the ray-casting worker threads."""
-        self._caster.close()
+        self._beams.close()
