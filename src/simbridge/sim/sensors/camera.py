@@ -21,6 +21,7 @@ from simbridge.sim.sensors.encoding import (
 )
 from simbridge.sim.sensors.frames import Pose
 from simbridge.sim.sensors.labelled import LIVE_LABELERS, LabelLookup, LiveLabeller
+from simbridge.sim.sensors.lazy_renderer import LazyRenderer
 from simbridge.sim.sensors.offscreen import OffscreenRenderer
 from simbridge.sim.sensors.rosmsg import Publication, header, new_message
 
@@ -99,7 +100,16 @@ class Camera(Sensor):
             },
             data_in_frame=Pose(np.zeros(3), OPTICAL_FROM_BODY),
         )
-        self._renderer: OffscreenRenderer | None = None
+        self._renderer = LazyRenderer(
+            lambda model: OffscreenRenderer(
+                model,
+                config.width,
+                config.height,
+                shadows=config.shadows,
+                reflections=config.reflections,
+                multisamples=config.multisamples,
+            )
+        )
 
     def bind_labels(self, lookup: LabelLookup) -> None:
         """Take instance and class ids from a scene's label table (needed by `labelers`)."""
@@ -111,25 +121,13 @@ class Camera(Sensor):
         """The current view's segments: an image of segment numbers and each segment's
         MuJoCo object id and type (`OffscreenRenderer.render_segments`; the image's
         renderer serves: MuJoCo draws segmentation without multisampling)."""
-        return self._image_renderer(model).render_segments(
+        return self._renderer.get(model).render_segments(
             data, self.world_pose(data), self.config.fovy, self.config.near, self.config.far
         )
 
-    def _image_renderer(self, model: mujoco.MjModel) -> OffscreenRenderer:
-        if self._renderer is None:
-            self._renderer = OffscreenRenderer(
-                model,
-                self.config.width,
-                self.config.height,
-                shadows=self.config.shadows,
-                reflections=self.config.reflections,
-                multisamples=self.config.multisamples,
-            )
-        return self._renderer
-
     def render(self, model: mujoco.MjModel, data: mujoco.MjData) -> NDArray[np.uint8]:
         """The current view as an (height, width, 3) rgb8 array."""
-        return self._image_renderer(model).render_rgb(
+        return self._renderer.get(model).render_rgb(
             data, self.world_pose(data), self.config.fovy, self.config.near, self.config.far
         )
 
@@ -186,6 +184,4 @@ class Camera(Sensor):
 
     def close(self) -> None:
         """Free the offscreen renderer."""
-        if self._renderer is not None:
-            self._renderer.close()
-            self._renderer = None
+        self._renderer.close()

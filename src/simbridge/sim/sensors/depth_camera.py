@@ -14,6 +14,7 @@ from simbridge.sim.sensors.base import Sensor
 from simbridge.sim.sensors.camera_model import OPTICAL_FROM_BODY, PinholeModel
 from simbridge.sim.sensors.config import SensorConfig
 from simbridge.sim.sensors.frames import Pose
+from simbridge.sim.sensors.lazy_renderer import LazyRenderer
 from simbridge.sim.sensors.offscreen import OffscreenRenderer
 from simbridge.sim.sensors.rosmsg import Publication, header, new_message, point_cloud2
 
@@ -76,15 +77,15 @@ class DepthCamera(Sensor):
             },
             data_in_frame=Pose(np.zeros(3), OPTICAL_FROM_BODY),
         )
-        self._renderer: OffscreenRenderer | None = None
+        self._renderer = LazyRenderer(
+            lambda model: OffscreenRenderer(model, config.width, config.height)
+        )
 
     def depth(self, model: mujoco.MjModel, data: mujoco.MjData) -> NDArray[np.float64]:
         """(height, width) z-depth in metres: +inf no return or beyond range_max,
         -inf closer than range_min (REP 118)."""
-        if self._renderer is None:
-            self._renderer = OffscreenRenderer(model, self.config.width, self.config.height)
         cfg = self.config
-        depth = self._renderer.render_depth(
+        depth = self._renderer.get(model).render_depth(
             data,
             self.world_pose(data),
             cfg.fovy,
@@ -150,6 +151,4 @@ class DepthCamera(Sensor):
 
     def close(self) -> None:
         """Free the offscreen renderer."""
-        if self._renderer is not None:
-            self._renderer.close()
-            self._renderer = None
+        self._renderer.close()
