@@ -212,6 +212,9 @@ class Command:
 
 @dataclass(frozen=True, slots=True)
 class _TopicTyped(Command):
+    """A command naming a topic and its type. Subclasses extend `to_json` through
+    `_TopicTyped.to_json(self)`: zero-argument super() fails in a slots dataclass."""
+
     topic: str
     message_name: str
 
@@ -220,23 +223,24 @@ class _TopicTyped(Command):
 
     @classmethod
     def from_json(cls, obj: dict[str, Any]) -> Command:
-        return cls(
-            _get_name(cls.NAME, obj, "topic"),
-            _get_name(cls.NAME, obj, "message_name", kind="type"),
-        )
+        return cls(*cls._topic_and_type(obj))
+
+    @classmethod
+    def _topic_and_type(cls, obj: dict[str, Any]) -> tuple[str, str]:
+        """The payload's `topic` and `message_name`, validated."""
+        topic = _get_name(cls.NAME, obj, "topic")
+        return topic, _get_name(cls.NAME, obj, "message_name", kind="type")
 
 
 @dataclass(frozen=True, slots=True)
-class Subscribe(Command):
+class Subscribe(_TopicTyped):
     """Client wants every message on `topic`; `queue_size` bounds its send queue."""
 
     NAME: ClassVar[str] = "__subscribe"
-    topic: str
-    message_name: str
     queue_size: int = DEFAULT_SUBSCRIBE_QUEUE
 
     def to_json(self) -> dict[str, Any]:
-        obj: dict[str, Any] = {"topic": self.topic, "message_name": self.message_name}
+        obj = _TopicTyped.to_json(self)
         if self.queue_size != DEFAULT_SUBSCRIBE_QUEUE:  # the default: Unity's exact bytes
             obj["queue_size"] = self.queue_size
         return obj
@@ -244,32 +248,22 @@ class Subscribe(Command):
     @classmethod
     def from_json(cls, obj: dict[str, Any]) -> Command:
         queue = _queue_size(cls.NAME, obj, DEFAULT_SUBSCRIBE_QUEUE)
-        return cls(
-            _get_name(cls.NAME, obj, "topic"),
-            _get_name(cls.NAME, obj, "message_name", kind="type"),
-            queue if queue > 0 else DEFAULT_SUBSCRIBE_QUEUE,
-        )
+        return cls(*cls._topic_and_type(obj), queue if queue > 0 else DEFAULT_SUBSCRIBE_QUEUE)
 
 
 @dataclass(frozen=True, slots=True)
-class Publish(Command):
+class Publish(_TopicTyped):
     """Client will publish on `topic`."""
 
     NAME: ClassVar[str] = "__publish"
-    topic: str
-    message_name: str
     queue_size: int = 10
     latch: bool = False
     report_subscribers: bool = False
     """simbridge extension: ask for `__subscribers` counts (only sent when true)."""
 
     def to_json(self) -> dict[str, Any]:
-        obj: dict[str, Any] = {
-            "topic": self.topic,
-            "message_name": self.message_name,
-            "queue_size": self.queue_size,
-            "latch": self.latch,
-        }
+        obj = _TopicTyped.to_json(self)
+        obj.update(queue_size=self.queue_size, latch=self.latch)
         if self.report_subscribers:
             obj["report_subscribers"] = True
         return obj
@@ -278,8 +272,7 @@ class Publish(Command):
     def from_json(cls, obj: dict[str, Any]) -> Command:
         queue = _queue_size(cls.NAME, obj, 10)
         return cls(
-            _get_name(cls.NAME, obj, "topic"),
-            _get_name(cls.NAME, obj, "message_name", kind="type"),
+            *cls._topic_and_type(obj),
             queue,
             _get_bool(cls.NAME, obj, "latch", False),
             _get_bool(cls.NAME, obj, "report_subscribers", False),
@@ -369,17 +362,20 @@ class ServiceResponseHeader(ServiceHeader):
 
 
 @dataclass(frozen=True, slots=True)
-class TopicListRequest(Command):
-    """Client asks for the graph's topics."""
-
-    NAME: ClassVar[str] = "__topic_list"
-
+class _NoFields(Command):
     def to_json(self) -> dict[str, Any]:
         return {}
 
     @classmethod
     def from_json(cls, obj: dict[str, Any]) -> Command:
         return cls()
+
+
+@dataclass(frozen=True, slots=True)
+class TopicListRequest(_NoFields):
+    """Client asks for the graph's topics."""
+
+    NAME: ClassVar[str] = "__topic_list"
 
 
 @dataclass(frozen=True, slots=True)
@@ -552,17 +548,10 @@ class SetParam(Command):
 
 
 @dataclass(frozen=True, slots=True)
-class StatsRequest(Command):
+class StatsRequest(_NoFields):
     """simbridge extension: ask the endpoint for this connection's counters."""
 
     NAME: ClassVar[str] = "__stats"
-
-    def to_json(self) -> dict[str, Any]:
-        return {}
-
-    @classmethod
-    def from_json(cls, obj: dict[str, Any]) -> Command:
-        return cls()
 
 
 @dataclass(frozen=True, slots=True)
