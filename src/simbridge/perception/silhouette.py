@@ -53,7 +53,12 @@ def hull_polygon(uv: FloatArray) -> FloatArray:
 def polygon_area(polygon: FloatArray) -> float:
     """Shoelace area of a simple polygon."""
     x, y = polygon[:, 0], polygon[:, 1]
-    return 0.5 * abs(float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1))))
+    return 0.5 * abs(float(np.dot(x, _next(y)) - np.dot(y, _next(x))))
+
+
+def _next(values: FloatArray) -> FloatArray:
+    """Each vertex's successor around the polygon (np.roll(values, -1), without its cost)."""
+    return np.concatenate((values[1:], values[:1]))
 
 
 def _clip_rect(polygon: FloatArray, low: FloatArray, high: FloatArray) -> FloatArray:
@@ -90,7 +95,7 @@ def fill_convex(polygon: FloatArray, mask: NDArray[np.bool_], origin: tuple[int,
         return
     rows = np.arange(v_low, v_high + 1, dtype=float)[:, None]
     x0, y0 = polygon[:, 0], polygon[:, 1]
-    x1, y1 = np.roll(x0, -1), np.roll(y0, -1)
+    x1, y1 = _next(x0), _next(y0)
     dy = y1 - y0
     crosses = (rows >= np.minimum(y0, y1)) & (rows <= np.maximum(y0, y1)) & (dy != 0)
     xs = x0 + (rows - y0) / np.where(dy != 0, dy, 1.0) * (x1 - x0)
