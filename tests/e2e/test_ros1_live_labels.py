@@ -1,7 +1,8 @@
 """Live labels through `simbridge endpoint --backend ros1` to a real rospy subscriber (on
 a roscore of the module's own): the camera's vision_msgs/Detection2DArray, whose Python
-module genpy generates from the shipped definitions (`simbridge msg genpy`), and its
-instance segmentation, as rospy decodes them."""
+module genpy generates from the shipped definitions (`simbridge msg genpy`) with noetic's
+md5sum (so a node built against the real noetic vision_msgs connects too), in noetic's
+layout, and its instance segmentation, as rospy decodes them."""
 
 from __future__ import annotations
 
@@ -28,6 +29,9 @@ from simbridge.sim.sensors import Camera
 
 pytestmark = [pytest.mark.ros1, pytest.mark.timeout(180)]
 
+NOETIC_DETECTION2DARRAY_MD5 = "402071f61477de256df9f1aa45e6e4c8"
+"""Of noetic's vision_msgs (0.0.2) Detection2DArray; see tests/messages/test_vision_msgs.py."""
+
 SUBSCRIBER = r"""
 import json, sys, threading
 import rospy
@@ -49,10 +53,10 @@ def detections(msg):
     return {
         "seq": msg.header.seq, "frame_id": msg.header.frame_id,
         "detections": [
-            {"id": d.id, "class_id": d.results[0].hypothesis.class_id,
-             "score": d.results[0].hypothesis.score,
-             "center": [d.bbox.center.position.x, d.bbox.center.position.y],
-             "size": [d.bbox.size_x, d.bbox.size_y]}
+            {"class_id": d.results[0].id, "score": d.results[0].score,
+             "center": [d.bbox.center.x, d.bbox.center.y, d.bbox.center.theta],
+             "size": [d.bbox.size_x, d.bbox.size_y],
+             "source_img": [d.source_img.width, d.source_img.height]}
             for d in msg.detections
         ],
     }
@@ -64,7 +68,7 @@ def image(msg):
 rospy.init_node("live_labels_listener")
 rospy.Subscriber(sys.argv[1] + "/detections", Detection2DArray, keep("detections", detections))
 rospy.Subscriber(sys.argv[1] + "/instances", Image, keep("instances", image))
-print(json.dumps({"ready": True}), flush=True)
+print(json.dumps({"ready": True, "md5": Detection2DArray._md5sum}), flush=True)
 done.wait(120)
 print(json.dumps(got), flush=True)
 """
@@ -94,6 +98,7 @@ def test_rospy_receives_detections_and_segmentation(master: RosMaster, tmp_path:
     listener = DrainedProcess([SYSTEM_PYTHON, str(script), CAMERA_TOPIC], env)
     try:
         assert _json_line(listener, "ready", 60) is True
+        assert _json_line(listener, "md5", 10) == NOETIC_DETECTION2DARRAY_MD5
         address = f"127.0.0.1:{endpoint.port}"
         with SimulationSession(labelled_scene(tmp_path), address, connect_timeout=10) as session:
             assert session.sensors is not None
@@ -114,10 +119,13 @@ def test_rospy_receives_detections_and_segmentation(master: RosMaster, tmp_path:
     assert isinstance(array, dict)
     assert isinstance(image, dict)
     assert array["frame_id"] == "cam_optical_frame"
-    by_id = {int(d["id"]): d for d in array["detections"]}
-    assert {i: d["class_id"] for i, d in by_id.items()} == {1: "crate", 2: "ball", 3: "post"}
-    assert all(d["score"] == 1.0 for d in by_id.values())
-    (cx, cy), (sx, sy) = by_id[1]["center"], by_id[1]["size"]
+    # In instance-id order (crate, ball, post), each with its class id (ball 1, crate 2,
+    # post 3) as noetic's int64 hypothesis id; noetic has no instance id, source_img is empty.
+    crate, ball, post = array["detections"]
+    assert [d["class_id"] for d in (crate, ball, post)] == [2, 1, 3]
+    assert all(d["score"] == 1.0 for d in (crate, ball, post))
+    assert all(d["source_img"] == [0, 0] and d["center"][2] == 0.0 for d in (crate, ball, post))
+    (cx, cy, _), (sx, sy) = crate["center"], crate["size"]
     edges = (cx - (sx - 1) / 2, cy - (sy - 1) / 2, cx + (sx - 1) / 2, cy + (sy - 1) / 2)
     for got, want in zip(edges, expected, strict=True):
         assert abs(got - want) <= 1.0, (edges, expected)

@@ -5,7 +5,8 @@ became `d k r p`. A Translator maps fields by name (then case-insensitively), dr
 what the target lacks and defaults what the source lacks. Types whose layouts match
 field for field are passed through as they are (a codec accepts a same-named class of
 another registry), so only the parts that differ are rebuilt: an Image gets a new
-header, while its pixel buffer is shared, not copied.
+header, while its pixel buffer is shared, not copied. A message already of the target's
+class (built for it: live-label detections, whose layouts differ beyond renames) passes as it is.
 """
 
 from __future__ import annotations
@@ -32,14 +33,22 @@ class Translator:
     def __init__(self, src: MessageRegistry, dst: MessageRegistry) -> None:
         self.src, self.dst = src, dst
         self._plans: dict[str, _Convert | None] = {}
+        self._dst_classes: dict[str, type[Any]] = {}
         self._lock = threading.RLock()
 
     def translate(self, msg: Any) -> Any:
-        """`msg` in `dst`'s layout (the same object when the layouts already agree)."""
+        """`msg` in `dst`'s layout (the same object when the layouts already agree or `msg`
+        is of `dst`'s class already)."""
         msgtype = getattr(msg, "__msgtype__", None)
         if not isinstance(msgtype, str):
             raise MessageError(f"not a message object: {type(msg).__name__}")
-        plan = self._plan(canonical_of(msgtype))
+        name = canonical_of(msgtype)
+        cls = self._dst_classes.get(name)
+        if cls is None:
+            cls = self._dst_classes[name] = self.dst.msg_class(name)
+        if type(msg) is cls:
+            return msg
+        plan = self._plan(name)
         return msg if plan is None else plan(msg)
 
     def _plan(self, name: str) -> _Convert | None:

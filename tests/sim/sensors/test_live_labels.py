@@ -1,7 +1,9 @@
 """Live labels on the local backend: a camera with labelers publishes instance and semantic
 segmentation and vision_msgs/Detection2DArray next to its image; the crate's box matches
 its projected corners, the ids and classes are the scene's (as a dataset of it has them),
-and the segmentation images agree with the boxes."""
+and the segmentation images agree with the boxes. Detections come in each generation's
+vision_msgs layout: noetic's on ROS 1 (int64 class id, geometry_msgs/Pose2D centre, no
+instance id), 4.x on ROS 2 (class name, the instance id as the detection's id)."""
 
 from __future__ import annotations
 
@@ -49,6 +51,35 @@ def _stamp(header: Any) -> tuple[int, int]:
     return (int(header.stamp.sec), int(header.stamp.nanosec))
 
 
+INSTANCE_IDS = {"crate": 1, "ball": 2, "post": 3}
+"""The scene's instance ids (objects with a label in scene order, then labels: entries)."""
+
+
+def _by_class(array: Any, protocol: Literal["ROS1", "ROS2"]) -> dict[str, Any]:
+    """An array's detections by class name, in the order they came (instance-id order),
+    each read in its generation's layout: noetic's int64 class id and no instance id, or
+    4.x's class name and the instance id as the detection's id; every score 1."""
+    found = {}
+    for detection in array.detections:
+        (result,) = detection.results
+        if protocol == "ROS1":
+            assert not hasattr(detection, "id")
+            assert (detection.source_img.width, detection.source_img.height) == (0, 0)
+            name, score = CLASSES[result.id - 1], result.score
+        else:
+            name, score = result.hypothesis.class_id, result.hypothesis.score
+            assert int(detection.id) == INSTANCE_IDS[name]
+        assert score == 1.0
+        found[name] = detection
+    return found
+
+
+def _centre(box: Any) -> tuple[float, float]:
+    """A BoundingBox2D's centre: geometry_msgs/Pose2D (noetic) or vision_msgs/Pose2D (4.x)."""
+    centre = box.center.position if hasattr(box.center, "position") else box.center
+    return (centre.x, centre.y)
+
+
 @pytest.mark.parametrize("protocol", ["ROS1", "ROS2"])
 def test_live_labels_match_the_geometry_and_the_scene(
     tmp_path: Path, protocol: Literal["ROS1", "ROS2"]
@@ -88,32 +119,27 @@ def test_live_labels_match_the_geometry_and_the_scene(
     # Ids are stable: the next frame of the still scene labels every pixel alike.
     assert (_ids(frames[f"{CAMERA_TOPIC}/instances"][1]) == instances).all()
     # Instance ids in scene order: objects with a label (crate, ball), then labels: entries.
-    by_id = {int(d.id): d for d in detections.detections}
-    assert set(by_id) == {1, 2, 3} == set(np.unique(instances)) - {0}
-    names = {1: "crate", 2: "ball", 3: "post"}
-    for instance_id, detection in by_id.items():
-        (result,) = detection.results
-        assert result.hypothesis.class_id == names[instance_id]
-        assert result.hypothesis.score == 1.0
+    by_class = _by_class(detections, protocol)
+    assert list(by_class) == list(INSTANCE_IDS)
+    assert set(INSTANCE_IDS.values()) == set(np.unique(instances)) - {0}
+    for name, detection in by_class.items():
         assert _stamp(detection.header) == _stamp(detections.header)
         # The segmentation agrees with the box: the instance's pixels span it exactly, and
         # they carry the instance's class id in the semantic image.
-        rows, cols = np.nonzero(instances == instance_id)
+        rows, cols = np.nonzero(instances == INSTANCE_IDS[name])
         box = detection.bbox
-        assert (box.center.position.x, box.center.position.y) == (
-            (cols.min() + cols.max()) / 2,
-            (rows.min() + rows.max()) / 2,
-        )
+        assert _centre(box) == ((cols.min() + cols.max()) / 2, (rows.min() + rows.max()) / 2)
         assert box.size_x == cols.max() - cols.min() + 1
         assert box.size_y == rows.max() - rows.min() + 1
         assert box.center.theta == 0.0
-        assert set(np.unique(semantic[rows, cols])) == {CLASSES.index(names[instance_id]) + 1}
+        assert set(np.unique(semantic[rows, cols])) == {CLASSES.index(name) + 1}
     assert set(np.unique(semantic[instances == 0])) <= {0}
     # The crate's box is its projected corners' box, within a pixel: the visible pixels'
     # centres lie inside the projection, the outermost within a pixel of its edges.
-    crate = by_id[1].bbox
-    u0 = crate.center.position.x - (crate.size_x - 1) / 2
-    v0 = crate.center.position.y - (crate.size_y - 1) / 2
+    crate = by_class["crate"].bbox
+    (u, v) = _centre(crate)
+    u0 = u - (crate.size_x - 1) / 2
+    v0 = v - (crate.size_y - 1) / 2
     u1, v1 = u0 + crate.size_x - 1, v0 + crate.size_y - 1
     for got_edge, want in zip((u0, v0, u1, v1), expected, strict=True):
         assert abs(got_edge - want) <= 1.0, (got_edge, want)
@@ -121,7 +147,7 @@ def test_live_labels_match_the_geometry_and_the_scene(
     assert u1 <= expected[2] + 1e-9
     # Its pose is the crate's, in the optical frame (z forward): its centre, and its yaw
     # about the world's z, which the optical frame sees as its -y.
-    pose = by_id[1].results[0].pose.pose
+    pose = by_class["crate"].results[0].pose.pose
     centre = optical.rotation.T @ (np.array(CRATE_XYZ) - optical.position)
     position = np.array([pose.position.x, pose.position.y, pose.position.z])
     assert np.allclose(position, centre, atol=1e-9), (position, centre)
@@ -173,12 +199,12 @@ def test_live_labels_are_those_of_datagen_for_the_same_view(tmp_path: Path) -> N
     assert set(np.unique(labels.instance_image)) == {0, 1, 2, 3}
     assert (live[f"{CAMERA_TOPIC}/instances"] == labels.instance_image).all()
     assert (live[f"{CAMERA_TOPIC}/semantic"] == labels.category_image).all()
-    boxes = {int(d.id): d.bbox for d in live[f"{CAMERA_TOPIC}/detections"].detections}
-    tight = {i.instance.id: i.tight_box for i in labels.instances if i.tight_box is not None}
-    assert set(boxes) == set(tight)
-    for instance_id, (u0, v0, u1, v1) in tight.items():
-        box = boxes[instance_id]
-        assert (box.center.position.x, box.center.position.y) == ((u0 + u1) / 2, (v0 + v1) / 2)
+    found = _by_class(live[f"{CAMERA_TOPIC}/detections"], "ROS1")  # the sensors' own layout
+    tight = {i.instance.category: i.tight_box for i in labels.instances if i.tight_box is not None}
+    assert set(found) == set(tight)
+    for name, (u0, v0, u1, v1) in tight.items():
+        box = found[name].bbox
+        assert _centre(box) == ((u0 + u1) / 2, (v0 + v1) / 2)
         assert (box.size_x, box.size_y) == (u1 - u0 + 1, v1 - v0 + 1)
 
 

@@ -10,7 +10,8 @@ laser-scan and odometry messages skip that and the generic encoder: precompiled 
 serialize them for either generation (`sensor_encoder.py`).
 
 Cameras with `labelers:` get the scene's label table here (the world knows the scene and
-which bodies make each robot): their ids are those of a dataset of the same scene.
+which bodies make each robot): their ids are those of a dataset of the same scene. Their
+detections are built in the connector's layouts (noetic vision_msgs or 4.x), not translated.
 """
 
 from __future__ import annotations
@@ -71,7 +72,8 @@ class SensorPublisher:
         self._bind_labels()
 
     def _bind_labels(self) -> None:
-        """Give every labelling camera the scene's instance and class ids."""
+        """Give every labelling camera the scene's instance and class ids, and the connector's
+        layouts for its detections (noetic's and vision_msgs 4.x's differ beyond renames)."""
         labelling = [s for s in self.suite.sensors if isinstance(s, Camera) and s.labeller.topics]
         if not labelling:
             return
@@ -80,6 +82,7 @@ class SensorPublisher:
         table = scene_label_table(world.model, world.scene, bodies)
         for camera in labelling:
             camera.bind_labels(table)
+            camera.labeller.use_layouts(lambda: self.connector.registry)
 
     def add_observer(self, observer: SensorObserver) -> None:
         """Also measure what `observer` wants, and show it every batch of messages."""

@@ -3,11 +3,14 @@
 
 The ids come from a `LabelLookup` (a scene's `simbridge.sim.labels.LabelTable`, bound by
 whoever knows the scene: the ROS layer), the same ids a dataset of the scene carries.
+Detections take the layouts of the registry they will go out through: noetic's vision_msgs on
+ROS 1 (class id as int64, a geometry_msgs/Pose2D box centre, no instance id), vision_msgs
+4.x on ROS 2 (class name, vision_msgs/Pose2D centre, the instance id as the tracking id).
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any, Protocol
 
@@ -16,6 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
 
+from simbridge.messages import MessageRegistry, Translator, default_registry
 from simbridge.sim.sensors.frames import Pose
 from simbridge.sim.sensors.rosmsg import new_message, pose_message
 
@@ -48,6 +52,9 @@ class LabelledInstance(Protocol):
 
     @property
     def category(self) -> str: ...
+
+    @property
+    def category_id(self) -> int: ...
 
     @property
     def root_body(self) -> int: ...
@@ -116,6 +123,8 @@ class LiveLabeller:
         self.topics = {name: f"{namespace}/{_SUFFIXES[name]}" for name in labelers}
         """Labeler -> topic, for the labelers asked for."""
         self._lookup: LabelLookup | None = None
+        self._layouts: Callable[[], MessageRegistry] = default_registry
+        self._translator: Translator | None = None
 
     @property
     def outputs(self) -> dict[str, str]:
@@ -130,6 +139,11 @@ class LiveLabeller:
     def bind(self, lookup: LabelLookup) -> None:
         """Take ids and classes from `lookup` (a scene's label table)."""
         self._lookup = lookup
+
+    def use_layouts(self, registry: Callable[[], MessageRegistry]) -> None:
+        """Build detections in the layouts of `registry()`, asked each frame (a connector's
+        turns ROS 2 when a ROS 2 endpoint's handshake arrives); noetic's until then."""
+        self._layouts = registry
 
     def messages(
         self,
@@ -159,8 +173,18 @@ class LiveLabeller:
         topic = self.topics.get("boxes_2d")
         if topic is not None and topic in wanted:
             found = detections(lookup, instances, data, optical)
-            out.append((topic, _detection_array(header(topic), found)))
+            registry = self._layouts()
+            stamped = self._header_for(registry, header(topic))
+            out.append((topic, _detection_array(registry, stamped, found)))
         return out
+
+    def _header_for(self, registry: MessageRegistry, header: Any) -> Any:
+        """`header` (a noetic std_msgs/Header, as sensors build it) in `registry`'s layout."""
+        if registry is default_registry():
+            return header
+        if self._translator is None or self._translator.dst is not registry:
+            self._translator = Translator(default_registry(), registry)
+        return self._translator.translate(header)
 
 
 def _image(header: Any, ids: NDArray[np.uint16], width: int, height: int) -> Any:
@@ -178,37 +202,41 @@ def _image(header: Any, ids: NDArray[np.uint16], width: int, height: int) -> Any
     )
 
 
-def _detection_array(header: Any, found: Sequence[Detection]) -> Any:
-    """vision_msgs/Detection2DArray: per instance its box, class (score 1) and pose."""
+def _detection_array(registry: MessageRegistry, header: Any, found: Sequence[Detection]) -> Any:
+    """vision_msgs/Detection2DArray in `registry`'s layout: per instance its box, class
+    (score 1) and pose; on vision_msgs 4.x also its instance id."""
+    cls = registry.msg_class
+    fields = registry.schema("vision_msgs/ObjectHypothesisWithPose").fields
+    vision_4x = any(field.name == "hypothesis" for field in fields)
+    empty_image = None if vision_4x else registry.new("sensor_msgs/Image")
     items = []
     for detection in found:
         u, v = detection.center
         size_x, size_y = detection.size
-        centre = new_message(
-            "vision_msgs/Pose2D",
-            position=new_message("vision_msgs/Point2D", x=u, y=v),
-            theta=0.0,
+        instance = detection.instance
+        pose = cls("geometry_msgs/PoseWithCovariance")(
+            pose=pose_message(detection.pose), covariance=np.zeros(36)
         )
-        hypothesis = new_message(
-            "vision_msgs/ObjectHypothesisWithPose",
-            hypothesis=new_message(
-                "vision_msgs/ObjectHypothesis", class_id=detection.instance.category, score=1.0
-            ),
-            pose=new_message(
-                "geometry_msgs/PoseWithCovariance",
-                pose=pose_message(detection.pose),
-                covariance=np.zeros(36),
-            ),
-        )
-        items.append(
-            new_message(
-                "vision_msgs/Detection2D",
-                header=header,
-                results=[hypothesis],
-                bbox=new_message(
-                    "vision_msgs/BoundingBox2D", center=centre, size_x=size_x, size_y=size_y
-                ),
-                id=str(detection.instance.id),
+        extra: dict[str, Any]
+        if vision_4x:
+            centre = cls("vision_msgs/Pose2D")(
+                position=cls("vision_msgs/Point2D")(x=u, y=v), theta=0.0
             )
+            hypothesis = cls("vision_msgs/ObjectHypothesisWithPose")(
+                hypothesis=cls("vision_msgs/ObjectHypothesis")(
+                    class_id=instance.category, score=1.0
+                ),
+                pose=pose,
+            )
+            extra = {"id": str(instance.id)}
+        else:
+            centre = cls("geometry_msgs/Pose2D")(x=u, y=v, theta=0.0)
+            hypothesis = cls("vision_msgs/ObjectHypothesisWithPose")(
+                id=instance.category_id, score=1.0, pose=pose
+            )
+            extra = {"source_img": empty_image}
+        box = cls("vision_msgs/BoundingBox2D")(center=centre, size_x=size_x, size_y=size_y)
+        items.append(
+            cls("vision_msgs/Detection2D")(header=header, results=[hypothesis], bbox=box, **extra)
         )
-    return new_message("vision_msgs/Detection2DArray", header=header, detections=items)
+    return cls("vision_msgs/Detection2DArray")(header=header, detections=items)

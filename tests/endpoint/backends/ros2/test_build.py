@@ -93,6 +93,55 @@ def test_shipped_control_msgs_has_jazzys_type_hashes(name: str, expected: str) -
     }, "stale build? run `make ros2`"
 
 
+def test_shipped_vision_msgs_builds_its_4x_layouts() -> None:
+    """ROS 2 gets vision_msgs 4.x (class names, vision_msgs/Pose2D centres) from the ros2/
+    folder, not the noetic files that ROS 1 uses."""
+    pkg = load_package(SHIPPED_DEFINITIONS / "vision_msgs")
+    assert sorted(pkg.files) == [
+        f"msg/{name}.msg"
+        for name in (
+            "BoundingBox2D",
+            "Detection2D",
+            "Detection2DArray",
+            "ObjectHypothesis",
+            "ObjectHypothesisWithPose",
+            "Point2D",
+            "Pose2D",
+        )
+    ]
+    assert "string class_id" in pkg.files["msg/ObjectHypothesis.msg"]
+    assert "string id" in pkg.files["msg/Detection2D.msg"]
+    assert "sensor_msgs" not in pkg.dependencies  # noetic's source_img is ROS 1's only
+
+
+VISION_MSGS_TYPE_HASHES = {
+    "BoundingBox2D": "RIHS01_008eacbb0cf8f26e83795547bed013eec3675485ef386ec056d80eaaf1c1ce2f",
+    "Detection2D": "RIHS01_0d12b69df5c593b3455b7346fac8205437a7d4bcb09b9e0e0b2dde787ded38ea",
+    "Detection2DArray": "RIHS01_214274120007f4a683866481336b70310268cfa107aebe9d594a6acf75bda968",
+    "ObjectHypothesis": "RIHS01_51da43cec11c01957a64d1e05a24acd18aae7745ec30b74348ad5f6d634f7f90",
+    "ObjectHypothesisWithPose": (
+        "RIHS01_41c12344c0396c48b81df12467c192d99b2a0eb1463c5c37194e4223251c80bc"
+    ),
+    "Point2D": "RIHS01_eab0e83f44ab4de92ceaf76dd7d0e7638f2bdd1d16ffbe16c7a136c48e407247",
+    "Pose2D": "RIHS01_b0b5d1d7b4c20dd4fcde3ed1d4b289a919290572007d67a97043814db25d3648",
+}
+"""vision_msgs 4.1.1's RIHS01 hashes, as rosidl_generator_type_description 4.6.6 computes
+them from that release's files (against the venv's Jazzy std_msgs and geometry_msgs)."""
+
+
+@pytest.mark.ros2
+@pytest.mark.parametrize(("name", "expected"), sorted(VISION_MSGS_TYPE_HASHES.items()))
+def test_shipped_vision_msgs_has_4x_type_hashes(name: str, expected: str) -> None:
+    """What `make ros2` built: a detector built against the real vision_msgs sees the
+    same types as simbridge's live-label detections."""
+    share = require_ros2().parent.parent / "share" / "vision_msgs"
+    description = json.loads((share / "msg" / f"{name}.json").read_text())
+    assert description["type_hashes"][0] == {
+        "type_name": f"vision_msgs/msg/{name}",
+        "hash_string": expected,
+    }, "stale build? run `make ros2`"
+
+
 def test_a_directory_without_interfaces_is_refused(tmp_path: Path) -> None:
     with pytest.raises(InterfaceBuildError, match="neither an interface package"):
         build_packages([tmp_path], tmp_path)
