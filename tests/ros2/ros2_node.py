@@ -92,10 +92,10 @@ def main(argv: list[str]) -> None:
 
 
 def matched_publisher(node: Any, cls: Any, topic: str, qos: Any) -> Any:
-    """A publisher, once a subscription matched it or 30 s passed (discovery can be slow on
+    """A publisher, once a subscription matched it or 60 s passed (discovery can be slow on
     a busy machine)."""
     publisher = node.create_publisher(cls, topic, qos)
-    deadline = time.monotonic() + 30
+    deadline = time.monotonic() + 60
     while publisher.get_subscription_count() == 0 and time.monotonic() < deadline:
         rclpy.spin_once(node, timeout_sec=0.05)
     return publisher
@@ -130,6 +130,8 @@ def run(node: Any, argv: list[str]) -> None:
         for _ in range(count):
             publisher.publish(msg)
             rclpy.spin_once(node, timeout_sec=1.0 / rate)
+        # reliable: what is not acknowledged yet would be lost if the node left now
+        publisher.wait_for_all_acked(rclpy.duration.Duration(seconds=30))
         emit({"sent": count})
     elif mode == "burst":
         topic, count = argv[1], int(argv[2])
