@@ -137,23 +137,36 @@ def test_rviz_draws_the_mobile_robot(tmp_path: Path) -> None:
             env = dict(master.env, DISPLAY=f":{display}")
             env["ROSCONSOLE_CONFIG_FILE"] = str(tmp_path / "rosconsole.config")
             env["ROSCONSOLE_FORMAT"] = "[${severity}] [${logger}]: ${message}"
-            with rviz_log.open("wb") as out:
-                assert RVIZ is not None
-                rviz = subprocess.Popen(
-                    [RVIZ, "-d", str(config)], env=env, stdout=out,
-                    stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
-                    start_new_session=True,
-                )  # fmt: skip
+            runtime = tmp_path / "xdg"
+            runtime.mkdir(mode=0o700)
+            env["XDG_RUNTIME_DIR"] = str(runtime)  # Qt's, not one shared in /tmp
             framebuffer = tmp_path / "Xvfb_screen0"
-            drawn, transformed = 0, False
-            deadline = time.monotonic() + 45
-            while time.monotonic() < deadline and rviz.poll() is None:
-                time.sleep(1.0)
-                drawn = int(robot_blue(read_xwd(framebuffer)).sum())
-                # TF has arrived once a scan could be transformed into the fixed frame
-                transformed = "Message ready" in rviz_log.read_text(errors="replace")
-                if drawn > 400 and transformed:
-                    break
+            for attempt in (1, 2):
+                with rviz_log.open("wb") as out:
+                    assert RVIZ is not None
+                    rviz = subprocess.Popen(
+                        [RVIZ, "-d", str(config)], env=env, stdout=out,
+                        stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
+                        start_new_session=True,
+                    )  # fmt: skip
+                drawn, transformed = 0, False
+                deadline = time.monotonic() + 120
+                while time.monotonic() < deadline and rviz.poll() is None:
+                    time.sleep(1.0)
+                    drawn = int(robot_blue(read_xwd(framebuffer)).sum())
+                    # TF has arrived once a scan could be transformed into the fixed frame
+                    transformed = "Message ready" in rviz_log.read_text(errors="replace")
+                    if drawn > 400 and transformed:
+                        break
+                code = rviz.poll()
+                if attempt == 1 and code is not None and code < 0 and drawn == 0:
+                    # RViz itself crashed starting up (OGRE on llvmpipe, once in a loaded run,
+                    # SIGSEGV right after "Forcing OpenGl version 0"): a second start, once
+                    print(f"rviz died at start-up (signal {-code}); starting it again")
+                    (tmp_path / "rviz-first.log").write_bytes(rviz_log.read_bytes())
+                    continue
+                break
+            assert rviz is not None
             assert rviz.poll() is None, rviz_log.read_text(errors="replace")[-3000:]
             assert sim.poll() is None, (tmp_path / "sim.log").read_text(errors="replace")
             assert transformed, "RViz never transformed a scan into the fixed frame"
