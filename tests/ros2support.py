@@ -43,8 +43,9 @@ __all__ = [
 
 T = TypeVar("T")
 
-UNDISCOVERED = "no ROS 2 server"
-"""What a ROS 2 endpoint's `__error` says of a call whose server it has not discovered."""
+UNDISCOVERED = ("no ROS 2 server", "did not answer")
+"""What a ROS 2 endpoint's `__error` says of a call whose server it has not discovered, or
+whose server answered before it had matched the endpoint's new client (the answer is lost)."""
 
 NODE_SCRIPT = Path(__file__).parent / "ros2" / "ros2_node.py"
 DRIVER_SCRIPT = Path(__file__).parent / "ros2" / "action_driver.py"
@@ -231,14 +232,16 @@ def start_endpoint(*extra: str) -> tuple[Ros2Process, int]:
     return proc, int(match.group(1))
 
 
-def until_discovered(call: Callable[[], T], timeout: float = 120.0) -> T:
-    """`call()` again while it fails because the endpoint has not discovered the ROS 2
-    server yet: the endpoint gives up on discovery after 5 s, and a server's own "ready"
-    does not bound when the endpoint's node sees it on a busy machine."""
+def until_discovered(call: Callable[[], T], timeout: float = 180.0) -> T:
+    """`call()` again while it fails because the endpoint and a ROS 2 server have not
+    discovered each other yet: the endpoint gives up on discovery after 5 s, a server's own
+    "ready" does not bound when the endpoint's node sees it on a busy machine, and a server
+    that answers a client it has not matched yet loses the answer (rmw_fastrtps waits only
+    briefly for that match)."""
     deadline = time.monotonic() + timeout
     while True:
         try:
             return call()
         except Exception as exc:
-            if UNDISCOVERED not in str(exc) or time.monotonic() > deadline:
+            if not any(sign in str(exc) for sign in UNDISCOVERED) or time.monotonic() > deadline:
                 raise

@@ -112,10 +112,13 @@ def endpoint() -> Iterator[tuple[Ros2Process, int]]:
 def unity(endpoint: tuple[Ros2Process, int]) -> Iterator[RawClient]:
     raw = RawClient(endpoint[1])
     raw.send(b"\x00" * 8)  # Unity's first keepalive
+    seen = len(endpoint[0].output)
     try:
         yield raw
     finally:
         raw.close()
+        # pytest shows this with a failure only: what the endpoint logged during the test
+        print("endpoint log:\n" + "".join(endpoint[0].output[seen:][-60:]))
 
 
 def complaints(proc: Ros2Process, name: str) -> list[str]:
