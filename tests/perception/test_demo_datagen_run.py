@@ -7,7 +7,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from pycocotools.coco import COCO
+from pycocotools.coco import COCO  # type: ignore[import-untyped]
 
 from simbridge.cli import main
 
