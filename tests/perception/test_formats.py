@@ -135,6 +135,46 @@ def test_bop_scene_files_are_what_bop_tooling_reads(dataset: tuple[Path, Dataset
             assert len(info["bbox_obj"]) == len(info["bbox_visib"]) == 4
 
 
+def assert_first_tile_shows_the_labels(root: Path, sheet: np.ndarray[Any, Any]) -> None:
+    """Frame 0's tile (top left, 4 px in) is the raw frame scaled to 320 px wide except where
+    masks, boxes and class names are drawn: inside each mask and along each box's top edge the
+    pixels moved well away from the raw ones, and away from all of them nothing moved."""
+    view = native(root, 0)["views"][0]
+    raw = Image.open(root / view["rgb"]).convert("RGB")
+    scale = 320 / raw.width
+    height = max(round(raw.height * scale), 1)
+    plain = np.asarray(raw.resize((320, height), Image.Resampling.BILINEAR)).astype(np.int16)
+    tile = sheet[4 : 4 + height, 4 : 4 + 320]
+    diff = np.abs(tile - plain).max(axis=2)
+    instance = np.load(root / view["labels"])["instance"]
+    drawn = np.zeros(instance.shape, dtype=bool)
+    assert view["instances"]
+    for inst in view["instances"]:
+        mask = instance == inst["id"]
+        drawn |= mask
+        x0, y0, x1, y1 = (int(v) for v in inst["box_tight"])
+        drawn[max(y0 - 2, 0) : y1 + 3, max(x0 - 2, 0) : x1 + 3] = True
+        text_right = x0 + 4 + 8 * len(inst["class"])  # the default font is 6 px a letter
+        drawn[max(y0 - 14, 0) : max(y0 - 14, 0) + 16, max(x0 - 2, 0) : text_right] = True
+        small = np.asarray(Image.fromarray(mask).resize((320, height), Image.Resampling.NEAREST))
+        inner = small.copy()
+        for dy, dx in ((-2, 0), (2, 0), (0, -2), (0, 2)):
+            inner &= np.roll(small, (dy, dx), axis=(0, 1))
+        if inner.sum() >= 4:
+            assert diff[inner].mean() > 20, (inst, diff[inner].mean())
+        top = round(y0 * scale)
+        edge = diff[top, round(x0 * scale) + 1 : round(x1 * scale)]
+        assert edge.size, inst
+        assert edge.mean() > 20, (inst, edge)
+    near = np.asarray(Image.fromarray(drawn).resize((320, height), Image.Resampling.NEAREST))
+    grown = near.copy()
+    for dy in range(-3, 4):
+        for dx in range(-3, 4):
+            grown |= np.roll(near, (dy, dx), axis=(0, 1))
+    assert (~grown).sum() > 320 * height // 4
+    assert diff[~grown].max() <= 2, diff[~grown].max()
+
+
 def test_the_contact_sheet_and_dataset_record_are_written(
     dataset: tuple[Path, DatasetSummary],
 ) -> None:
@@ -142,6 +182,7 @@ def test_the_contact_sheet_and_dataset_record_are_written(
     sheet = Image.open(root / "contact_sheet.png")
     assert sheet.mode == "RGB"
     assert sheet.width > 320
+    assert_first_tile_shows_the_labels(root, np.asarray(sheet).astype(np.int16))
     meta = json.loads((root / "dataset.json").read_text())
     assert meta["frames"] == FRAMES
     assert [c["name"] for c in meta["classes"]] == ["cube", "can", "distractor"]
