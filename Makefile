@@ -65,11 +65,14 @@ lint: $(STAMP)
 typecheck: $(STAMP)
 	$(BIN)/mypy
 
-# pytest workers (pytest-xdist): two, since most tests wait on other processes (ROS nodes,
-# Chromium, a simulator) and one worker leaves a core idle; each test file runs on one worker
-# and the files that start ROS 2 processes share one (tests/conftest.py says why).
-# `make test PYTEST_WORKERS=0` runs the suite in one process.
-PYTEST_WORKERS ?= 2
+# pytest workers (pytest-xdist): `make test PYTEST_WORKERS=2` runs the suite on two, each
+# test file on one worker and the files that start ROS 2 processes on one (tests/conftest.py
+# says why), in about two thirds of the time. The default stays one process: seven of eight
+# two-worker runs on 2026-11-28 failed one to three tests, the last four in one module whose
+# long-lived ROS 2 endpoint stopped hearing helper nodes started late (calls unanswered for
+# minutes, Fast DDS logging "Failed init_port ... open_and_lock_file failed"); no one-process
+# run has shown that (issue 30).
+PYTEST_WORKERS ?= 0
 PYTEST := $(BIN)/pytest -n $(PYTEST_WORKERS) --dist loadgroup
 
 pytest: $(STAMP)

@@ -104,6 +104,7 @@ class Ros2Process:
         self, args: list[str], *, env: dict[str, str] | None = None, interactive: bool = False
     ) -> None:
         python = require_ros2()
+        self.args = args
         self.proc = subprocess.Popen(
             [str(python), *args],
             stdin=subprocess.PIPE if interactive else None,
@@ -179,6 +180,8 @@ class Ros2Process:
 
     def __exit__(self, *exc: object) -> None:
         self.stop()
+        if exc[0] is not None:  # pytest shows this with the failure
+            print(f"{' '.join(self.args)} output:\n" + "".join(self.output[-40:]))
 
 
 class ActionDriver:

@@ -112,13 +112,19 @@ def endpoint() -> Iterator[tuple[Ros2Process, int]]:
 def unity(endpoint: tuple[Ros2Process, int]) -> Iterator[RawClient]:
     raw = RawClient(endpoint[1])
     raw.send(b"\x00" * 8)  # Unity's first keepalive
-    seen = len(endpoint[0].output)
     try:
         yield raw
     finally:
         raw.close()
-        # pytest shows this with a failure only: what the endpoint logged during the test
-        print("endpoint log:\n" + "".join(endpoint[0].output[seen:][-60:]))
+
+
+@pytest.fixture(autouse=True)
+def endpoint_log(endpoint: tuple[Ros2Process, int]) -> Iterator[None]:
+    """What the endpoint logged during a test, printed after it (pytest shows it with a
+    failure only)."""
+    seen = len(endpoint[0].output)
+    yield
+    print("endpoint log:\n" + "".join(endpoint[0].output[seen:][-80:]))
 
 
 def complaints(proc: Ros2Process, name: str) -> list[str]:
