@@ -46,7 +46,7 @@ def test_tf_frames_appear_and_go_with_their_checkbox(running: tuple[World, LiveV
     assert view.tf.frames == {}, "off by default"
     with ViserClient(view.port) as browser:
         browser.send(messages.GuiUpdateMessage(view.tf.checkbox._impl.uuid, {"value": True}))
-        assert wait_for(lambda: len(view.tf.frames) == world.model.nbody - 1, timeout=10)
+        assert wait_for(lambda: len(view.tf.frames) == world.model.nbody - 1, timeout=60)
         names = {handle.name for handle in view.tf.frames.values()}
         assert {"/tf/upper", "/tf/crate"} <= names
         upper = world.model.body("upper").id
@@ -54,7 +54,7 @@ def test_tf_frames_appear_and_go_with_their_checkbox(running: tuple[World, LiveV
             lambda: np.allclose(view.tf.frames[upper].position, world.data.xpos[upper]), timeout=10
         )
         browser.send(messages.GuiUpdateMessage(view.tf.checkbox._impl.uuid, {"value": False}))
-        assert wait_for(lambda: view.tf.frames == {}, timeout=10)
+        assert wait_for(lambda: view.tf.frames == {}, timeout=60)
 
 
 def test_contact_points_on_demand(running: tuple[World, LiveView]) -> None:
@@ -62,7 +62,7 @@ def test_contact_points_on_demand(running: tuple[World, LiveView]) -> None:
     time.sleep(0.3)  # the crate settles on the floor
     assert view.contacts.handle is None, "off by default"
     view.contacts.checkbox.value = True  # type: ignore[misc]
-    assert wait_for(lambda: view.contacts.handle is not None, timeout=10)
+    assert wait_for(lambda: view.contacts.handle is not None, timeout=60)
     handle = view.contacts.handle
     assert handle is not None
     points = np.asarray(handle.points, dtype=np.float64)
@@ -79,11 +79,11 @@ def test_dragging_the_gizmo_moves_the_body_in_mujoco(running: tuple[World, LiveV
     view.toggle_pause()
     with ViserClient(view.port) as browser:
         browser.send(messages.GuiUpdateMessage(view.mover.dropdown._impl.uuid, {"value": "crate"}))
-        assert wait_for(lambda: view.mover.gizmo is not None, timeout=10)
+        assert wait_for(lambda: view.mover.gizmo is not None, timeout=60)
         target = (0.1, 0.5, 0.3)
         yaw = (np.cos(0.3), 0.0, 0.0, np.sin(0.3))
         browser.drag("/move_object", target, yaw)
-        assert wait_for(lambda: np.allclose(world.data.xpos[crate], target, atol=1e-9), timeout=10)
+        assert wait_for(lambda: np.allclose(world.data.xpos[crate], target, atol=1e-9), timeout=60)
         assert np.allclose(world.data.xquat[crate], yaw, atol=1e-9)
         view.toggle_pause()  # the physics takes over: it falls onto the floor below
         assert wait_for(lambda: abs(world.data.xpos[crate][2] - 0.05) < 2e-3, timeout=15)
@@ -107,8 +107,8 @@ def test_several_browsers_and_one_going_away_never_hold_the_physics(
     world, view = running
     browsers = [ViserClient(view.port) for _ in range(3)]
     try:
-        assert wait_for(lambda: len(view.server.get_clients()) == 3, timeout=10)
-        assert wait_for(lambda: all(b.received > 20 for b in browsers), timeout=10), (
+        assert wait_for(lambda: len(view.server.get_clients()) == 3, timeout=60)
+        assert wait_for(lambda: all(b.received > 20 for b in browsers), timeout=60), (
             "each gets the scene"
         )
         frames0 = view.frames_sent
@@ -117,15 +117,15 @@ def test_several_browsers_and_one_going_away_never_hold_the_physics(
         # goes on. Progress, not pace: a busy machine only makes it take longer.
         with view._lock:
             sim0 = world.time
-            assert wait_for(lambda: world.time > sim0 + 0.3, timeout=10), "physics waited"
+            assert wait_for(lambda: world.time > sim0 + 0.3, timeout=60), "physics waited"
         browsers[0].socket.close_socket()  # gone without a goodbye, like a closed laptop
-        assert wait_for(lambda: len(view.server.get_clients()) == 2, timeout=10)
+        assert wait_for(lambda: len(view.server.get_clients()) == 2, timeout=60)
         seen, sim1 = browsers[1].received, world.time
-        assert wait_for(lambda: browsers[1].received > seen + 10, timeout=10), (
+        assert wait_for(lambda: browsers[1].received > seen + 10, timeout=60), (
             "the others keep streaming"
         )
-        assert wait_for(lambda: world.time > sim1 + 0.3, timeout=10), "the physics goes on"
-        assert wait_for(lambda: view.frames_sent > frames0 + 30, timeout=10)
+        assert wait_for(lambda: world.time > sim1 + 0.3, timeout=60), "the physics goes on"
+        assert wait_for(lambda: view.frames_sent > frames0 + 30, timeout=60)
         # and it stays within its rate (30 Hz): a view looping flat out would starve the
         # physics of the interpreter lock. A slow machine only sends fewer.
         frames1, wall1 = view.frames_sent, time.perf_counter()
