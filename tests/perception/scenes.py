@@ -3,7 +3,11 @@ randomisers) and a small randomised scene, written to a test's folder."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
 
 __all__ = [
     "BOX_RPY",
@@ -16,6 +20,8 @@ __all__ = [
     "TILE",
     "TRUTH_CAMERAS",
     "WIDTH",
+    "look_at_frame",
+    "pinhole",
     "random_scene",
     "truth_scene",
 ]
@@ -33,6 +39,36 @@ TRUTH_CAMERAS = {
     "hidden": ((30.0, 0.0, 2.0), (30.0, 0.0, 0.0), (0.0, 1.0, 0.0)),
 }
 WIDTH, HEIGHT, FOCAL = 128, 96, 150.0
+
+
+def look_at_frame(
+    eye: Sequence[float], target: Sequence[float], up: Sequence[float]
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """World-from-optical rotation (REP 103: x right, y down, z forward) and position of a
+    camera at `eye` looking at `target`, worked out here rather than taken from simbridge."""
+    e, t, u = (np.asarray(v, dtype=float) for v in (eye, target, up))
+    z = (t - e) / np.linalg.norm(t - e)
+    x = np.cross(z, u)
+    x /= np.linalg.norm(x)
+    return np.stack([x, np.cross(z, x), z], axis=1), e
+
+
+def pinhole(
+    world: NDArray[np.float64],
+    rotation: NDArray[np.float64],
+    eye: NDArray[np.float64],
+    focal: float,
+    centre: tuple[float, float],
+) -> NDArray[np.float64]:
+    """Pixel (u, v) of world points (N, 3) seen by a pinhole camera (square pixels)."""
+    camera = (world - eye) @ rotation
+    return np.stack(
+        [
+            focal * camera[:, 0] / camera[:, 2] + centre[0],
+            focal * camera[:, 1] / camera[:, 2] + centre[1],
+        ],
+        axis=1,
+    )
 
 
 def _v(values: tuple[float, ...]) -> str:

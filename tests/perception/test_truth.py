@@ -20,6 +20,8 @@ from tests.perception.scenes import (
     TILE,
     TRUTH_CAMERAS,
     WIDTH,
+    look_at_frame,
+    pinhole,
 )
 
 Array = NDArray[np.float64]
@@ -28,19 +30,12 @@ CX, CY = (WIDTH - 1) / 2, (HEIGHT - 1) / 2
 
 def optical_frame(name: str) -> tuple[Array, Array]:
     """World-from-optical rotation (x right, y down, z forward) and position of a camera."""
-    eye, target, up = (np.array(v, dtype=float) for v in TRUTH_CAMERAS[name])
-    z = (target - eye) / np.linalg.norm(target - eye)
-    x = np.cross(z, up)
-    x /= np.linalg.norm(x)
-    return np.stack([x, np.cross(z, x), z], axis=1), eye
+    return look_at_frame(*TRUTH_CAMERAS[name])
 
 
 def project(name: str, world: Array) -> Array:
     rotation, eye = optical_frame(name)
-    camera = (world - eye) @ rotation
-    return np.stack(
-        [FOCAL * camera[:, 0] / camera[:, 2] + CX, FOCAL * camera[:, 1] / camera[:, 2] + CY], 1
-    )
+    return pinhole(world, rotation, eye, FOCAL, (CX, CY))
 
 
 def rpy_matrix(roll: float, pitch: float, yaw: float) -> Array:
