@@ -65,12 +65,12 @@ lint: $(STAMP)
 typecheck: $(STAMP)
 	$(BIN)/mypy
 
-# pytest workers (pytest-xdist): `make test PYTEST_WORKERS=2` runs the suite on two, each
-# test file whole on one worker and the files that start ROS 2 processes together on one
-# (tests/scheduling.py; tests/conftest.py says why). Until 2026-11-28 that grouping was
-# silently off (pytest 9 and pytest-xdist 3.8: `--dist loadgroup` groups nothing), so ROS 2
-# files ran on both workers at once and two-worker runs failed in them (issue 30).
-PYTEST_WORKERS ?= 0
+# pytest workers (pytest-xdist): two, each test file whole on one worker and the files that
+# start ROS 2 processes together on one (tests/scheduling.py; tests/conftest.py says why);
+# `make test PYTEST_WORKERS=0` runs one process. Until 2026-11-28 that grouping was silently
+# off (pytest 9 and pytest-xdist 3.8: `--dist loadgroup` groups nothing), so ROS 2 files ran
+# on both workers at once and two-worker runs failed in them (issue 30).
+PYTEST_WORKERS ?= 2
 PYTEST := $(BIN)/pytest -n $(PYTEST_WORKERS) --dist loadfile
 
 pytest: $(STAMP)
