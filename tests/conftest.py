@@ -3,7 +3,7 @@
 Hypothesis's per-example deadline and too-slow health check time examples on the wall
 clock, so on a loaded machine (or beside another pytest worker) they fail correct tests.
 
-Under pytest-xdist with `--dist loadfile` (`make test PYTEST_WORKERS=2`) each test file runs
+Under pytest-xdist with `--dist loadfile` (`make test`, two workers) each test file runs
 whole on one worker, so a module's fixtures start once, except that every file that runs
 ROS 2 processes goes to one worker as one unit, "dds": two Fast DDS graphs in different
 domains at once meet shared-memory port clashes ("open_and_lock_file failed" on
