@@ -27,6 +27,7 @@ DISTANCE, AZIMUTH, ELEVATION = (0.9, 1.3), (-60.0, 60.0), (30.0, 60.0)
 FOCAL, PRINCIPAL = (0.95, 1.05), (-2.0, 2.0)
 LIGHT_COUNT, INTENSITY, TINT, AMBIENT = (1, 3), (0.4, 0.8), (0.9, 1.0), (0.05, 0.1)
 LIGHT_CENTER, LIGHT_SIZE = np.array([0.0, 0.0, 1.8]), np.array([2.0, 2.0, 0.6])
+LIGHT_TARGET, LIGHT_JITTER = np.array([0.1, -0.1, 0.0]), np.array([0.3, 0.2, 0.0])
 ROBOT_SHARE = 0.6
 SEEDS = (0, 1, 2, 3)
 FRAMES = range(5)
@@ -35,6 +36,7 @@ EPS = 1e-6
 
 
 def _scene(folder: Path, *, shadows: float) -> Path:
+    """The randomised scene; `shadows` is also the lights' directional share (0 or 1)."""
     text = f"""\
 ros: {{enabled: false}}
 robots:
@@ -63,7 +65,8 @@ perception:
        size: [0.02, 0.06], label: distractor}}
     - {{type: lights, count: {list(LIGHT_COUNT)}, region: {{center: {LIGHT_CENTER.tolist()},
        size: {LIGHT_SIZE.tolist()}}}, intensity: {list(INTENSITY)}, tint: {list(TINT)},
-       ambient: {list(AMBIENT)}, shadows: {shadows}}}
+       ambient: {list(AMBIENT)}, shadows: {shadows}, directional: {shadows},
+       target: {LIGHT_TARGET.tolist()}, target_jitter: {LIGHT_JITTER.tolist()}}}
     - {{type: camera, camera: main, target: {TARGET.tolist()}, target_jitter: {JITTER.tolist()},
        distance: {list(DISTANCE)}, azimuth: {list(AZIMUTH)}, elevation: {list(ELEVATION)}}}
     - {{type: intrinsics, focal: {list(FOCAL)}, principal: {list(PRINCIPAL)}}}
@@ -214,6 +217,7 @@ def test_lights_count_colour_level_place_and_shadows(
 ) -> None:
     shadows, built = makers
     counts = set()
+    misses: list[float] = []
     for maker in built:
         model = maker.world.model
         assert model.nlight == LIGHT_COUNT[1]
@@ -235,7 +239,35 @@ def test_lights_count_colour_level_place_and_shadows(
                 offset = np.abs(model.light_pos[light] - LIGHT_CENTER)
                 assert (offset <= LIGHT_SIZE / 2 + EPS).all(), model.light_pos[light]
                 assert bool(model.light_castshadow[light]) is (shadows == 1.0)
+                directional = int(model.light_type[light]) == int(
+                    mujoco.mjtLightType.mjLIGHT_DIRECTIONAL
+                )
+                assert directional is (shadows == 1.0)
+                aim = _aim_miss(model.light_pos[light], model.light_dir[light])
+                assert aim <= EPS, f"light {light} aims {aim} m outside the target's jitter box"
+                misses.append(
+                    _distance_to_line(LIGHT_TARGET, model.light_pos[light], model.light_dir[light])
+                )
     assert len(counts) > 1, f"light count never varies: {counts}"
+    assert max(misses) > 0.05, "the lights never aim off the target: target_jitter unused"
+
+
+def _aim_miss(position: NDArray[np.float64], direction: NDArray[np.float64]) -> float:
+    """How far (m, per axis) the ray from `position` along `direction` passes outside the
+    box target +- target_jitter (0 when it goes through it: slab test)."""
+    low, high = LIGHT_TARGET - LIGHT_JITTER, LIGHT_TARGET + LIGHT_JITTER
+    # The ray meets the box's z slab (a plane here: no z jitter) at t; x and y must fit there.
+    t = (LIGHT_TARGET[2] - position[2]) / direction[2]
+    assert t > 0, "the light points away from the target"
+    point = position + t * direction
+    return float(np.maximum(np.maximum(low - point, point - high), 0.0).max())
+
+
+def _distance_to_line(
+    point: NDArray[np.float64], origin: NDArray[np.float64], direction: NDArray[np.float64]
+) -> float:
+    offset = point - origin
+    return float(np.linalg.norm(offset - offset @ direction * direction))
 
 
 def _cube_obj(path: Path, half: float) -> None:
