@@ -4,12 +4,14 @@ line on stdout. Every rclpy call runs on the executor's thread (a timer takes th
 
     {"op": "wait", "action": A, "type": "pkg/action/T"}  ->  {"ready": A, "ok": bool}
     {"op": "goal", "tag": G, "action": A, "type": T, "goal": {...}}
-        ->  {"accepted": G, "ok": bool}, then {"result": G, "status": s, "values": {...},
-            "feedback": n}, and {"feedback": G, "joint_names": [...], "values": {...}} at the
-            first feedback
+        ->  {"accepted": G, "ok": bool, "goal_id": hex UUID}, then {"result": G,
+            "status": s, "values": {...}, "feedback": n}, and {"feedback": G,
+            "joint_names": [...], "values": {...}} at the first feedback
     {"op": "cancel", "tag": G}  ->  {"cancel": G, "return_code": rc, "canceling": n}
     {"op": "joints", "topic": T}  ->  {"joints": {name: position}} (the next JointState)
     {"op": "state", "topic": T}  ->  {"state": {...}} (the next controller state)
+    {"op": "status", "action": A}  ->  {"status": A, "goals": {hex UUID: status}} (the
+        next goal status array the action's server publishes, its latest when it is quiet)
     {"op": "type_hashes", "topic": T}  ->  {"type_hashes": T, "hashes": ["RIHS01_...", ...]}
         (the type hash each publisher of T announces on the graph)
 """
@@ -26,6 +28,7 @@ from typing import Any
 import rclpy
 from rclpy.action import ActionClient
 from rclpy.action.client import ClientGoalHandle
+from rclpy.qos import qos_profile_action_status_default
 from ros2_node import (  # type: ignore[import-not-found]  # the script beside this one
     emit,
     load,
@@ -124,7 +127,8 @@ class Driver:
 
         def on_response(future: Any) -> None:
             handle = future.result()
-            emit({"accepted": tag, "ok": bool(handle.accepted)})
+            goal_id = bytes(handle.goal_id.uuid).hex()
+            emit({"accepted": tag, "ok": bool(handle.accepted), "goal_id": goal_id})
             if handle.accepted:
                 self.handles[tag] = handle
                 handle.get_result_async().add_done_callback(on_result)
@@ -167,6 +171,24 @@ class Driver:
             "control_msgs/msg/JointTrajectoryControllerState",
             lambda m: {"state": message_to_ordereddict(m)},
         )
+
+    def op_status(self, action: str) -> None:
+        def once(msg: Any) -> None:
+            if holder:
+                self.node.destroy_subscription(holder.pop())
+                goals = {
+                    bytes(s.goal_info.goal_id.uuid).hex(): int(s.status) for s in msg.status_list
+                }
+                emit({"status": action, "goals": goals})
+
+        holder = [
+            self.node.create_subscription(
+                load("action_msgs/msg/GoalStatusArray"),
+                f"{action}/_action/status",
+                once,
+                qos_profile_action_status_default,
+            )
+        ]
 
     def op_type_hashes(self, topic: str) -> None:
         infos = self.node.get_publishers_info_by_topic(topic)

@@ -6,17 +6,19 @@ from __future__ import annotations
 from collections.abc import Iterator
 from dataclasses import dataclass
 
-from tests.ros2support import ActionDriver, require_ros2, start_endpoint
+from tests.ros2support import ActionDriver, Ros2Process, require_ros2, start_endpoint
 
 __all__ = ["ActionRig", "action_rig"]
 
 
 @dataclass(frozen=True)
 class ActionRig:
-    """The endpoint's port and the action client process sending goals through ROS 2."""
+    """The endpoint's port and the action client process sending goals through ROS 2;
+    `endpoint` is the endpoint's process (its log in `output`)."""
 
     port: int
     driver: ActionDriver
+    endpoint: Ros2Process
 
 
 def action_rig() -> Iterator[ActionRig]:
@@ -27,7 +29,7 @@ def action_rig() -> Iterator[ActionRig]:
         driver = ActionDriver()
         try:
             driver.expect(lambda o: o.get("up") is True)
-            yield ActionRig(port, driver)
+            yield ActionRig(port, driver, proc)
         finally:
             driver.proc.stop()
     finally:

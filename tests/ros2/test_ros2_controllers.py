@@ -10,7 +10,11 @@ are Jazzy's: those of a client built against the real control_msgs (MoveIt 2's).
 
 from __future__ import annotations
 
+import logging
+import os
+import signal
 import threading
+import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -28,6 +32,8 @@ FOLLOW = "control_msgs/action/FollowJointTrajectory"
 GRIPPER = "control_msgs/action/GripperCommand"
 ARM = "/arm_left/arm_controller/follow_joint_trajectory"
 GRIP = "/arm_left/gripper_controller/gripper_cmd"
+ACTIVE = {1, 2, 3}
+"""ROS 2 goal statuses of a goal that has not ended (accepted, executing, canceling)."""
 SUCCEEDED, CANCELED, ABORTED = 4, 5, 6
 WAIT = 60.0
 JAZZY_TYPE_HASHES = {
@@ -273,3 +279,80 @@ def test_the_sim_going_away_aborts_its_goals(tmp_path: Path, rig: ActionRig) -> 
     finally:
         running.close()
     assert driver.reply("result", "orphan")["status"] == ABORTED
+
+
+def goal_statuses(driver: ActionDriver, action: str) -> dict[str, int]:
+    """The goals (hex UUID -> status) in the latest status array `action`'s server published."""
+    driver.send(op="status", action=action)
+    return dict(driver.reply("status", action)["goals"])
+
+
+def started_driver() -> ActionDriver:
+    """A new rclpy action client process, up and with the arm's server discovered."""
+    driver = ActionDriver()
+    driver.expect(lambda o: o.get("up") is True)
+    driver.wait_ready(ARM, FOLLOW)
+    return driver
+
+
+def test_a_client_killed_mid_goal_leaves_it_to_finish_and_a_new_client_drives_the_arm(
+    sim: Sim, rig: ActionRig, caplog: pytest.LogCaptureFixture
+) -> None:
+    """An rclpy client process SIGKILLed while its goal runs. ROS 2 actions have no client
+    liveness, so nothing tells the endpoint or the sim: the goal runs to its end and
+    SUCCEEDS (rclpy keeps its result for the result timeout, 900 s, as for any client that
+    never asks). Nothing crashes, no goal is left active, and a new client process drives
+    the same controller to its target."""
+    caplog.set_level(logging.ERROR)
+    logged = len(rig.endpoint.output)
+    doomed = started_driver()
+    try:
+        arm_goal(doomed, "doomed", _trajectory(["elbow"], [(6.0, [0.8])]))
+        accepted = doomed.reply("accepted", "doomed")
+        assert accepted["ok"] is True
+        doomed.reply("feedback", "doomed")  # the goal runs
+        os.killpg(doomed.proc.proc.pid, signal.SIGKILL)
+        assert doomed.proc.proc.wait(30) == -signal.SIGKILL
+    finally:
+        doomed.proc.stop()
+    # It died mid-goal: no result had reached it.
+    assert not any('"result"' in line for line in doomed.proc.output), doomed.proc.output
+    orphan = accepted["goal_id"]
+
+    fresh = started_driver()
+    try:
+        deadline = time.monotonic() + WAIT
+        statuses = goal_statuses(fresh, ARM)
+        while statuses.get(orphan) in ACTIVE and time.monotonic() < deadline:
+            time.sleep(0.5)
+            statuses = goal_statuses(fresh, ARM)
+        assert statuses[orphan] == SUCCEEDED, statuses
+        fresh.send(op="joints", topic="/arm_left/joint_states")
+        assert fresh.expect(lambda o: "joints" in o)["joints"]["elbow"] == pytest.approx(
+            0.8, abs=0.01
+        )
+
+        arm_goal(
+            fresh,
+            "after",
+            _trajectory(["shoulder", "elbow"], [(1.0, [0.3, -0.4])], goal_time=0.5),
+        )
+        after = fresh.reply("accepted", "after")
+        assert after["ok"] is True
+        result = fresh.reply("result", "after")
+        assert (result["status"], result["values"]["error_code"]) == (SUCCEEDED, 0)
+        fresh.send(op="joints", topic="/arm_left/joint_states")
+        joints = fresh.expect(lambda o: "joints" in o)["joints"]
+        assert joints["elbow"] == pytest.approx(-0.4, abs=0.01)  # the goal tolerance
+        assert joints["shoulder"] == pytest.approx(0.3, abs=0.05)
+        # Nothing piled up: both goals ended, none is still active on the server.
+        statuses = goal_statuses(fresh, ARM)
+        assert (statuses[orphan], statuses[after["goal_id"]]) == (SUCCEEDED, SUCCEEDED)
+        assert not [s for s in statuses.values() if s in ACTIVE], statuses
+    finally:
+        fresh.proc.stop()
+    assert sim.runner.is_alive()
+    assert rig.endpoint.proc.poll() is None
+    endpoint_log = rig.endpoint.output[logged:]
+    assert not [line for line in endpoint_log if "Traceback" in line or " ERROR " in line]
+    assert [r.getMessage() for r in caplog.records if r.levelno >= logging.ERROR] == []
