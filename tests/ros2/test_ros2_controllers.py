@@ -141,6 +141,16 @@ def sim(tmp_path: Path, rig: ActionRig) -> Iterator[Sim]:
         running.close()
 
 
+def _succeeds_at(driver: ActionDriver, goal: str, *, shoulder: float, elbow: float) -> None:
+    """The goal's result is SUCCEEDED with error code 0 and the arm stands at the target."""
+    result = driver.reply("result", goal)
+    assert (result["status"], result["values"]["error_code"]) == (SUCCEEDED, 0)
+    driver.send(op="joints", topic="/arm_left/joint_states")
+    joints = driver.expect(lambda o: "joints" in o)["joints"]
+    assert joints["elbow"] == pytest.approx(elbow, abs=0.01)  # the goal tolerance
+    assert joints["shoulder"] == pytest.approx(shoulder, abs=0.05)
+
+
 def test_goal_succeeds_with_feedback_and_the_joints_reach_the_target(
     sim: Sim, rig: ActionRig
 ) -> None:
@@ -162,12 +172,7 @@ def test_goal_succeeds_with_feedback_and_the_joints_reach_the_target(
         _trajectory(["shoulder", "elbow"], [(0.5, [0.2, -0.3]), (1.0, [0.4, -0.6])]),
     )
     assert driver.reply("accepted", "reach")["ok"] is True
-    result = driver.reply("result", "reach")
-    assert (result["status"], result["values"]["error_code"]) == (SUCCEEDED, 0)
-    driver.send(op="joints", topic="/arm_left/joint_states")
-    joints = driver.expect(lambda o: "joints" in o)["joints"]
-    assert joints["elbow"] == pytest.approx(-0.6, abs=0.01)  # the goal tolerance
-    assert joints["shoulder"] == pytest.approx(0.4, abs=0.05)
+    _succeeds_at(driver, "reach", shoulder=0.4, elbow=-0.6)
 
 
 def test_error_codes_as_on_ros1(sim: Sim, rig: ActionRig) -> None:
@@ -339,12 +344,7 @@ def test_a_client_killed_mid_goal_leaves_it_to_finish_and_a_new_client_drives_th
         )
         after = fresh.reply("accepted", "after")
         assert after["ok"] is True
-        result = fresh.reply("result", "after")
-        assert (result["status"], result["values"]["error_code"]) == (SUCCEEDED, 0)
-        fresh.send(op="joints", topic="/arm_left/joint_states")
-        joints = fresh.expect(lambda o: "joints" in o)["joints"]
-        assert joints["elbow"] == pytest.approx(-0.4, abs=0.01)  # the goal tolerance
-        assert joints["shoulder"] == pytest.approx(0.3, abs=0.05)
+        _succeeds_at(fresh, "after", shoulder=0.3, elbow=-0.4)
         # Nothing piled up: both goals ended, none is still active on the server.
         statuses = goal_statuses(fresh, ARM)
         assert (statuses[orphan], statuses[after["goal_id"]]) == (SUCCEEDED, SUCCEEDED)
