@@ -141,13 +141,22 @@ def test_a_large_message_in_chunks_is_not_a_stream() -> None:
 
 
 def test_the_stream_ends_with_the_burst() -> None:
-    """Lone messages after a burst are read as they come: no pause after any of them."""
+    """Lone messages after a burst are read as they come: no pause after any of them.
+
+    The burst is 40 writes of 50 messages, each sent once the one before was delivered, so
+    every read brings several messages and the connection is a stream whatever the
+    machine's speed (2,000 writes of one message each could be read one at a time by a
+    reader that keeps up, and then never looked like a stream: it failed so once)."""
     messages = _numbered(2005)
     marks: list[int] = []
 
     def burst_then_lone(conn: socket.socket, delivered: threading.Event) -> None:
-        for payload in messages[:2000]:
-            conn.sendall(frame(payload))
+        for start in range(0, 2000, 50):
+            conn.sendall(b"".join(frame(payload) for payload in messages[start : start + 50]))
+            deadline = time.monotonic() + 10
+            while len(marks) < start + 50:  # `marks` grows by one per delivery
+                assert time.monotonic() < deadline, f"{len(marks)} of {start + 50} delivered"
+                time.sleep(0.001)
         for payload in messages[2000:]:
             time.sleep(0.05)
             delivered.clear()
