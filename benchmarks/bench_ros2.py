@@ -125,7 +125,8 @@ _NODE_SCRIPT = textwrap.dedent(
     import rclpy.executors
 
     def _quiet(kind, value, tb):  # stopped with SIGINT by the bench: no traceback
-        if not issubclass(kind, KeyboardInterrupt):
+        stopped = (KeyboardInterrupt, rclpy.executors.ExternalShutdownException)
+        if not issubclass(kind, stopped):  # rclpy.spin ends in the latter
             sys.__excepthook__(kind, value, tb)
 
     sys.excepthook = _quiet
