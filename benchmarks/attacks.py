@@ -17,6 +17,7 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
+from benchmarks.procstatus import proc_status
 from simbridge.protocol import Publish, TopicListRequest, encode_frame
 
 __all__ = ["ATTACKS", "EndpointProcess", "close_all"]
@@ -51,24 +52,19 @@ class EndpointProcess:
             self.proc.kill()
             self.proc.wait(10)
 
-    def _status(self, key: str) -> int:
-        assert self.proc is not None
-        for line in Path(f"/proc/{self.proc.pid}/status").read_text().splitlines():
-            if line.startswith(key + ":"):
-                return int(line.split()[1]) * 1024
-        raise KeyError(key)
-
     @property
     def alive(self) -> bool:
         return self.proc is not None and self.proc.poll() is None
 
     def rss(self) -> int:
         """Resident bytes now."""
-        return self._status("VmRSS")
+        assert self.proc is not None
+        return proc_status("VmRSS", self.proc.pid)
 
     def peak_rss(self) -> int:
         """Peak resident bytes since start or the last `reset_peak()`."""
-        return self._status("VmHWM")
+        assert self.proc is not None
+        return proc_status("VmHWM", self.proc.pid)
 
     def reset_peak(self) -> None:
         """Start a new peak measurement (Linux: clear_refs 5)."""

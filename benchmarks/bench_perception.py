@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import json
 import os
-import resource
 import statistics
 import subprocess
 import sys
@@ -42,6 +41,7 @@ QUALITIES = ("fast", "high")
 def _child(mode: str, frames: int, quality: str) -> dict[str, Any]:
     """One measurement in this (fresh, pinned) process."""
     began = time.perf_counter()
+    from benchmarks.procstatus import proc_status
     from simbridge.apps.datagen import SCENE
     from simbridge.perception import DatagenJob, FrameMaker, render_frames
 
@@ -65,18 +65,10 @@ def _child(mode: str, frames: int, quality: str) -> dict[str, Any]:
     return {
         "fps": frames / spent,
         "first_frame_s": first,
-        "peak_rss_mb": _peak_rss_mb(),
+        # VmHWM, not ru_maxrss: Linux carries the peak of the process this one was spawned
+        # from (make bench's, grown by the suites before: 2.6 GB) across exec into ru_maxrss.
+        "peak_rss_mb": proc_status("VmHWM") / 2**20,
     }
-
-
-def _peak_rss_mb() -> float:
-    """This process's own peak resident set (Linux VmHWM). Not `ru_maxrss`: that keeps the
-    peak of the parent whose address space the child was spawned from (`make bench`'s, grown
-    by the suites before this one: 2.6 GB), as Linux carries it across exec."""
-    for line in Path("/proc/self/status").read_text().splitlines():
-        if line.startswith("VmHWM:"):
-            return int(line.split()[1]) / 1024
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 
 
 def _stages(frames: int, quality: str) -> dict[str, Any]:

@@ -70,13 +70,10 @@ def _strokes(view: dict[str, Any]) -> NDArray[np.bool_]:
     for inst in view["instances"]:
         x0, y0, x1, y1 = (v // 2 for v in inst["box_tight"])
         drawn[max(y0 - 10, 0) : y0, max(x0 - 3, 0) : x0 + 4 * len(inst["class"]) + 6] = True
-        for rows, cols in (
-            (slice(y0, y0 + 1), slice(x0, x1 + 1)),
-            (slice(y1, y1 + 1), slice(x0, x1 + 1)),
-        ):
-            drawn[rows.start - 3 : rows.stop + 3, cols.start - 3 : cols.stop + 3] = True
+        for row in (y0, y1):
+            drawn[max(row - 3, 0) : row + 4, max(x0 - 3, 0) : x1 + 4] = True
         for col in (x0, x1):
-            drawn[y0 - 3 : y1 + 4, col - 3 : col + 4] = True
+            drawn[max(y0 - 3, 0) : y1 + 4, max(col - 3, 0) : col + 4] = True
     return drawn
 
 
