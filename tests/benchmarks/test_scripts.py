@@ -66,7 +66,7 @@ def test_module_help(name: str) -> None:
 
 def test_perception_quick_mode_measures_every_mode_and_stage(tmp_path: Path) -> None:
     """`bench_perception.py --quick`: one round of two frames at the fast quality, in one
-    fresh process: the frames/s table's three modes and the stage table with its sums."""
+    fresh process: the frames/s table's four modes and the stage table with its sums."""
     result = _run([str(ROOT / "benchmarks" / "bench_perception.py")], tmp_path, "--quick", 600)
     assert result.returncode == 0, result.stderr
     out = result.stdout
@@ -74,10 +74,12 @@ def test_perception_quick_mode_measures_every_mode_and_stage(tmp_path: Path) -> 
     assert "### Perception: CPU per labelled frame, by stage (fast)" in out
     assert "(high)" not in out  # quick: the fast preset alone
     rows = {line.split("  ")[0].strip(): line for line in out.splitlines()}
-    for mode in ("RGB render only", "RGB + depth + segmentation", "labelled + written"):
+    for mode in ("RGB render only", "RGB + depth + segmentation", "labelled + written, native",
+                 "labelled + written (native, COCO, BOP)"):  # fmt: skip
         assert sum(mode in line and line.startswith("fast") for line in out.splitlines()) == 1
-    for stage in ("render: RGB render", "labels (annotate, image steps)", "write (native, BOP)",
-                  "sum of the renders", "sum of all stages"):  # fmt: skip
-        assert stage in rows, stage
-    over = rows["labelling + writing over the bare renders (pose + renders)"].split()
-    assert any(cell.startswith("+") and cell.endswith("%") for cell in over)
+    for stage in ("render: RGB render", "labels (annotate, image steps)", "write: native (",
+                  "write: BOP (", "sum of the renders", "sum of all stages"):  # fmt: skip
+        assert any(row.startswith(stage) for row in rows), stage
+    for what in ("", ", native only"):
+        over = rows[f"labelling + writing{what} over the bare renders (pose + renders)"].split()
+        assert any(cell.startswith("+") and cell.endswith("%") for cell in over), what
