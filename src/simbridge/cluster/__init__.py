@@ -4,20 +4,28 @@ Ray is an optional extra (`pip install 'simbridge[ray]'`), imported only when so
 here connects to a cluster; nothing else in simbridge needs it. docs/ray.md is the recipe:
 start a cluster, then `simbridge train ... --ray ADDRESS` or `simbridge datagen ... --ray
 ADDRESS`.
+
+The names below load on first use, so a Ray worker that unpickles one module's class (the
+datagen progress board, say) imports that module alone, not the Gymnasium environments
+the ARS part needs (2.5 s of a fresh worker's start here).
 """
 
 from __future__ import annotations
 
-from simbridge.cluster.ars import (
-    RayRollouts,
-    RayTraining,
-    RolloutWorker,
-    make_vector,
-    shares,
-    train_ars_on_ray,
-)
-from simbridge.cluster.datagen import RayDataset, datagen_on_ray
-from simbridge.cluster.runtime import connect, node_id, ray_module
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from simbridge.cluster.ars import (
+        RayRollouts,
+        RayTraining,
+        RolloutWorker,
+        make_vector,
+        shares,
+        train_ars_on_ray,
+    )
+    from simbridge.cluster.datagen import RayDataset, datagen_on_ray
+    from simbridge.cluster.runtime import connect, node_id, ray_module
 
 __all__ = [
     "RayDataset",
@@ -32,3 +40,16 @@ __all__ = [
     "shares",
     "train_ars_on_ray",
 ]
+
+_ARS = ("RayRollouts", "RayTraining", "RolloutWorker", "make_vector", "shares", "train_ars_on_ray")
+_LAZY = {
+    **dict.fromkeys(_ARS, "simbridge.cluster.ars"),
+    **dict.fromkeys(("RayDataset", "datagen_on_ray"), "simbridge.cluster.datagen"),
+    **dict.fromkeys(("connect", "node_id", "ray_module"), "simbridge.cluster.runtime"),
+}
+
+
+def __getattr__(name: str) -> Any:
+    if name not in _LAZY:
+        raise AttributeError(f"module 'simbridge.cluster' has no attribute {name!r}")
+    return getattr(importlib.import_module(_LAZY[name]), name)
