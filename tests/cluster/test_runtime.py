@@ -15,6 +15,13 @@ from tests.raysupport import LOOPBACK, ray_environment, require_ray
 BLOCK_RAY = "import sys; sys.modules['ray'] = None\n"
 
 
+def _python(script: str) -> subprocess.CompletedProcess[str]:
+    """`script` run by a fresh interpreter (imports start from nothing)."""
+    return subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, timeout=120, check=False
+    )
+
+
 def test_a_dead_address_is_a_clear_error_at_once(monkeypatch: pytest.MonkeyPatch) -> None:
     """ "At once": the address is probed before ray.init, which alone retries for minutes."""
     require_ray()
@@ -64,9 +71,7 @@ def test_without_ray_the_local_paths_work_and_ray_asks_for_the_extra() -> None:
         "assert main(args) == 0\n"
         "assert main([*args, '--ray=auto']) == 2\n"
     )
-    done = subprocess.run(
-        [sys.executable, "-c", script], capture_output=True, text=True, timeout=120, check=False
-    )
+    done = _python(script)
     assert done.returncode == 0, done.stdout + done.stderr
     assert "trained simbridge/Reach-v0: success" in done.stdout
     assert "Ray is not installed" in done.stderr
@@ -92,8 +97,6 @@ def test_the_progress_boards_module_loads_without_the_learning_stack() -> None:
         "face.RayRollouts  # a name of the face still resolves, loading its module then\n"
         "print(json.dumps([before, 'simbridge.cluster.ars' in sys.modules]))\n"
     )
-    done = subprocess.run(
-        [sys.executable, "-c", script], capture_output=True, text=True, timeout=120, check=False
-    )
+    done = _python(script)
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip().splitlines()[-1] == "[[], true]"
