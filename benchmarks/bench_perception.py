@@ -2,9 +2,9 @@
 depth, instance and semantic segmentation, boxes, poses, keypoints, written to disk as the
 native layout, COCO and BOP; and the native layout alone: RGB PNG, an NPZ of depth,
 instance and semantic images, a JSON of boxes and poses) against bare renders of the same
-frames, the first-frame
-latency (a fresh process: imports, scene compile, first frame) and the memory of one worker,
-at each render quality (`fast`: the shipped datagen scene's; `high`: shadows and 4x MSAA).
+frames, the first-frame latency (a fresh process: imports, scene compile, first frame) and
+the memory of one worker, at each render quality (`fast`: the shipped datagen scene's;
+`high`: shadows and 4x MSAA).
 
 A second table splits a labelled frame's CPU time (the process's, llvmpipe's thread
 included: robust to other processes' load) by stage, and gives the most frames/s one core
