@@ -22,7 +22,7 @@ def _read(data: bytes) -> NDArray[np.generic]:
     return np.asarray(Image.open(io.BytesIO(data)))
 
 
-@pytest.mark.parametrize("level", [0, 1, 3, 4, 9])  # stored, igzip, zlib
+@pytest.mark.parametrize("level", [0, 1, 9])
 def test_png_round_trips_every_image_kind_datagen_writes(level: int) -> None:
     rng = np.random.default_rng(3)
     images: dict[str, NDArray[np.generic]] = {

@@ -39,8 +39,7 @@ class OutputSettings:
     depth_scale: float = 0.1
     """BOP depth PNGs hold depth in mm divided by this (0.1: 0.1 mm steps, up to 6.5 m)."""
     png_compression: int = 1
-    """Deflate level of every PNG: 0 stores, 1-3 are ISA-L igzip's (1: fastest), 4-9 zlib's
-    (9: small and slow)."""
+    """zlib level of every PNG (1 is fast; 9 small and slow)."""
     min_visible_px: int = 1
     """Instances with fewer visible pixels get no COCO annotation (BOP lists them all)."""
     contact_sheet: int = 16
@@ -107,7 +106,7 @@ def parse_perception(scene: Scene) -> PerceptionConfig:
     output.done(("depth_scale", "png_compression", "min_visible_px", "contact_sheet"))
     if out.png_compression > 9:
         raise output.error(
-            f"png_compression is a deflate level 0-9, got {out.png_compression}", "png_compression"
+            f"png_compression is a zlib level 0-9, got {out.png_compression}", "png_compression"
         )
     base_dir = scene.source.resolve().parent if scene.source is not None else Path.cwd()
     randomizers = tuple(

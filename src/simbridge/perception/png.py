@@ -1,8 +1,7 @@
 """PNG files of datagen's images, encoded here rather than by Pillow: every row gets PNG's
-Sub filter (numpy, one pass) and the rows one deflate stream: ISA-L's igzip at levels 1-3
-(a noisy 640x480 RGB frame in about 4.5 ms; zlib at level 1, run-length: 13.4 ms; Pillow:
-44 ms), zlib at 0 (stored) and 4-9 (smaller, slower). The bytes depend on the pixels and
-the level alone (no time stamps)."""
+Sub filter (numpy, one pass) and the rows one zlib stream, run-length strategy for colour.
+A noisy 640x480 RGB frame encodes in about 17 ms (Pillow at zlib level 1: 44 ms, and 15%
+larger); the bytes depend on the pixels and the level alone (no time stamps)."""
 
 from __future__ import annotations
 
@@ -11,7 +10,6 @@ import zlib
 from typing import Any
 
 import numpy as np
-from isal import isal_zlib
 from numpy.typing import NDArray
 
 from simbridge.errors import PerceptionError
@@ -23,9 +21,6 @@ _SUB = 1
 """PNG filter type 1: each byte minus the byte one pixel to its left."""
 _GREY, _RGB = 0, 2
 """PNG colour types."""
-_IGZIP_LEVELS = range(1, 4)
-"""Levels deflated by ISA-L's igzip (its levels 1-3): 3x zlib's speed at level 1 on colour
-frames, 4x on depth, and no larger on depth and masks (9% on noisy colour)."""
 
 
 def _chunk(tag: bytes, data: bytes) -> bytes:
@@ -52,21 +47,18 @@ def _rows(image: NDArray[Any]) -> tuple[NDArray[np.uint8], int, int, int]:
 
 
 def png_bytes(image: NDArray[Any], level: int) -> bytes:
-    """A PNG of a bool (1-bit), 8-bit grey or RGB, or 16-bit grey image, deflated at
-    `level` (0-9: 0 stores, 1-3 are igzip's, 4-9 zlib's)."""
+    """A PNG of a bool (1-bit), 8-bit grey or RGB, or 16-bit grey image, deflated at zlib
+    `level` (0-9)."""
     rows, bpp, depth, colour = _rows(image)
     height, width = image.shape[:2]
     filtered = np.empty((height, rows.shape[1] + 1), dtype=np.uint8)
     filtered[:, 0] = _SUB
     filtered[:, 1 : 1 + bpp] = rows[:, :bpp]
     np.subtract(rows[:, bpp:], rows[:, :-bpp], out=filtered[:, 1 + bpp :])
-    if level in _IGZIP_LEVELS:
-        idat = isal_zlib.compress(filtered.data, level)
-    else:
-        # Run-length matching is as small as zlib's default on rendered colour images and
-        # faster (much faster on noisy ones); on depth and masks the default is smaller.
-        strategy = zlib.Z_RLE if colour == _RGB else zlib.Z_DEFAULT_STRATEGY
-        packer = zlib.compressobj(level, zlib.DEFLATED, 15, 9, strategy)
-        idat = packer.compress(filtered.data) + packer.flush()
+    # Run-length matching is as small as zlib's default on rendered colour images and faster
+    # (much faster on noisy ones); on depth and masks the default is smaller and faster.
+    strategy = zlib.Z_RLE if colour == _RGB else zlib.Z_DEFAULT_STRATEGY
+    packer = zlib.compressobj(level, zlib.DEFLATED, 15, 9, strategy)
+    idat = packer.compress(filtered.data) + packer.flush()
     header = struct.pack(">IIBBBBB", width, height, depth, colour, 0, 0, 0)
     return _SIGNATURE + _chunk(b"IHDR", header) + _chunk(b"IDAT", idat) + _chunk(b"IEND", b"")
