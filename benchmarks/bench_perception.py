@@ -192,9 +192,9 @@ def stage_rows(results: list[dict[str, Any]]) -> list[dict[str, Any]]:
             "load_1min": load,
         })  # fmt: skip
     bare = [sums["renders"][k] + results[k]["ms"][pose] for k in range(rounds)]
-    for what, left_out in (("", 0.0), (", native only", 1.0)):
+    for what, bop in (("", True), (", native only", False)):
         over = [
-            (sums["all"][k] - left_out * results[k]["ms"][WRITE_BOP] - bare[k]) / bare[k]
+            (sums["all"][k] - (0.0 if bop else results[k]["ms"][WRITE_BOP]) - bare[k]) / bare[k]
             for k in range(rounds)
         ]
         rows.append({
