@@ -1,12 +1,17 @@
 """The fast image code of datagen: its own PNG encoder (read back by Pillow, pixel for
-pixel) and the integer blur and noise of the `noise` randomiser."""
+pixel; colour deflated to zlib's own bytes) and the integer blur and noise of the `noise`
+randomiser."""
 
 from __future__ import annotations
 
 import io
+import struct
+import zlib
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from numpy.typing import NDArray
 from PIL import Image
 from scipy import ndimage
@@ -37,6 +42,49 @@ def test_png_round_trips_every_image_kind_datagen_writes(level: int) -> None:
         assert back.shape == image.shape, name
         assert np.array_equal(back.astype(image.dtype), image), name
         assert png_bytes(image, level) == data, name  # a pure function of pixels and level
+
+
+def _idat(png: bytes) -> bytes:
+    """The IDAT chunk's data of a PNG with one IDAT right after its IHDR."""
+    (length,) = struct.unpack(">I", png[33:37])
+    assert png[37:41] == b"IDAT"
+    return png[41 : 41 + length]
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    level=st.integers(0, 9),
+    height=st.integers(1, 40),
+    width=st.integers(1, 70),
+    runs=st.integers(1, 30),
+    seed=st.integers(0, 2**32 - 1),
+)
+def test_colour_pngs_are_zlibs_own_run_length_bytes(
+    level: int, height: int, width: int, runs: int, seed: int
+) -> None:
+    # Colour goes through zlib-ng for speed; the files must stay what zlib itself writes, so
+    # a dataset's bytes do not hang on which deflate library a worker has.
+    rng = np.random.default_rng(seed)
+    pixels = height * width
+    flat = np.repeat(rng.integers(0, 256, (runs, 3)), -(-pixels // runs), axis=0)[:pixels]
+    noise = rng.integers(-3, 4, (pixels, 3)) * (rng.random((pixels, 1)) < 0.5)
+    image = np.clip(flat + noise, 0, 255).astype(np.uint8).reshape(height, width, 3)
+    _assert_zlib_run_length(png_bytes(image, level), level)
+
+
+@pytest.mark.parametrize("level", [0, 1, 6, 9])
+def test_a_noisy_frame_png_is_zlibs_own_run_length_bytes(level: int) -> None:
+    # A frame's size: past 64 kB, where stored blocks (level 0) start to differ.
+    rng = np.random.default_rng(11)
+    scene = np.repeat(np.repeat(rng.integers(0, 256, (12, 16, 3)), 40, axis=0), 40, axis=1)
+    image = np.clip(scene + rng.normal(0, 4, scene.shape), 0, 255).astype(np.uint8)
+    _assert_zlib_run_length(png_bytes(image, level), level)
+
+
+def _assert_zlib_run_length(png: bytes, level: int) -> None:
+    idat = _idat(png)
+    packer = zlib.compressobj(level, zlib.DEFLATED, 15, 9, zlib.Z_RLE)
+    assert packer.compress(zlib.decompress(idat)) + packer.flush() == idat
 
 
 def test_png_refuses_an_image_it_cannot_encode() -> None:

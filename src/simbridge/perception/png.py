@@ -1,7 +1,8 @@
 """PNG files of datagen's images, encoded here rather than by Pillow: every row gets PNG's
-Sub filter (numpy, one pass) and the rows one zlib stream, run-length strategy for colour.
-A noisy 640x480 RGB frame encodes in about 17 ms (Pillow at zlib level 1: 44 ms, and 15%
-larger); the bytes depend on the pixels and the level alone (no time stamps)."""
+Sub filter (numpy, one pass) and the rows one zlib stream. Colour is deflated run-length
+only, by zlib-ng: the very bytes zlib's run-length mode gives, 1.7x faster (a noisy
+640x480 RGB frame in about 8 ms; zlib: 13; Pillow at level 1: 44, and 15% larger). The
+bytes depend on the pixels and the level alone (no time stamps, no hash tables)."""
 
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
+from zlib_ng import zlib_ng
 
 from simbridge.errors import PerceptionError
 
@@ -57,8 +59,14 @@ def png_bytes(image: NDArray[Any], level: int) -> bytes:
     np.subtract(rows[:, bpp:], rows[:, :-bpp], out=filtered[:, 1 + bpp :])
     # Run-length matching is as small as zlib's default on rendered colour images and faster
     # (much faster on noisy ones); on depth and masks the default is smaller and faster.
-    strategy = zlib.Z_RLE if colour == _RGB else zlib.Z_DEFAULT_STRATEGY
-    packer = zlib.compressobj(level, zlib.DEFLATED, 15, 9, strategy)
-    idat = packer.compress(filtered.data) + packer.flush()
+    # zlib-ng gives zlib's bytes in run-length mode at levels 1-9 alone (its default mode
+    # and its stored blocks at level 0 are other bytes), so only those go to it.
+    if colour == _RGB and level > 0:
+        rle = zlib_ng.compressobj(level, zlib.DEFLATED, 15, 9, zlib.Z_RLE)
+        idat = rle.compress(filtered.data) + rle.flush()
+    else:
+        strategy = zlib.Z_RLE if colour == _RGB else zlib.Z_DEFAULT_STRATEGY
+        packer = zlib.compressobj(level, zlib.DEFLATED, 15, 9, strategy)
+        idat = packer.compress(filtered.data) + packer.flush()
     header = struct.pack(">IIBBBBB", width, height, depth, colour, 0, 0, 0)
     return _SIGNATURE + _chunk(b"IHDR", header) + _chunk(b"IDAT", idat) + _chunk(b"IEND", b"")
