@@ -14,9 +14,9 @@ import simbridge
 
 SRC = Path(simbridge.__file__).parent
 
-# Each layer may import itself and the layers listed after it (errors, assets, tcp and
-# progress anywhere: tcp is the socket options both the connector and the endpoint set,
-# progress the status line of any long work).
+# Each layer may import itself and the layers listed after it (errors, assets, tcp, progress
+# and lazy anywhere: tcp is the socket options both the connector and the endpoint set,
+# progress the status line of any long work, lazy the faces that load names on first use).
 LAYERS = [
     "cli",
     "cluster",
@@ -56,7 +56,7 @@ ALLOWED: dict[str, set[str]] = {
     "protocol": {"protocol"},
     "messages": {"messages"},
 }
-ANYWHERE = {"errors", "assets", "tcp", "progress", "__init__"}
+ANYWHERE = {"errors", "assets", "tcp", "progress", "lazy", "__init__"}
 
 PACKAGES = sorted(
     name for _, name, is_pkg in pkgutil.walk_packages([str(SRC)], prefix="simbridge.") if is_pkg
@@ -128,7 +128,7 @@ def test_lower_layers_never_import_higher_ones() -> None:
 
 ENDPOINT = "endpoint"
 
-SHARED_LEAVES = {"endpoint.lazy", "endpoint.typecheck"}
+SHARED_LEAVES = {"endpoint.typecheck"}
 """Endpoint modules every part may import; they import nothing else of the endpoint."""
 
 # What each part of endpoint/ may import of it (itself, and the shared leaves).

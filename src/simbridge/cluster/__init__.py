@@ -12,8 +12,9 @@ the ARS part needs (importing them took 2.6 s of a fresh worker's start here).
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from simbridge.lazy import lazy_face
 
 if TYPE_CHECKING:
     from simbridge.cluster.ars import (
@@ -41,15 +42,19 @@ __all__ = [
     "train_ars_on_ray",
 ]
 
-_ARS = ("RayRollouts", "RayTraining", "RolloutWorker", "make_vector", "shares", "train_ars_on_ray")
-_LAZY = {
-    **dict.fromkeys(_ARS, "simbridge.cluster.ars"),
-    **dict.fromkeys(("RayDataset", "datagen_on_ray"), "simbridge.cluster.datagen"),
-    **dict.fromkeys(("connect", "node_id", "ray_module"), "simbridge.cluster.runtime"),
-}
-
-
-def __getattr__(name: str) -> Any:
-    if name not in _LAZY:
-        raise AttributeError(f"module 'simbridge.cluster' has no attribute {name!r}")
-    return getattr(importlib.import_module(_LAZY[name]), name)
+__getattr__, __dir__ = lazy_face(
+    __name__,
+    {
+        "RayDataset": "datagen",
+        "RayRollouts": "ars",
+        "RayTraining": "ars",
+        "RolloutWorker": "ars",
+        "connect": "runtime",
+        "datagen_on_ray": "datagen",
+        "make_vector": "ars",
+        "node_id": "runtime",
+        "ray_module": "runtime",
+        "shares": "ars",
+        "train_ars_on_ray": "ars",
+    },
+)

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from simbridge.endpoint.lazy import lazy_face
+from simbridge.lazy import lazy_face
 
 if TYPE_CHECKING:
     from simbridge.endpoint.backends.base import Backend, TopicInfo

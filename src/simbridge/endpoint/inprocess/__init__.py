@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from simbridge.endpoint.lazy import lazy_face
+from simbridge.lazy import lazy_face
 
 if TYPE_CHECKING:
     from simbridge.endpoint.inprocess.actions import (
