@@ -1,8 +1,8 @@
 """PNG files of datagen's images, encoded here rather than by Pillow: every row gets PNG's
 Sub filter (numpy, one pass) and the rows one zlib stream. Colour is deflated run-length
-only, by zlib-ng: the very bytes zlib's run-length mode gives, 1.7x faster (a noisy
-640x480 RGB frame in about 8 ms; zlib: 13; Pillow at level 1: 44, and 15% larger). The
-bytes depend on the pixels and the level alone (no time stamps, no hash tables)."""
+only, at levels 1-9 by zlib-ng: the very bytes zlib's run-length mode gives, 1.7x faster
+(a noisy 640x480 RGB frame in 9 ms where zlib took 16; Pillow at level 1: 44, and 15%
+larger). The bytes depend on the pixels and the level alone (no time stamps)."""
 
 from __future__ import annotations
 
@@ -61,12 +61,9 @@ def png_bytes(image: NDArray[Any], level: int) -> bytes:
     # (much faster on noisy ones); on depth and masks the default is smaller and faster.
     # zlib-ng gives zlib's bytes in run-length mode at levels 1-9 alone (its default mode
     # and its stored blocks at level 0 are other bytes), so only those go to it.
-    if colour == _RGB and level > 0:
-        rle = zlib_ng.compressobj(level, zlib.DEFLATED, 15, 9, zlib.Z_RLE)
-        idat = rle.compress(filtered.data) + rle.flush()
-    else:
-        strategy = zlib.Z_RLE if colour == _RGB else zlib.Z_DEFAULT_STRATEGY
-        packer = zlib.compressobj(level, zlib.DEFLATED, 15, 9, strategy)
-        idat = packer.compress(filtered.data) + packer.flush()
+    strategy = zlib.Z_RLE if colour == _RGB else zlib.Z_DEFAULT_STRATEGY
+    deflate = zlib_ng if strategy == zlib.Z_RLE and level > 0 else zlib
+    packer = deflate.compressobj(level, zlib.DEFLATED, 15, 9, strategy)
+    idat = packer.compress(filtered.data) + packer.flush()
     header = struct.pack(">IIBBBBB", width, height, depth, colour, 0, 0, 0)
     return _SIGNATURE + _chunk(b"IHDR", header) + _chunk(b"IDAT", idat) + _chunk(b"IEND", b"")
