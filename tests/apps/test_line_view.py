@@ -22,7 +22,8 @@ from tests.sim.browser import CHROMIUM, open_page
 @pytest.mark.skipif(CHROMIUM is None, reason="Debian's chromium is not installed")
 def test_the_pages_button_runs_the_line_again_with_a_new_seed(tmp_path: Path) -> None:
     results: list[LineResult] = []
-    with LineView(ViewOptions(port=0), progress=None) as line_view:
+    said: list[str] = []
+    with LineView(ViewOptions(port=0), progress=said.append) as line_view:
         results.append(run_line(None, 1, view=line_view, progress=None))
         assert results[0].success, results[0].error
         view = line_view.view
@@ -37,8 +38,10 @@ def test_the_pages_button_runs_the_line_again_with_a_new_seed(tmp_path: Path) ->
             deadline = time.monotonic() + 90
             while not view.server.get_clients() and time.monotonic() < deadline:
                 time.sleep(0.1)
-            browser.click_button(AGAIN_LABEL)  # the mouse, in headless Chromium
-            deadline = time.monotonic() + 90
+            # the mouse, in headless Chromium, until the line says a run started (a press
+            # while one is queued is ignored)
+            browser.click_until(AGAIN_LABEL, lambda: any("again with seed" in s for s in said))
+            deadline = time.monotonic() + 180
             while len(results) < 2 and time.monotonic() < deadline:
                 time.sleep(0.05)
         assert len(results) == 2, "the button started a second run"

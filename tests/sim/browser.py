@@ -18,7 +18,7 @@ import subprocess
 import tempfile
 import time
 import urllib.request
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -133,6 +133,19 @@ class Browser:
         x, y = point
         for kind in ("mousePressed", "mouseReleased"):
             self.call("Input.dispatchMouseEvent", type=kind, x=x, y=y, button="left", clickCount=1)
+
+    def click_until(
+        self, label: str, done: Callable[[], bool], timeout: float = 120.0, retry_s: float = 15.0
+    ) -> None:
+        """Click button `label` until `done()` (a click the page takes before it wires the
+        button is lost), waiting `retry_s` after each click; only for presses whose repeat
+        is harmless while the first is being served."""
+        deadline = time.monotonic() + timeout
+        while not done() and time.monotonic() < deadline:
+            self.click_button(label)
+            pressed = time.monotonic() + retry_s
+            while not done() and time.monotonic() < pressed:
+                time.sleep(0.05)
 
     def close(self) -> None:
         """End the browser and every process it started."""
