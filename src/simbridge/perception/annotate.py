@@ -118,14 +118,14 @@ def _box3d(
 def _silhouette(
     shapes: ShapeCache, data: mujoco.MjData, geoms: list[int], view: CameraView, near: float
 ) -> Silhouette | None:
-    sets = []
+    outlines = []
     for geom in geoms:
         rotation = view.rotation.T @ data.geom_xmat[geom].reshape(3, 3)
         position = view.rotation.T @ (data.geom_xpos[geom] - view.position)
-        points = silhouette_points(shapes, geom, rotation, position)
-        if points is not None:
-            sets.append(points)
-    return silhouette(view, sets, near)
+        outline = silhouette_points(shapes, geom, rotation, position)
+        if outline is not None:
+            outlines.append(outline)
+    return silhouette(view, outlines, near)
 
 
 def _union_count(
@@ -200,10 +200,11 @@ def annotate(
     """Labels of one rendered view (`labelers` chooses which are computed)."""
     instance_image = category_image = None
     if rendered.segments is not None and rendered.objects is not None:
-        # Ids per segment (a few dozen), then one look-up per pixel.
-        instance_image = table.instance_image(rendered.objects)[rendered.segments]
+        # Ids per segment (a few dozen), then one look-up per pixel (np.take: about twice
+        # as fast as indexing with the image).
+        instance_image = np.take(table.instance_image(rendered.objects), rendered.segments)
         if "semantic" in labelers:
-            category_image = table.category_image(rendered.objects)[rendered.segments]
+            category_image = np.take(table.category_image(rendered.objects), rendered.segments)
     labels = ViewLabels(view, instance_image, category_image)
     wants_2d = "boxes_2d" in labelers or "instance" in labelers
     if not (wants_2d or "boxes_3d" in labelers or "poses" in labelers or "keypoints" in labelers):

@@ -78,7 +78,7 @@ class Rendered:
         """Where no geometry was drawn (the sky), if the segmentation was rendered."""
         if self.segments is None or self.objects is None:
             return None
-        empty: NDArray[np.bool_] = (self.objects[:, 0] < 0)[self.segments]
+        empty: NDArray[np.bool_] = np.take(self.objects[:, 0] < 0, self.segments)
         return empty
 
     def object_at(self, row: int, col: int) -> tuple[int, int]:
@@ -197,7 +197,7 @@ class ViewRenderer:
             segments, objects = self._segments()
             if depth:
                 dist = self._metric_depth()
-                dist[(objects[:, 0] < 0)[segments]] = 0.0
+                dist[np.take(objects[:, 0] < 0, segments)] = 0.0
             if not segmentation:
                 segments = objects = None
             clock = self.times.add("decode segmentation and depth", clock)

@@ -1,6 +1,7 @@
 """What a geom looks like from a camera: the points whose projections bound its silhouette
 (exact for boxes, spheres, capsules, ellipsoids; 64 points a rim for cylinders; the convex
-hull's vertices for meshes) and its bounding box in its own frame.
+hull's vertices for meshes), in outline order where that is known without a hull (boxes,
+cylinders, round rings), and its bounding box in its own frame.
 
 Geoms are read from the model each time (type, size, mesh), so distractor slots whose shape
 changes per frame are measured as they are drawn.
@@ -8,16 +9,18 @@ changes per frame are measured as they are drawn.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import mujoco
 import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import ConvexHull, QhullError
 
-__all__ = ["ShapeCache", "geom_extent", "silhouette_points"]
+from simbridge.perception.loops import BOX_CORNERS, RIM, box_loop, prism_loop
+
+__all__ = ["Outline", "ShapeCache", "geom_extent", "silhouette_points"]
 
 FloatArray = NDArray[np.float64]
-RIM = 64
-"""Points per circle of a round silhouette."""
 
 _T = mujoco.mjtGeom
 _BOX, _SPHERE, _CAPSULE = int(_T.mjGEOM_BOX), int(_T.mjGEOM_SPHERE), int(_T.mjGEOM_CAPSULE)
@@ -30,11 +33,22 @@ _PLANE = int(_T.mjGEOM_PLANE)
 
 _ANGLES = np.linspace(0.0, 2.0 * np.pi, RIM, endpoint=False)
 _CIRCLE = np.stack([np.cos(_ANGLES), np.sin(_ANGLES), np.zeros(RIM)], axis=1)
-_CORNERS = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=float)
+_CORNERS = BOX_CORNERS
+_EVERY = np.arange(RIM, dtype=np.intp)
+"""A round silhouette's ring, in order."""
 
 
 def _f(values: object) -> FloatArray:
     return np.asarray(values, dtype=np.float64)
+
+
+@dataclass(frozen=True)
+class Outline:
+    """A geom's silhouette points in the camera frame and, where known, which of them
+    outline it in order (valid while every point is in front of the camera)."""
+
+    points: FloatArray
+    loop: NDArray[np.intp] | None = None
 
 
 class ShapeCache:
@@ -78,38 +92,42 @@ def _tangent_circle(centre: FloatArray, radius: float) -> FloatArray | None:
 
 def silhouette_points(
     shapes: ShapeCache, geom: int, rotation: FloatArray, position: FloatArray
-) -> FloatArray | None:
+) -> Outline | None:
     """Camera-frame points whose projections' convex hull is the geom's silhouette;
     `rotation`/`position` are the geom's pose in the camera frame. None for planes (no
     finite silhouette) and for a camera inside a round geom."""
     model = shapes.model
     kind = int(model.geom_type[geom])
     size = np.asarray(model.geom_size[geom], dtype=float)
+    camera = -(rotation.T @ position)  # the camera in the geom's frame
     if kind == _BOX:
-        return _f(position + (_CORNERS * size) @ rotation.T)
+        return Outline(_f(position + (_CORNERS * size) @ rotation.T), box_loop(camera, size))
     if kind == _SPHERE:
-        return _tangent_circle(position, float(size[0]))
+        ring = _tangent_circle(position, float(size[0]))
+        return None if ring is None else Outline(ring, _EVERY)
     if kind == _CAPSULE:
         axis = rotation[:, 2] * size[1]
         ends = [_tangent_circle(position + s * axis, float(size[0])) for s in (-1.0, 1.0)]
         if ends[0] is None or ends[1] is None:
             return None
-        return np.vstack([ends[0], ends[1]])
+        return Outline(np.vstack([ends[0], ends[1]]))
     if kind == _ELLIPSOID:
         # Scale space so the ellipsoid is a unit sphere, take its tangent circle, scale back.
-        camera_local = -(rotation.T @ position) / size
+        camera_local = camera / size
         ring = _tangent_circle(-camera_local, 1.0)
         if ring is None:
             return None
-        return _f(position + ((ring + camera_local) * size) @ rotation.T)
+        return Outline(_f(position + ((ring + camera_local) * size) @ rotation.T), _EVERY)
     if kind == _CYLINDER:
         rim = _CIRCLE * size[0]
         local = np.vstack(
             [rim - np.array([0.0, 0.0, size[1]]), rim + np.array([0.0, 0.0, size[1]])]
         )
-        return _f(position + local @ rotation.T)
+        loop = prism_loop(camera, float(size[0]), float(size[1]))
+        return Outline(_f(position + local @ rotation.T), loop)
     if kind == _MESH:
-        return _f(position + shapes.mesh_points(int(model.geom_dataid[geom])) @ rotation.T)
+        mesh = shapes.mesh_points(int(model.geom_dataid[geom]))
+        return Outline(_f(position + mesh @ rotation.T))
     return None
 
 

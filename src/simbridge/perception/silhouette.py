@@ -1,5 +1,7 @@
 """Amodal silhouettes: camera-frame points cut at the near plane, projected, wrapped in a
-convex hull, filled at pixel centres (as OpenGL rasterises) and measured against the image.
+convex hull (or taken in their outline's order, when the geom knows it and is wholly in
+front of the camera), filled at pixel centres (as OpenGL rasterises) and measured against
+the image.
 
 An instance's amodal silhouette is the union of its geoms' hulls: exact for convex geoms
 (boxes, spheres, cylinders, capsules, ellipsoids, convex meshes), an upper bound for
@@ -15,6 +17,7 @@ from numpy.typing import NDArray
 from scipy.spatial import ConvexHull, QhullError
 
 from simbridge.perception.camera import CameraView
+from simbridge.perception.shapes import Outline
 
 __all__ = ["Silhouette", "clip_near", "fill_convex", "hull_polygon", "polygon_area", "silhouette"]
 
@@ -131,11 +134,15 @@ class Silhouette:
         return mask, (u0, v0)
 
 
-def silhouette(view: CameraView, point_sets: list[FloatArray], near: float) -> Silhouette | None:
-    """The silhouette of an instance from its geoms' camera-frame silhouette points (None
-    when nothing of it is in front of the camera)."""
+def silhouette(view: CameraView, outlines: list[Outline], near: float) -> Silhouette | None:
+    """The silhouette of an instance from its geoms' camera-frame outlines (None when
+    nothing of it is in front of the camera)."""
     polygons = []
-    for points in point_sets:
+    for outline in outlines:
+        points = outline.points
+        if outline.loop is not None and points[:, 2].min() >= near:
+            polygons.append(view.project(points[outline.loop]))
+            continue
         ahead = clip_near(points, near)
         if len(ahead):
             polygons.append(hull_polygon(view.project(ahead)))

@@ -167,7 +167,7 @@ class NoiseRandomizer(Randomizer):
             # Beyond +-255 levels every pixel clips the same: the table stays in int16.
             table = np.clip(np.rint(_QUANTILES * sigma), -255, 255).astype(np.int16)
             draws = np.frombuffer(rng.bytes(2 * out.size), dtype="<u2").reshape(out.shape)
-            noisy = table[draws]
+            noisy = np.take(table, draws)
             noisy += out
             np.clip(noisy, 0, 255, out=noisy)
             out = noisy.astype(np.uint8)
