@@ -18,7 +18,11 @@ from scipy import ndimage
 
 from simbridge.errors import PerceptionError
 from simbridge.perception.png import png_bytes
-from simbridge.perception.randomizers.image_effects import NoiseRandomizer, gaussian_blur
+from simbridge.perception.randomizers.image_effects import (
+    NoiseRandomizer,
+    gaussian_blur,
+    uniform16,
+)
 from simbridge.perception.section import Section
 from simbridge.sim.scene.located import Where
 
@@ -124,6 +128,25 @@ def test_noise_has_the_asked_standard_deviation_and_is_seeded() -> None:
     # Clipped at the ends of the 8-bit range, never wrapped.
     white = np.full((50, 50, 3), 255, dtype=np.uint8)
     assert _noise(6.0, 0.0).post(white, None, np.random.default_rng(1)).min() > 200
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.integers(0, 2**32),
+    st.integers(0, 3),
+    st.tuples(st.integers(1, 40), st.integers(1, 40), st.sampled_from([1, 3])),
+)
+def test_noise_draws_are_the_bytes_rng_bytes_gives(
+    seed: int, floats: int, shape: tuple[int, int, int]
+) -> None:
+    """The noise's 16-bit draws read the bit generator directly: the same bytes (so the
+    same datasets) as `rng.bytes` after the float draws that come before them."""
+    direct, reference = np.random.default_rng(seed), np.random.default_rng(seed)
+    for rng in (direct, reference):
+        rng.random(floats)
+    size = shape[0] * shape[1] * shape[2]
+    expected = np.frombuffer(reference.bytes(2 * size), dtype="<u2").reshape(shape)
+    assert np.array_equal(uniform16(direct, shape), expected)
 
 
 def test_blur_beyond_its_bound_is_refused() -> None:

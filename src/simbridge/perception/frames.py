@@ -158,7 +158,7 @@ class FrameMaker:
             )
             rgb = rendered.rgb
             if rgb is not None:
-                empty = rendered.nothing_drawn() if self._image_steps_need_segmentation else None
+                empty = rendered.empty if self._image_steps_need_segmentation else None
                 for k, step in enumerate(self.config.randomizers):
                     if step.image_step:
                         rgb = step.post(rgb, empty, frame_rng(self.seed, index, k, c))

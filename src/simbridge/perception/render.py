@@ -73,13 +73,8 @@ class Rendered:
     objects: NDArray[np.int32] | None
     """(segments, 2): each segment's MuJoCo object id and object type; (-1, -1) for
     nothing drawn. Labels look the few segments up, then index the image once."""
-
-    def nothing_drawn(self) -> NDArray[np.bool_] | None:
-        """Where no geometry was drawn (the sky), if the segmentation was rendered."""
-        if self.segments is None or self.objects is None:
-            return None
-        empty: NDArray[np.bool_] = np.take(self.objects[:, 0] < 0, self.segments)
-        return empty
+    empty: NDArray[np.bool_] | None = None
+    """Where no geometry was drawn (the sky), if the segmentation was rendered."""
 
     def object_at(self, row: int, col: int) -> tuple[int, int]:
         """(object id, object type) drawn at one pixel; (-1, -1) for nothing."""
@@ -181,7 +176,7 @@ class ViewRenderer:
         for glcam in scene.camera:
             view.apply_to(glcam, self.near, self.far)
         clock = self.times.add("scene update", clock)
-        colour = segments = objects = dist = None
+        colour = segments = objects = dist = empty = None
         if rgb:
             mujoco.mjr_render(self._rect, scene, self._mjr)
             clock = self.times.add("RGB render", clock)
@@ -195,14 +190,15 @@ class ViewRenderer:
             mujoco.mjr_readPixels(self._ids, zbuffer, self._rect, self._mjr)
             clock = self.times.add("ID+depth readPixels", clock)
             segments, objects = self._segments()
+            empty = np.take(objects[:, 0] < 0, segments)
             if depth:
                 dist = self._metric_depth()
-                dist[np.take(objects[:, 0] < 0, segments)] = 0.0
+                np.copyto(dist, np.float32(0.0), where=empty)
             if not segmentation:
-                segments = objects = None
+                segments = objects = empty = None
             clock = self.times.add("decode segmentation and depth", clock)
         self.times.views += 1
-        return Rendered(colour, dist, segments, objects)
+        return Rendered(colour, dist, segments, objects, empty)
 
     def _render_id_colours(self) -> None:
         """Render each geom in the flat colour of its segment id, as `mujoco.Renderer`'s
