@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import json
 import os
-import zipfile
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -17,6 +16,7 @@ from numpy.typing import NDArray
 
 from simbridge.perception.annotate import InstanceLabel, ViewLabels
 from simbridge.perception.frames import Frame, View
+from simbridge.perception.npz import write_npz_to
 from simbridge.perception.png import png_bytes
 from simbridge.perception.rle import rle
 
@@ -72,12 +72,9 @@ def write_atomic(path: Path, data: bytes) -> None:
 
 def write_npz(path: Path, arrays: dict[str, NDArray[Any]]) -> None:
     """An uncompressed .npz (np.load reads it) with fixed member dates, so equal arrays give
-    equal bytes; streamed into the file (no copy of the arrays' bytes), whole or not at all."""
-    with atomic_file(path) as file, zipfile.ZipFile(file, "w", zipfile.ZIP_STORED) as archive:
-        for name, array in arrays.items():
-            info = zipfile.ZipInfo(f"{name}.npy", date_time=(1980, 1, 1, 0, 0, 0))
-            with archive.open(info, "w") as member:
-                np.lib.format.write_array(member, np.ascontiguousarray(array), allow_pickle=False)
+    equal bytes (npz.py), whole or not at all."""
+    with atomic_file(path) as file:
+        write_npz_to(file, arrays)
 
 
 def _r(value: float, digits: int = 6) -> float:

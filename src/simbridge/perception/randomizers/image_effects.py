@@ -94,7 +94,7 @@ class BackgroundRandomizer(Randomizer):
         if not apply or empty is None:
             return rgb
         out = rgb.copy()
-        out[empty] = np.broadcast_to(image, out.shape)[empty]
+        np.copyto(out, image, where=empty[..., None])
         return out
 
 
