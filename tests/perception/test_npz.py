@@ -54,7 +54,7 @@ def test_the_bytes_are_zipfiles_and_np_load_reads_them_back(
 
 def test_a_frames_label_arrays_and_a_transposed_view() -> None:
     rng = np.random.default_rng(4)
-    members = {
+    members: dict[str, NDArray[Any]] = {
         "depth": rng.random((480, 640), dtype=np.float32),
         "instance": rng.integers(0, 30, (640, 480), dtype=np.uint16).T,  # not C-contiguous
     }

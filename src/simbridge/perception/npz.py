@@ -48,7 +48,7 @@ def write_npz_to(file: BinaryIO, arrays: dict[str, NDArray[Any]]) -> None:
         size = len(header) + array.nbytes
         if offset + size + 30 + len(name) > _LIMIT:
             raise PerceptionError(f"npz: member {key!r} would need ZIP64 ({size} bytes)")
-        data = array.reshape(-1).view(np.uint8)
+        data = array.reshape(-1).view(np.uint8).data
         crc = zlib_ng.crc32(data, zlib_ng.crc32(header))
         sizes = struct.pack("<III", crc, size, size)
         file.write(
