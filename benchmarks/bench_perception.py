@@ -4,12 +4,13 @@ native layout, COCO and BOP; and the native layout alone: RGB PNG, an NPZ of dep
 instance and semantic images, a JSON of boxes and poses) against bare renders of the same
 frames, the first-frame latency (a fresh process: imports, scene compile, first frame) and
 the memory of one worker, at each render quality (`fast`: the shipped datagen scene's;
-`high`: shadows and 4x MSAA).
+`balanced`: shadows from a 2048 map; `high`: shadows and 4x MSAA).
 
 A second table splits a labelled frame's CPU time (the process's, llvmpipe's thread
 included: robust to other processes' load) by stage, and gives the most frames/s one core
 can render (1 / the renders' CPU time) and label and write (1 / all stages'), and what
 labelling and writing cost over the bare renders (pose and renders) of the same frames,
+and over the frames (pose, renders and the image randomisers: background and noise),
 with every format and with the native layout alone.
 
 Run: `python benchmarks/bench_perception.py [--quick] [--markdown]` (prints the tables;
@@ -37,7 +38,7 @@ FRAMES = 16
 """Frames each mode renders (after the first, timed apart)."""
 ROUNDS = 3
 """Rounds of all modes (rows give the best and the median)."""
-QUALITIES = ("fast", "high")
+QUALITIES = ("fast", "balanced", "high")
 """Render presets measured (simbridge.perception.render.QUALITIES)."""
 
 
@@ -84,6 +85,7 @@ def _stages(frames: int, quality: str) -> dict[str, Any]:
     from simbridge.apps.datagen import SCENE
     from simbridge.perception import FrameMaker
     from simbridge.perception.bop import write_bop_frame
+    from simbridge.perception.frames import IMAGE_STEPS
     from simbridge.perception.native import frame_json_path, json_bytes, write_atomic, write_native
 
     maker = FrameMaker(SCENE, seed=0, quality=quality)
@@ -109,10 +111,15 @@ def _stages(frames: int, quality: str) -> dict[str, Any]:
             write_bop_frame(folder, frame, pngs, output.depth_scale, output.png_compression)
             cost[WRITE_BOP] += time.process_time() - clock
     render = {k: v - before.get(k, 0.0) for k, v in maker.render_times().seconds.items()}
-    labels = cost.pop("make (pose, renders, labels)") - sum(render.values())
+    image = render.pop(IMAGE_STEPS, 0.0)
+    labels = cost.pop("make (pose, renders, labels)") - sum(render.values()) - image
     labels -= cost["pose (randomisers, mj_forward)"]
-    stages = {**render, "labels (annotate, image steps)": labels, **cost}
-    return {"ms": {k: 1000 * v / frames for k, v in stages.items()}, "renders": list(render)}
+    stages = {**render, IMAGE_STEPS: image, "labels (annotate)": labels, **cost}
+    return {
+        "ms": {k: 1000 * v / frames for k, v in stages.items()},
+        "renders": list(render),
+        "image": IMAGE_STEPS,
+    }
 
 
 def _measure(modes: tuple[str, ...], frames: int, quality: str) -> list[dict[str, Any]]:
@@ -163,7 +170,8 @@ def _rounds(frames: int, rounds: int, quality: str, fresh: bool) -> dict[str, li
 def stage_rows(results: list[dict[str, Any]]) -> list[dict[str, Any]]:
     """CPU ms per labelled frame by stage (median and least of the rounds' `results`),
     then the renders' sum and all stages' sum with the frames/s each allows one core, and
-    labelling and writing over the bare renders (pose and renders)."""
+    labelling and writing over the bare renders (pose and renders; the image randomisers
+    counted as labelling) and over the frames (pose, renders, image randomisers)."""
     rounds = len(results)
     load = round(os.getloadavg()[0], 2)
     renders = set(results[0]["renders"])
@@ -191,14 +199,21 @@ def stage_rows(results: list[dict[str, Any]]) -> list[dict[str, Any]]:
             "frames_per_s_bound": round(1000 / least, 2),
             "load_1min": load,
         })  # fmt: skip
+    image = results[0]["image"]
     bare = [sums["renders"][k] + results[k]["ms"][pose] for k in range(rounds)]
-    for what, bop in (("", True), (", native only", False)):
+    made = [bare[k] + results[k]["ms"][image] for k in range(rounds)]
+    for what, bop, base, under in (
+        ("", True, bare, "the bare renders (pose + renders)"),
+        (", native only", False, bare, "the bare renders (pose + renders)"),
+        ("", True, made, "the frames (pose + renders + image randomisers)"),
+        (", native only", False, made, "the frames (pose + renders + image randomisers)"),
+    ):
         over = [
-            (sums["all"][k] - (0.0 if bop else results[k]["ms"][WRITE_BOP]) - bare[k]) / bare[k]
+            (sums["all"][k] - (0.0 if bop else results[k]["ms"][WRITE_BOP]) - base[k]) / base[k]
             for k in range(rounds)
         ]
         rows.append({
-            "stage": f"labelling + writing{what} over the bare renders (pose + renders)",
+            "stage": f"labelling + writing{what} over {under}",
             "cpu_ms_median": f"{statistics.median(over):+.0%}",
             "cpu_ms_least": f"{min(over):+.0%}",
             "frames_per_s_bound": "",

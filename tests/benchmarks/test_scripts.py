@@ -77,9 +77,12 @@ def test_perception_quick_mode_measures_every_mode_and_stage(tmp_path: Path) -> 
     for mode in ("RGB render only", "RGB + depth + segmentation", "labelled + written, native",
                  "labelled + written (native, COCO, BOP)"):  # fmt: skip
         assert sum(mode in line and line.startswith("fast") for line in out.splitlines()) == 1
-    for stage in ("render: RGB render", "labels (annotate, image steps)", "write: native (",
-                  "write: BOP (", "sum of the renders", "sum of all stages"):  # fmt: skip
+    for stage in ("render: RGB render", "image randomisers (background, noise)",
+                  "labels (annotate)", "write: native (", "write: BOP (", "sum of the renders",
+                  "sum of all stages"):  # fmt: skip
         assert any(row.startswith(stage) for row in rows), stage
     for what in ("", ", native only"):
-        over = rows[f"labelling + writing{what} over the bare renders (pose + renders)"].split()
-        assert any(cell.startswith("+") and cell.endswith("%") for cell in over), what
+        for under in ("the bare renders (pose + renders)",
+                      "the frames (pose + renders + image randomisers)"):  # fmt: skip
+            over = rows[f"labelling + writing{what} over {under}"].split()
+            assert any(cell.startswith("+") and cell.endswith("%") for cell in over), what

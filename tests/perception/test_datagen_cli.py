@@ -94,8 +94,13 @@ BAD = [
     ("  cameras: [{name: main}]\n  render: {near: 1, far: 0.5}\n",
      r"bad\.yaml:6: perception\.render\.far: far 0\.5 must be beyond near 1"),
     ("  cameras: [{name: main}]\n  render: {quality: hihg}\n",
-     r"bad\.yaml:6: perception\.render\.quality: expected one of high, fast, got 'hihg'; "
-     r"did you mean 'high'"),
+     r"bad\.yaml:6: perception\.render\.quality: expected one of high, balanced, fast, got "
+     r"'hihg'; did you mean 'high'"),
+    ("  cameras: [{name: main}]\n  render: {shadow_size: 20}\n",
+     r"bad\.yaml:6: perception\.render\.shadow_size: 20 is out of range "
+     r"\(expected \[64, 16384\]\)"),
+    ("  cameras: [{name: main}]\n  render: {shadow_size: big}\n",
+     r"bad\.yaml:6: perception\.render\.shadow_size: expected a whole number, got"),
 ]  # fmt: skip
 
 
@@ -137,11 +142,14 @@ def test_quality_presets_change_the_look_not_the_labels(tmp_path: Path) -> None:
 
     scene = random_scene(tmp_path, size=(96, 72))
     frames = {}
-    for quality in ("fast", "high"):
+    for quality in ("fast", "balanced", "high"):
         maker = FrameMaker(scene, seed=2, quality=quality)
         try:
             render = maker.config.render
-            assert (render.shadows, render.multisamples > 0) == (quality == "high",) * 2
+            assert render.shadows == (quality != "fast")
+            assert (render.multisamples > 0) == (quality == "high")
+            shadow_map = {"balanced": 2048}.get(quality, 4096)  # MuJoCo's default: 4096
+            assert maker.world.model.vis.quality.shadowsize == shadow_map
             frames[quality] = maker.make(1).views[0]
         finally:
             maker.close()
@@ -149,6 +157,10 @@ def test_quality_presets_change_the_look_not_the_labels(tmp_path: Path) -> None:
     assert fast.rgb is not None
     assert high.rgb is not None
     assert not np.array_equal(fast.rgb, high.rgb)
+    assert fast.labels.instance_image is not None
+    for name, other in frames.items():  # the same labels at every quality
+        assert other.labels.instance_image is not None, name
+        assert np.array_equal(other.labels.instance_image, fast.labels.instance_image), name
     assert fast.labels.instance_image is not None
     assert high.labels.instance_image is not None
     assert np.array_equal(fast.labels.instance_image, high.labels.instance_image)
@@ -161,3 +173,27 @@ def test_quality_presets_change_the_look_not_the_labels(tmp_path: Path) -> None:
     assert fast.depth is not None
     assert high.depth is not None
     assert np.array_equal(fast.depth, high.depth)
+
+
+@pytest.mark.parametrize(
+    ("render", "expected"),
+    [
+        ("{quality: balanced}", (True, 0, 2048)),
+        ("{quality: balanced, shadow_size: 1024}", (True, 0, 1024)),
+        ("{quality: high, multisamples: 2}", (True, 2, None)),
+        ("{quality: fast, shadows: true, shadow_size: 512}", (True, 0, 512)),
+    ],
+)
+def test_a_scenes_render_keys_win_over_its_preset(
+    tmp_path: Path, render: str, expected: tuple[bool, int, int | None]
+) -> None:
+    from simbridge.perception.config import parse_perception
+    from simbridge.sim import load_scene
+
+    scene = tmp_path / "scene.yaml"
+    scene.write_text(
+        "ros: {enabled: false}\nobjects:\n  - {name: table, type: box, size: [1, 1, 0.1]}\n"
+        f"perception:\n  cameras: [{{name: main}}]\n  render: {render}\n"
+    )
+    settings = parse_perception(load_scene(scene)).render
+    assert (settings.shadows, settings.multisamples, settings.shadow_size) == expected

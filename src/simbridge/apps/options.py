@@ -197,10 +197,11 @@ def add_datagen_arguments(
     )
     parser.add_argument(
         "--quality",
-        choices=("fast", "high"),  # simbridge.perception.render.QUALITIES (not imported here)
+        choices=("fast", "balanced", "high"),  # perception.render.QUALITIES (not imported)
         help="render preset over the scene's `render:` settings: fast (no shadows, no "
-        "anti-aliasing; about 5x faster on a CPU) or high (shadows, 4x multisampling); labels "
-        "are the same (default: the scene's)",
+        "anti-aliasing; about 5x faster on a CPU than high), balanced (shadows from a 2048 "
+        "map, no anti-aliasing; about 2x) or high (shadows, 4x multisampling); labels are "
+        "the same (default: the scene's)",
     )
     parser.add_argument(
         "--resume",

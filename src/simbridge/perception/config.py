@@ -7,6 +7,7 @@ output settings and randomisers.
       labels:                     # instances beyond the `label:` keys of objects and robots
         - {name: gripper, class: gripper, bodies: ["gripper_*"]}
       render: {quality: high, near: 0.01, far: 50, shadows: true, reflections: false}
+                                  # (and multisamples, shadow_size: over the preset's)
       output: {depth_scale: 0.1, png_compression: 1, min_visible_px: 1, contact_sheet: 16}
       cameras:
         - {name: main, width: 640, height: 480, fovy: 60, eye: [1, 0.6, 0.7], target: [0, 0, 0]}
@@ -85,15 +86,20 @@ def parse_perception(scene: Scene) -> PerceptionConfig:
                 "labelers",
             )
     render = root.sub("render")
-    shadows, multisamples = QUALITIES[render.choice("quality", tuple(QUALITIES), "high")]
+    preset = QUALITIES[render.choice("quality", tuple(QUALITIES), "high")]
     settings = RenderSettings(
         near=render.number("near", 0.01, 1e-6),
         far=render.number("far", 50.0, 1e-3),
-        shadows=render.boolean("shadows", shadows),
+        shadows=render.boolean("shadows", preset.shadows),
         reflections=render.boolean("reflections", False),
-        multisamples=render.integer("multisamples", multisamples, low=0),
+        multisamples=render.integer("multisamples", preset.multisamples, low=0),
+        shadow_size=(
+            render.integer("shadow_size", 0, low=64, high=16384)
+            if render.has("shadow_size")
+            else preset.shadow_size
+        ),
     )
-    render.done(("quality", "near", "far", "shadows", "reflections", "multisamples"))
+    render.done(("quality", "near", "far", "shadows", "reflections", "multisamples", "shadow_size"))
     if settings.far <= settings.near:
         raise render.error(f"far {settings.far:g} must be beyond near {settings.near:g}", "far")
     output = root.sub("output")

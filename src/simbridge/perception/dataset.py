@@ -136,7 +136,11 @@ def _meta(job: DatagenJob, maker: FrameMaker) -> dict[str, Any]:
         "scene": Path(job.scene).name,
         "seed": job.seed,
         "formats": list(job.formats),
-        "render": {"shadows": config.render.shadows, "multisamples": config.render.multisamples},
+        "render": {
+            "shadows": config.render.shadows,
+            "multisamples": config.render.multisamples,
+            "shadow_size": config.render.shadow_size,
+        },
         "labelers": sorted(config.labelers),
         "depth_scale": config.output.depth_scale,
         "min_visible_px": config.output.min_visible_px,

@@ -3,6 +3,7 @@ by the dataset seed and the frame index only), render every camera, label what i
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -26,7 +27,10 @@ from simbridge.sim import Scene, World, load_scene
 from simbridge.sim.labels import LabelTable
 from simbridge.sim.urdf.document import MjcfDocument
 
-__all__ = ["Frame", "FrameMaker", "View"]
+__all__ = ["IMAGE_STEPS", "Frame", "FrameMaker", "View"]
+
+IMAGE_STEPS = "image randomisers (background, noise)"
+"""The stage of `FrameMaker.render_times` the image randomisers' CPU time goes to."""
 
 _SEGMENTATION_LABELERS = {"semantic", "instance", "boxes_2d", "keypoints"}
 
@@ -103,6 +107,7 @@ class FrameMaker:
         labelers = self.config.labelers
         image_steps = [r for r in self.config.randomizers if r.image_step]
         self._image_steps_need_segmentation = any(r.needs_segmentation for r in image_steps)
+        self._image_times = StageTimes()
         self._want_seg = (
             bool(labelers & _SEGMENTATION_LABELERS) or self._image_steps_need_segmentation
         )
@@ -158,17 +163,20 @@ class FrameMaker:
             )
             rgb = rendered.rgb
             if rgb is not None:
+                clock = time.process_time()
                 empty = rendered.empty if self._image_steps_need_segmentation else None
                 for k, step in enumerate(self.config.randomizers):
                     if step.image_step:
                         rgb = step.post(rgb, empty, frame_rng(self.seed, index, k, c))
+                self._image_times.add(IMAGE_STEPS, clock)
             views.append(View(view, rgb, rendered.depth, labels))
         return Frame(index, views)
 
     def render_times(self) -> StageTimes:
         """CPU seconds per render stage and views rendered, summed over this maker's
-        renderers (benchmarks/bench_perception.py's stage table)."""
-        total = StageTimes()
+        renderers, and of the image randomisers (IMAGE_STEPS) on their images
+        (benchmarks/bench_perception.py's stage table)."""
+        total = StageTimes(dict(self._image_times.seconds))
         for renderer in self._renderers.values():
             for stage, seconds in renderer.times.seconds.items():
                 total.seconds[stage] = total.seconds.get(stage, 0.0) + seconds

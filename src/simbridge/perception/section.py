@@ -99,13 +99,16 @@ class Section:
             hi = "inf" if high is None else f"{high:g}"
             raise self.error(f"{value:g} is out of range (expected [{lo}, {hi}])", name)
 
-    def integer(self, name: str, default: int, low: int | None = None) -> int:
+    def integer(
+        self, name: str, default: int, low: int | None = None, high: int | None = None
+    ) -> int:
+        """A whole number in [low, high] (either bound optional)."""
         if not self.has(name):
             return default
         value = self.data[name]
         if isinstance(value, bool) or not isinstance(value, int):
             raise self.error(f"expected a whole number, got {_kind(value)}", name)
-        self._check_bounds(name, value, low, None)
+        self._check_bounds(name, value, low, high)
         return value
 
     def boolean(self, name: str, default: bool) -> bool:

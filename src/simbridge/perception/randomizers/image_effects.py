@@ -93,8 +93,13 @@ class BackgroundRandomizer(Randomizer):
         image = self._image(rgb.shape[0], rgb.shape[1], rng)
         if not apply or empty is None:
             return rgb
+        rows = np.flatnonzero(empty.any(axis=1))
+        if not len(rows):
+            return rgb  # no sky in this view
+        band = slice(int(rows[0]), int(rows[-1]) + 1)  # only the rows with sky
         out = rgb.copy()
-        np.copyto(out, image, where=empty[..., None])
+        fill = np.broadcast_to(image, out.shape)[band]
+        np.copyto(out[band], fill, where=empty[band, :, None])
         return out
 
 
@@ -130,9 +135,14 @@ def _blur_axis(image: NDArray[np.uint16], taps: list[int], axis: int) -> NDArray
     part(padded, reach, reach + size)[...] = image
     part(padded, 0, reach)[...] = part(image, 0, 1)
     part(padded, reach + size, size + 2 * reach)[...] = part(image, size - 1, size)
-    total = part(padded, reach, reach + size) * np.uint16(taps[0])
+    total = np.multiply(image, np.uint16(taps[0]), dtype=np.uint16)
+    pair = np.empty_like(total)  # one buffer for every tap: no new array per tap
     for k in range(1, reach + 1):
-        pair = part(padded, reach - k, reach - k + size) + part(padded, reach + k, reach + k + size)
+        before, after = (
+            part(padded, reach - k, reach - k + size),
+            part(padded, reach + k, reach + k + size),
+        )
+        np.add(before, after, out=pair)
         pair *= np.uint16(taps[k])
         total += pair  # at most 255 * 256: no overflow
     total += np.uint16(128)
