@@ -319,8 +319,9 @@ def generate(
         maker = _frame_maker(job)
         if (out / META).read_bytes() != json_bytes(_meta(job, maker)):
             raise PerceptionError(
-                f"'{out}' holds a dataset of another scene, seed, format or labeler set; "
-                "it cannot be resumed with these options"
+                f"'{out}' holds a dataset of another scene, seed, format, labeler set or "
+                f"render settings (its {META} differs from this job's); it cannot be resumed "
+                "with these options"
             )
         start = first_missing_frame(out, frames)
     todo = range(start, frames)
