@@ -56,54 +56,47 @@ def _check(
     assert (turns >= -1e-9 * scale).all() or (turns <= 1e-9 * scale).all(), "not convex"
 
 
+directions = st.tuples(unit, unit, unit).filter(lambda d: float(np.linalg.norm(d)) >= 0.1)
+views = st.tuples(directions, st.floats(1.5, 20.0), st.tuples(unit, unit, unit))
+"""Where the camera is (a direction, and a distance in shape sizes) and how it is turned."""
+
+
+def _camera(
+    view: tuple[tuple[float, float, float], float, tuple[float, float, float]], extent: float
+) -> tuple[FloatArray, FloatArray]:
+    """The camera's position (geom frame) at `view`'s distance times 2 `extent`, and its
+    frame's rows."""
+    direction, distance, angles = view
+    position = np.asarray(direction) / np.linalg.norm(direction) * distance * extent * 2
+    return position, _pose(angles, (float(position[0]), float(position[1]), float(position[2])))
+
+
 @settings(max_examples=300, deadline=None)
-@given(
-    st.tuples(sizes, sizes, sizes),
-    st.tuples(unit, unit, unit),
-    st.floats(1.5, 20.0),
-    st.tuples(unit, unit, unit),
-)
+@given(st.tuples(sizes, sizes, sizes), views)
 def test_a_box_loop_is_the_hull_of_its_projected_corners(
     half: tuple[float, float, float],
-    direction: tuple[float, float, float],
-    distance: float,
-    angles: tuple[float, float, float],
+    view: tuple[tuple[float, float, float], float, tuple[float, float, float]],
 ) -> None:
-    if np.linalg.norm(direction) < 0.1:
-        return
     half_sizes = np.asarray(half)
-    camera = np.asarray(direction) / np.linalg.norm(direction) * distance * half_sizes.max() * 2
+    camera, frame = _camera(view, float(half_sizes.max()))
     loop = box_loop(camera, half_sizes)
     assert loop is not None
-    _check(BOX_CORNERS * half_sizes, camera, _pose(angles, tuple(camera)), loop)
+    _check(BOX_CORNERS * half_sizes, camera, frame, loop)
 
 
 @settings(max_examples=300, deadline=None)
-@given(
-    sizes,
-    sizes,
-    st.tuples(unit, unit, unit),
-    st.floats(1.5, 20.0),
-    st.tuples(unit, unit, unit),
-)
+@given(sizes, sizes, views)
 def test_a_prism_loop_is_the_hull_of_its_projected_rims(
     radius: float,
     half_height: float,
-    direction: tuple[float, float, float],
-    distance: float,
-    angles: tuple[float, float, float],
+    view: tuple[tuple[float, float, float], float, tuple[float, float, float]],
 ) -> None:
-    if np.linalg.norm(direction) < 0.1:
-        return
-    camera = (
-        np.asarray(direction) / np.linalg.norm(direction) * distance * max(radius, half_height) * 2
-    )
-    rim = _RIM * radius
+    camera, frame = _camera(view, max(radius, half_height))
     lift = np.array([0.0, 0.0, half_height])
-    points = np.vstack([rim - lift, rim + lift])
+    points = np.vstack([_RIM * radius - lift, _RIM * radius + lift])
     loop = prism_loop(camera, radius, half_height)
     assert loop is not None
-    _check(points, camera, _pose(angles, tuple(camera)), loop)
+    _check(points, camera, frame, loop)
 
 
 @pytest.mark.parametrize(
