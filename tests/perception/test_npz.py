@@ -67,6 +67,8 @@ def test_a_scalar_array_reads_back_as_a_scalar() -> None:
         assert loaded["s"] == np.float32(2.5)
 
 
-def test_objects_are_refused() -> None:
+def test_objects_and_names_beyond_ascii_are_refused() -> None:
     with pytest.raises(PerceptionError, match="objects"):
         _ours({"bad": np.array([{"a": 1}], dtype=object)})
+    with pytest.raises(PerceptionError, match="not ASCII"):
+        _ours({"tiefe": np.zeros(2), "größe": np.zeros(2)})

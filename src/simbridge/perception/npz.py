@@ -43,6 +43,8 @@ def write_npz_to(file: BinaryIO, arrays: dict[str, NDArray[Any]]) -> None:
         array = np.require(value, requirements="C")  # a 0-d array stays 0-d
         if array.dtype.hasobject:
             raise PerceptionError(f"npz: member {key!r} holds Python objects")
+        if not key.isascii():  # zipfile flags UTF-8 names; these archives keep to ASCII
+            raise PerceptionError(f"npz: member name {key!r} is not ASCII")
         name = f"{key}.npy".encode()
         header = _npy_header(array)
         size = len(header) + array.nbytes
