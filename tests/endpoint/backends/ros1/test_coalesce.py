@@ -96,14 +96,39 @@ def _numbered(count: int) -> list[bytes]:
     return [struct.pack("<I", i) for i in range(count)]
 
 
+BATCH = 50
+"""Messages per write of a paced stream."""
+
+
+def _send_paced(
+    conn: socket.socket, messages: list[bytes], marks: list[int], until_paused: bool = False
+) -> int:
+    """Send `messages` in writes of BATCH, each once the one before was delivered (`marks`
+    grows by one per delivery), so every read brings several messages and the connection
+    is a stream whatever the machine's speed: sent one write per message, a reader that
+    keeps up reads them one at a time and never sees a stream (it failed so on a fast
+    machine), and sent flat out, they can all arrive in one read. Returns how many were
+    sent: all, or with `until_paused` those sent until reading had paused once."""
+    for start in range(0, len(messages), BATCH):
+        batch = messages[start : start + BATCH]
+        conn.sendall(b"".join(frame(payload) for payload in batch))
+        deadline = time.monotonic() + 10
+        while len(marks) < start + len(batch):
+            assert time.monotonic() < deadline, f"{len(marks)} of {start + len(batch)} delivered"
+            time.sleep(0.001)
+        if until_paused and marks[-1] > 0:
+            return start + len(batch)
+    return len(messages)
+
+
 def test_a_stream_is_read_in_batches_whole_and_in_order() -> None:
     messages = _numbered(3000)
+    marks: list[int] = []
 
     def stream(conn: socket.socket, _delivered: threading.Event) -> None:
-        for payload in messages:  # one send per message, as rospy's publisher writes
-            conn.sendall(frame(payload))
+        _send_paced(conn, messages, marks)
 
-    got, coalesced = _receive(stream, len(messages))
+    got, coalesced = _receive(stream, len(messages), marks)
     assert got == messages
     assert coalesced > 0
 
@@ -143,20 +168,13 @@ def test_a_large_message_in_chunks_is_not_a_stream() -> None:
 def test_the_stream_ends_with_the_burst() -> None:
     """Lone messages after a burst are read as they come: no pause after any of them.
 
-    The burst is 40 writes of 50 messages, each sent once the one before was delivered, so
-    every read brings several messages and the connection is a stream whatever the
-    machine's speed (2,000 writes of one message each could be read one at a time by a
-    reader that keeps up, and then never looked like a stream: it failed so once)."""
+    The burst is 2,000 messages sent paced (`_send_paced`), so it is a stream whatever the
+    machine's speed."""
     messages = _numbered(2005)
     marks: list[int] = []
 
     def burst_then_lone(conn: socket.socket, delivered: threading.Event) -> None:
-        for start in range(0, 2000, 50):
-            conn.sendall(b"".join(frame(payload) for payload in messages[start : start + 50]))
-            deadline = time.monotonic() + 10
-            while len(marks) < start + 50:  # `marks` grows by one per delivery
-                assert time.monotonic() < deadline, f"{len(marks)} of {start + 50} delivered"
-                time.sleep(0.001)
+        _send_paced(conn, messages[:2000], marks)
         for payload in messages[2000:]:
             time.sleep(0.05)
             delivered.clear()
@@ -190,26 +208,28 @@ def test_a_consumer_of_batches_gets_a_stream_in_batches_and_may_take_part() -> N
         return taken
 
     sink = Sink(lambda _payload: None, lambda: time.monotonic() < block_until, take)
+    marks: list[int] = []
 
     def stream(conn: socket.socket, _delivered: threading.Event) -> None:
-        for payload in messages:
-            conn.sendall(frame(payload))
+        _send_paced(conn, messages, marks)
 
-    got, _ = _receive(stream, len(messages), sink=sink)
+    got, _ = _receive(stream, len(messages), marks, sink=sink)
     assert got == messages
     assert max(batches) > 1
 
 
 def test_a_stream_that_ends_with_the_connection_arrives_whole() -> None:
-    """The publisher closes right after a burst (while reading may be paused): every
+    """The publisher closes right after a burst, once reading paused (a stream): every
     message still arrives, in order."""
     messages = _numbered(4000)
+    marks: list[int] = []
 
     def stream_and_close(conn: socket.socket, _delivered: threading.Event) -> None:
-        for payload in messages:
+        sent = _send_paced(conn, messages, marks, until_paused=True)
+        for payload in messages[sent:]:  # the rest flat out, one write each, then close
             conn.sendall(frame(payload))
         conn.close()
 
-    got, coalesced = _receive(stream_and_close, len(messages))
+    got, coalesced = _receive(stream_and_close, len(messages), marks)
     assert got == messages
     assert coalesced > 0
