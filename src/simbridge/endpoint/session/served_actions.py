@@ -14,6 +14,7 @@ from typing import Protocol
 from simbridge.endpoint.backends.base import Backend
 from simbridge.endpoint.backends.served import BackendActionServer
 from simbridge.endpoint.options import EndpointOptions
+from simbridge.endpoint.session.stats import SessionStats
 from simbridge.errors import EndpointError
 from simbridge.protocol import (
     MAX_COMMAND_SIZE,
@@ -50,6 +51,11 @@ class ServingClient(Protocol):
     @property
     def peer(self) -> str:
         """The client's address, for errors and logs."""
+        ...
+
+    @property
+    def stats(self) -> SessionStats:
+        """The connection's counters (served goals, rejected and aborted)."""
         ...
 
     def send_control(self, frame: bytes) -> None:
@@ -106,6 +112,7 @@ class SessionServedActions:
                     server.accept(command.goal_id, command.accepted)
                     if not command.accepted:
                         del self._goals[command.goal_id]
+                        self._client.stats.served_goals_rejected += 1
                 elif isinstance(command, ServedFeedback):
                     server.feedback(command.goal_id, command.feedback)
                 else:
@@ -142,6 +149,7 @@ class SessionServedActions:
         server.close()
         for goal_id in [g for g, a in self._goals.items() if a == action]:
             del self._goals[goal_id]
+            self._client.stats.served_goals_aborted += 1
 
     def goal_requested(self, action: str, goal_id: int, payload: bytes) -> None:
         """A ROS client's goal: to the client (rejected at once when its frame is too big)."""
@@ -149,8 +157,11 @@ class SessionServedActions:
         server = self._servers.get(action)
         if server is None:
             return
+        stats = self._client.stats
+        stats.served_goals += 1
         if len(frame) - 8 - len(ServedGoalRequest.NAME) > MAX_COMMAND_SIZE:
             server.accept(goal_id, False)
+            stats.served_goals_rejected += 1
             self._client.send_error(
                 f"a goal of {len(payload):,} bytes for {shorten(action)} was rejected: more "
                 f"than a system command carries ({MAX_COMMAND_SIZE:,} bytes of JSON)"
@@ -169,6 +180,7 @@ class SessionServedActions:
         servers, self._servers = self._servers, {}
         goals = len(self._goals)
         self._goals.clear()
+        self._client.stats.served_goals_aborted += goals
         for server in servers.values():
             server.close()
         if servers:

@@ -25,6 +25,13 @@ class SessionStats:
     type, no server) or rejected by the action server."""
     feedback_dropped: int = 0
     """Action feedback messages dropped while the client was not reading."""
+    served_goals: int = 0
+    """Goals ROS clients sent to the actions this client serves (`action_servers`)."""
+    served_goals_rejected: int = 0
+    """Of those, goals rejected: by the client's answer, or by the endpoint (too large)."""
+    served_goals_aborted: int = 0
+    """Of those, goals the client had not ended (by a result or a rejection) when it
+    unserved their action or left."""
     published: Counter[str] = field(default_factory=Counter)
     """Messages handed to the graph per topic (what ROS then does with them is the
     backend's: its counters, and the topic's QoS on ROS 2)."""
@@ -42,6 +49,9 @@ class SessionStats:
             "goals_sent": self.goals_sent,
             "goals_refused": self.goals_refused,
             "feedback_dropped": self.feedback_dropped,
+            "served_goals": self.served_goals,
+            "served_goals_rejected": self.served_goals_rejected,
+            "served_goals_aborted": self.served_goals_aborted,
             "published": dict(self.published),
             "published_total": sum(self.published.values()),
             "dropped": dict(self.dropped),

@@ -98,6 +98,9 @@ def test_goal_feedback_result_and_rejection(served: tuple[RawClient, str], rig: 
     driver.goal("no", {"order": 1}, action=action, kind=FIB_ROS2)
     raw.send(ServedAccept(next_goal(raw).goal_id, False).encode())
     assert driver.reply("accepted", "no")["ok"] is False
+    session = raw.stats()["session"]
+    assert (session["served_goals"], session["served_goals_rejected"]) == (2, 1)
+    assert session["served_goals_aborted"] == 0
 
 
 def test_cancel_request_and_preemption(served: tuple[RawClient, str], rig: ActionRig) -> None:
@@ -152,7 +155,9 @@ def test_bad_frames_get_errors_and_the_connection_stays(
     assert driver.reply("result", "bad")["status"] == STATUS_ABORTED
     raw.send(UnserveAction(action).encode())
     assert "is not served by this client" in error()
-    assert raw.stats()["session"]["errors_sent"] == 4
+    session = raw.stats()["session"]
+    assert session["errors_sent"] == 4
+    assert (session["served_goals"], session["served_goals_aborted"]) == (1, 1)
 
 
 def test_the_client_leaving_aborts_its_goals(served: tuple[RawClient, str], rig: ActionRig) -> None:
