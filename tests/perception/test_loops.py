@@ -11,12 +11,10 @@ from numpy.typing import NDArray
 from scipy.spatial import ConvexHull
 from scipy.spatial.transform import Rotation
 
-from simbridge.perception.loops import BOX_CORNERS, RIM, box_loop, prism_loop
+from simbridge.perception.loops import BOX_CORNERS, RIM, RIM_CIRCLE, box_loop, prism_loop
 
 FloatArray = NDArray[np.float64]
 
-_ANGLES = 2 * np.pi * np.arange(RIM) / RIM
-_RIM = np.stack([np.cos(_ANGLES), np.sin(_ANGLES), np.zeros(RIM)], axis=1)
 
 sizes = st.floats(0.01, 2.0)
 unit = st.floats(-1.0, 1.0)
@@ -93,7 +91,7 @@ def test_a_prism_loop_is_the_hull_of_its_projected_rims(
 ) -> None:
     camera, frame = _camera(view, max(radius, half_height))
     lift = np.array([0.0, 0.0, half_height])
-    points = np.vstack([_RIM * radius - lift, _RIM * radius + lift])
+    points = np.vstack([RIM_CIRCLE * radius - lift, RIM_CIRCLE * radius + lift])
     loop = prism_loop(camera, radius, half_height)
     assert loop is not None
     _check(points, camera, frame, loop)

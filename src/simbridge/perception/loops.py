@@ -13,7 +13,7 @@ import itertools
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["BOX_CORNERS", "RIM", "box_loop", "prism_loop"]
+__all__ = ["BOX_CORNERS", "RIM", "RIM_CIRCLE", "box_loop", "prism_loop"]
 
 IndexArray = NDArray[np.intp]
 FloatArray = NDArray[np.float64]
@@ -23,14 +23,11 @@ BOX_CORNERS = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1
 RIM = 64
 """Points a rim of a cylinder (and of a round silhouette)."""
 
+_ANGLES = np.linspace(0.0, 2.0 * np.pi, RIM, endpoint=False)
+RIM_CIRCLE = np.stack([np.cos(_ANGLES), np.sin(_ANGLES), np.zeros(RIM)], axis=1)
+"""The unit circle's RIM points (z = 0) that rims and round silhouettes are made of."""
 _HALF_STEP = np.pi / RIM
-_SIDE_NORMALS = np.stack(
-    [
-        np.cos(2 * _HALF_STEP * np.arange(RIM) + _HALF_STEP),
-        np.sin(2 * _HALF_STEP * np.arange(RIM) + _HALF_STEP),
-    ],
-    axis=1,
-)
+_SIDE_NORMALS = np.stack([np.cos(_ANGLES + _HALF_STEP), np.sin(_ANGLES + _HALF_STEP)], axis=1)
 """Outward normals (x, y) of a prism's sides; side k joins rim points k and k + 1."""
 _SIDE_OFFSET = np.cos(_HALF_STEP)
 """A side's distance from the axis, per unit radius."""

@@ -16,7 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import ConvexHull, QhullError
 
-from simbridge.perception.loops import BOX_CORNERS, RIM, box_loop, prism_loop
+from simbridge.perception.loops import BOX_CORNERS, RIM, RIM_CIRCLE, box_loop, prism_loop
 
 __all__ = ["Outline", "ShapeCache", "geom_extent", "silhouette_points"]
 
@@ -31,9 +31,6 @@ _ELLIPSOID, _CYLINDER, _MESH = (
 )
 _PLANE = int(_T.mjGEOM_PLANE)
 
-_ANGLES = np.linspace(0.0, 2.0 * np.pi, RIM, endpoint=False)
-_CIRCLE = np.stack([np.cos(_ANGLES), np.sin(_ANGLES), np.zeros(RIM)], axis=1)
-_CORNERS = BOX_CORNERS
 _EVERY = np.arange(RIM, dtype=np.intp)
 """A round silhouette's ring, in order."""
 
@@ -86,7 +83,8 @@ def _tangent_circle(centre: FloatArray, radius: float) -> FloatArray | None:
     e1 /= np.linalg.norm(e1)
     e2 = np.cross(axis, e1)
     return _f(
-        ring_centre + ring_radius * (np.outer(_CIRCLE[:, 0], e1) + np.outer(_CIRCLE[:, 1], e2))
+        ring_centre
+        + ring_radius * (np.outer(RIM_CIRCLE[:, 0], e1) + np.outer(RIM_CIRCLE[:, 1], e2))
     )
 
 
@@ -101,7 +99,7 @@ def silhouette_points(
     size = np.asarray(model.geom_size[geom], dtype=float)
     camera = -(rotation.T @ position)  # the camera in the geom's frame
     if kind == _BOX:
-        return Outline(_f(position + (_CORNERS * size) @ rotation.T), box_loop(camera, size))
+        return Outline(_f(position + (BOX_CORNERS * size) @ rotation.T), box_loop(camera, size))
     if kind == _SPHERE:
         ring = _tangent_circle(position, float(size[0]))
         return None if ring is None else Outline(ring, _EVERY)
@@ -119,7 +117,7 @@ def silhouette_points(
             return None
         return Outline(_f(position + ((ring + camera_local) * size) @ rotation.T), _EVERY)
     if kind == _CYLINDER:
-        rim = _CIRCLE * size[0]
+        rim = RIM_CIRCLE * size[0]
         local = np.vstack(
             [rim - np.array([0.0, 0.0, size[1]]), rim + np.array([0.0, 0.0, size[1]])]
         )
@@ -141,7 +139,7 @@ def geom_extent(shapes: ShapeCache, geom: int) -> FloatArray | None:
     if kind == _MESH:
         points = shapes.mesh_points(int(model.geom_dataid[geom]))
         low, high = points.min(axis=0), points.max(axis=0)
-        return _f((low + high) / 2 + _CORNERS * (high - low) / 2)
+        return _f((low + high) / 2 + BOX_CORNERS * (high - low) / 2)
     half = {
         _BOX: size,
         _SPHERE: np.full(3, size[0]),
@@ -151,5 +149,5 @@ def geom_extent(shapes: ShapeCache, geom: int) -> FloatArray | None:
     }.get(kind)
     if half is None:  # heightfields, SDFs: their model bounding box
         centre = np.asarray(model.geom_aabb[geom][:3], dtype=float)
-        return _f(centre + _CORNERS * np.asarray(model.geom_aabb[geom][3:], dtype=float))
-    return _f(_CORNERS * half)
+        return _f(centre + BOX_CORNERS * np.asarray(model.geom_aabb[geom][3:], dtype=float))
+    return _f(BOX_CORNERS * half)
