@@ -20,6 +20,7 @@ from simbridge.errors import PerceptionError
 from simbridge.perception.png import png_bytes
 from simbridge.perception.randomizers.image_effects import (
     NoiseRandomizer,
+    blur_taps,
     gaussian_blur,
     uniform16,
 )
@@ -61,34 +62,42 @@ def _idat(png: bytes) -> bytes:
     height=st.integers(1, 40),
     width=st.integers(1, 70),
     runs=st.integers(1, 30),
+    noisy=st.floats(0.0, 1.0),
     seed=st.integers(0, 2**32 - 1),
 )
-def test_colour_pngs_are_zlibs_own_run_length_bytes(
-    level: int, height: int, width: int, runs: int, seed: int
+def test_colour_pngs_are_zlibs_own_bytes(
+    level: int, height: int, width: int, *, runs: int, noisy: float, seed: int
 ) -> None:
     # Colour goes through zlib-ng for speed; the files must stay what zlib itself writes, so
-    # a dataset's bytes do not hang on which deflate library a worker has.
+    # a dataset's bytes do not hang on which deflate library a worker has (noise from none
+    # to every pixel: both deflate modes).
     rng = np.random.default_rng(seed)
     pixels = height * width
     flat = np.repeat(rng.integers(0, 256, (runs, 3)), -(-pixels // runs), axis=0)[:pixels]
-    noise = rng.integers(-3, 4, (pixels, 3)) * (rng.random((pixels, 1)) < 0.5)
+    noise = rng.integers(-3, 4, (pixels, 3)) * (rng.random((pixels, 1)) < noisy)
     image = np.clip(flat + noise, 0, 255).astype(np.uint8).reshape(height, width, 3)
-    _assert_zlib_run_length(png_bytes(image, level), level)
+    idat = _idat(png_bytes(image, level))
+    assert idat in (_zlib(idat, level, zlib.Z_RLE), _zlib(idat, level, zlib.Z_HUFFMAN_ONLY))
 
 
 @pytest.mark.parametrize("level", [0, 1, 6, 9])
-def test_a_noisy_frame_png_is_zlibs_own_run_length_bytes(level: int) -> None:
-    # A frame's size: past 64 kB, where stored blocks (level 0) start to differ.
+@pytest.mark.parametrize(("sigma", "strategy"), [(0, zlib.Z_RLE), (4, zlib.Z_HUFFMAN_ONLY)])
+def test_a_frame_png_is_run_length_coded_and_a_noisy_one_huffman_coded(
+    level: int, sigma: int, strategy: int
+) -> None:
+    # A frame's size: past 64 kB, where stored blocks (level 0) start to differ. Runs pay
+    # on flat colour; noise leaves too few to pay for looking for them.
     rng = np.random.default_rng(11)
     scene = np.repeat(np.repeat(rng.integers(0, 256, (12, 16, 3)), 40, axis=0), 40, axis=1)
-    image = np.clip(scene + rng.normal(0, 4, scene.shape), 0, 255).astype(np.uint8)
-    _assert_zlib_run_length(png_bytes(image, level), level)
+    image = np.clip(scene + rng.normal(0, sigma, scene.shape), 0, 255).astype(np.uint8)
+    idat = _idat(png_bytes(image, level))
+    assert idat == _zlib(idat, level, strategy)
 
 
-def _assert_zlib_run_length(png: bytes, level: int) -> None:
-    idat = _idat(png)
-    packer = zlib.compressobj(level, zlib.DEFLATED, 15, 9, zlib.Z_RLE)
-    assert packer.compress(zlib.decompress(idat)) + packer.flush() == idat
+def _zlib(idat: bytes, level: int, strategy: int) -> bytes:
+    """What zlib itself writes for `idat`'s data at `level` in `strategy`."""
+    packer = zlib.compressobj(level, zlib.DEFLATED, 15, 9, strategy)
+    return packer.compress(zlib.decompress(idat)) + packer.flush()
 
 
 def test_png_refuses_an_image_it_cannot_encode() -> None:
@@ -108,6 +117,59 @@ def test_blur_keeps_flat_images_and_matches_a_gaussian_filter() -> None:
         assert ours.std() < image.std()
     # A sigma too small to move a level leaves the image as it is.
     assert gaussian_blur(image, 0.1) is image
+
+
+def _blurred_whole(image: NDArray[np.uint8], taps: list[int]) -> NDArray[np.uint8]:
+    """The integer blur over the whole image at once: edge-padded, rows then columns, each
+    pass rounded to levels."""
+    reach, levels = len(taps) - 1, image.astype(np.int64)
+    for axis in (1, 0):
+        pad = [(0, 0)] * image.ndim
+        pad[axis] = (reach, reach)
+        padded = np.pad(levels, pad, mode="edge")
+        size = levels.shape[axis]
+        total = np.zeros_like(levels)
+        for k in range(-reach, reach + 1):
+            total += taps[abs(k)] * np.take(padded, np.arange(reach + k, reach + k + size), axis)
+        levels = (total + 128) >> 8
+    return levels.astype(np.uint8)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.integers(1, 100),
+    st.integers(1, 40),
+    st.sampled_from([(), (3,)]),
+    st.floats(0.3, 3.0),
+    st.integers(0, 2**32 - 1),
+)
+def test_the_blur_a_band_at_a_time_is_the_whole_images(
+    height: int, width: int, channels: tuple[int, ...], sigma: float, seed: int
+) -> None:
+    # Bands of rows (kept in cache) must join seamlessly: rows near a band's edge read the
+    # neighbouring bands, and the image's edge rows and columns repeat.
+    image = np.random.default_rng(seed).integers(0, 256, (height, width, *channels), np.uint8)
+    taps = blur_taps(sigma)
+    assert sum(taps) + sum(taps[1:]) == 256
+    expected = image if len(taps) == 1 else _blurred_whole(image, taps)
+    assert np.array_equal(gaussian_blur(image, sigma), expected)
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.integers(1, 100), st.integers(1, 30), st.integers(0, 2**32 - 1))
+def test_each_pixels_noise_follows_its_draw_in_the_whole_images_stream(
+    height: int, width: int, seed: int
+) -> None:
+    # The noise is drawn a band at a time; each pixel must get the draw it would get from
+    # one draw for the whole image (the same datasets), through a rising quantile table.
+    grey = np.full((height, width, 3), 128, dtype=np.uint8)  # sigma 5: never clipped
+    out = _noise(5.0, 0.0).post(grey, None, np.random.default_rng(seed))
+    reference = np.random.default_rng(seed)
+    reference.uniform(5.0, 5.0), reference.uniform(0.0, 0.0)  # what post draws first
+    draws = uniform16(reference, grey.shape).ravel()
+    order = np.argsort(draws, kind="stable")
+    noise = out.astype(int).ravel()[order] - 128
+    assert (np.diff(noise) >= 0).all()
 
 
 def _noise(gaussian: float, blur: float) -> NoiseRandomizer:

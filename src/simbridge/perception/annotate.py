@@ -13,6 +13,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
 
+from simbridge.perception.bands import lookup
 from simbridge.perception.camera import CameraView
 from simbridge.perception.render import Rendered
 from simbridge.perception.shapes import ShapeCache, geom_extent, silhouette_points
@@ -200,11 +201,10 @@ def annotate(
     """Labels of one rendered view (`labelers` chooses which are computed)."""
     instance_image = category_image = None
     if rendered.segments is not None and rendered.objects is not None:
-        # Ids per segment (a few dozen), then one look-up per pixel (np.take: about twice
-        # as fast as indexing with the image).
-        instance_image = np.take(table.instance_image(rendered.objects), rendered.segments)
+        # Ids per segment (a few dozen), then one look-up per pixel.
+        instance_image = lookup(table.instance_image(rendered.objects), rendered.segments)
         if "semantic" in labelers:
-            category_image = np.take(table.category_image(rendered.objects), rendered.segments)
+            category_image = lookup(table.category_image(rendered.objects), rendered.segments)
     labels = ViewLabels(view, instance_image, category_image)
     wants_2d = "boxes_2d" in labelers or "instance" in labelers
     if not (wants_2d or "boxes_3d" in labelers or "poses" in labelers or "keypoints" in labelers):

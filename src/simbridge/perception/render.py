@@ -15,6 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from simbridge.errors import PerceptionError
+from simbridge.perception.bands import lookup
 from simbridge.perception.camera import CameraView
 from simbridge.sim.sensors import configure_gl
 from simbridge.sim.sensors.gl_backend import GLContext, create_gl_context
@@ -215,7 +216,7 @@ class ViewRenderer:
             mujoco.mjr_readPixels(self._ids, zbuffer, self._rect, self._mjr)
             clock = self.times.add("ID+depth readPixels", clock)
             segments, objects = self._segments()
-            empty = np.take(objects[:, 0] < 0, segments)
+            empty = lookup(objects[:, 0] < 0, segments)
             if depth:
                 dist = self._metric_depth()
                 np.copyto(dist, np.float32(0.0), where=empty)
