@@ -13,6 +13,8 @@ labelling and writing cost over the bare renders (pose and renders) of the same 
 and over the frames (pose, renders and the image randomisers: background and noise),
 with every format and with the native layout alone.
 
+Rows give the best, the median and a 95% interval of the median over 6 rounds.
+
 Run: `python benchmarks/bench_perception.py [--quick] [--markdown]` (prints the tables;
 `--quick`: 2 frames, 1 round, `fast` only, all modes in one process: a check that it
 runs, not a measurement); `run()` returns them.
@@ -32,12 +34,17 @@ import time
 from pathlib import Path
 from typing import Any
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # also as a bare script
+
+from benchmarks.repeats import median_interval
+
 __all__ = ["FRAMES", "MODES", "QUALITIES", "ROUNDS", "run", "stage_rows"]
 
 FRAMES = 16
 """Frames each mode renders (after the first, timed apart)."""
-ROUNDS = 3
-"""Rounds of all modes (rows give the best and the median)."""
+ROUNDS = 6
+"""Rounds of all modes (rows give the best, the median and a 95% interval of the median:
+from 6 rounds, the lowest and highest round)."""
 QUALITIES = ("fast", "balanced", "high")
 """Render presets measured (simbridge.perception.render.QUALITIES)."""
 
@@ -167,11 +174,18 @@ def _rounds(frames: int, rounds: int, quality: str, fresh: bool) -> dict[str, li
     return results
 
 
+def _interval(values: list[float], form: str) -> str:
+    """A 95% interval of the median of `values` ("" under 6 rounds)."""
+    interval = median_interval(values)
+    return f"{form.format(interval[0])} to {form.format(interval[1])}" if interval else ""
+
+
 def stage_rows(results: list[dict[str, Any]]) -> list[dict[str, Any]]:
-    """CPU ms per labelled frame by stage (median and least of the rounds' `results`),
-    then the renders' sum and all stages' sum with the frames/s each allows one core, and
-    labelling and writing over the bare renders (pose and renders; the image randomisers
-    counted as labelling) and over the frames (pose, renders, image randomisers)."""
+    """CPU ms per labelled frame by stage (median, least and 95% interval of the median
+    of the rounds' `results`), then the renders' sum and all stages' sum with the frames/s
+    each allows one core, and labelling and writing over the bare renders (pose and
+    renders; the image randomisers counted as labelling) and over the frames (pose,
+    renders, image randomisers)."""
     rounds = len(results)
     load = round(os.getloadavg()[0], 2)
     renders = set(results[0]["renders"])
@@ -187,6 +201,7 @@ def stage_rows(results: list[dict[str, Any]]) -> list[dict[str, Any]]:
             "stage": ("render: " if stage in renders else "") + stage,
             "cpu_ms_median": round(statistics.median(values), 1),
             "cpu_ms_least": round(min(values), 1),
+            "median_95ci": _interval(values, "{:.1f}"),
             "frames_per_s_bound": "",
             "load_1min": load,
         })  # fmt: skip
@@ -196,6 +211,7 @@ def stage_rows(results: list[dict[str, Any]]) -> list[dict[str, Any]]:
             "stage": what,
             "cpu_ms_median": round(statistics.median(sums[key]), 1),
             "cpu_ms_least": round(least, 1),
+            "median_95ci": _interval(sums[key], "{:.1f}"),
             "frames_per_s_bound": round(1000 / least, 2),
             "load_1min": load,
         })  # fmt: skip
@@ -216,6 +232,7 @@ def stage_rows(results: list[dict[str, Any]]) -> list[dict[str, Any]]:
             "stage": f"labelling + writing{what} over {under}",
             "cpu_ms_median": f"{statistics.median(over):+.0%}",
             "cpu_ms_least": f"{min(over):+.0%}",
+            "median_95ci": _interval(over, "{:+.0%}"),
             "frames_per_s_bound": "",
             "load_1min": load,
         })  # fmt: skip
@@ -229,8 +246,9 @@ def run(
     fresh: bool = True,
 ) -> dict[str, list[dict[str, Any]]]:
     """Per quality: frames/s of bare RGB renders, RGB + depth + segmentation renders, and
-    labelled and written frames (best and median of `rounds` rounds that take each mode in
-    turn, each in a fresh process unless `fresh` is False); and `stage_rows`."""
+    labelled and written frames (best, median and 95% interval of the median of `rounds`
+    rounds that take each mode in turn, each in a fresh process unless `fresh` is False);
+    and `stage_rows`."""
     load = os.getloadavg()[0]
     rows, stages = [], {}
     for quality in qualities:
@@ -250,6 +268,7 @@ def run(
                 "mode": what,
                 "fps_best": round(best[mode], 2),
                 "fps_median": round(median[mode], 2),
+                "fps_median_95ci": _interval([r["fps"] for r in results[mode]], "{:.2f}"),
                 "cost_over_bare": (
                     f"{best['renders'] / best[mode] - 1:+.0%}"
                     if mode in ("native", "labelled")
@@ -266,7 +285,6 @@ def run(
 
 
 if __name__ == "__main__":
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
     from benchmarks.table import format_table
     from benchmarks.usage import exit_on_help
 
