@@ -158,8 +158,7 @@ def _blur_band(image: NDArray[np.uint8], taps: list[int], rows: slice) -> NDArra
     padded = np.empty(
         (rows.stop - rows.start + 2 * reach, width + 2 * reach, *image.shape[2:]), np.uint8
     )
-    inside = padded[before : before + high - low]
-    inside[:, reach : reach + width] = image[low:high]
+    padded[before : before + high - low, reach : reach + width] = image[low:high]
     padded[:before, reach : reach + width] = image[low]
     padded[before + high - low :, reach : reach + width] = image[high - 1]
     padded[:, :reach] = padded[:, reach : reach + 1]
