@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import signal
 import sys
 import time
 from pathlib import Path
@@ -68,7 +69,18 @@ NOTES = f"""Notes:
   memory budget (`--max-memory-mb`)."""
 
 
+def _exit_on_sigterm() -> None:
+    """SIGTERM (a CI timeout, `kill`) ends the run as Ctrl-C does, so the running suite's
+    cleanup (its roscore, endpoints, temporary folders) runs before the process exits."""
+
+    def stop(signum: int, _frame: object) -> None:
+        raise SystemExit(128 + signum)
+
+    signal.signal(signal.SIGTERM, stop)
+
+
 def main() -> int:
+    _exit_on_sigterm()
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--markdown", action="store_true")
     parser.add_argument("--only", action="append", choices=sorted(SUITES), default=[])
