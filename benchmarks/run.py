@@ -65,6 +65,8 @@ NOTES = f"""Notes:
 - **95% interval:** `of_ceiling_95ci` holds the true median share of the ceiling with at
   least 95% confidence whatever the rounds' spread (order statistics; from 6 rounds up), so
   a median above or below a target by less than the interval's width is not yet a finding.
+  Perception's rows take 6 rounds and give such an interval of each median
+  (`fps_median_95ci`, `median_95ci`): there, the lowest and highest round.
 - **Attacks:** peak resident memory of an endpoint process under each attack, beside its
   memory budget (`--max-memory-mb`)."""
 
