@@ -4,6 +4,7 @@ that name the file, line and entry of a bad `perception:` section."""
 
 from __future__ import annotations
 
+import json
 import os
 import re
 from pathlib import Path
@@ -12,6 +13,7 @@ import numpy as np
 import pytest
 
 from simbridge.cli import build_parser, main
+from simbridge.perception.dataset import ENCODING
 from tests.perception.scenes import random_scene
 
 SUMMARY = re.compile(
@@ -55,6 +57,25 @@ def test_datagen_writes_the_dataset_and_resumes_at_the_first_missing_frame(
     assert found
     assert found.group(1, 2) == ("3", "2")
     assert files(tmp_path / "cut") == whole
+
+
+def test_datagen_refuses_to_resume_a_dataset_another_version_encoded(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # Written before `encoding` existed (its dataset.json without it): the same frames
+    # would now come out as other bytes, so continuing would mix two encodings.
+    scene = random_scene(tmp_path)
+    assert datagen(scene, tmp_path / "out", 1) == 0
+    meta = tmp_path / "out" / "native" / "dataset.json"
+    document = json.loads(meta.read_text())
+    assert document["encoding"] == ENCODING
+    del document["encoding"]
+    meta.write_text(json.dumps(document))
+    capsys.readouterr()
+    assert datagen(scene, tmp_path / "out", 2, "--resume") == 2
+    error = capsys.readouterr().err
+    assert f"another version of simbridge (file encoding 1, this version writes {ENCODING}" in error
+    assert "render it again into a new folder" in error
 
 
 def test_datagen_refuses_to_overwrite_or_resume_another_dataset(

@@ -48,6 +48,7 @@ from simbridge.perception.native import (
 from simbridge.perception.render import QUALITIES
 
 __all__ = [
+    "ENCODING",
     "FORMATS",
     "SCHEMA",
     "DatagenJob",
@@ -61,6 +62,11 @@ __all__ = [
 FORMATS = ("coco", "bop")
 """Formats beside the native layout, which is always written."""
 SCHEMA = "simbridge-perception/1"
+ENCODING = 2
+"""Which encoders wrote the files, raised whenever the same pixels and labels come out as
+other bytes (2: noisy colour PNGs Huffman-coded, 2026-11-29; tests/perception/
+test_golden_bytes.py pins the bytes of each). `--resume` continues only a dataset of this
+encoding, so a dataset never mixes two."""
 META = "native/dataset.json"
 
 
@@ -133,6 +139,7 @@ def _meta(job: DatagenJob, maker: FrameMaker) -> dict[str, Any]:
             keypoints[inst.category] = {"names": names, "skeleton": skeleton}
     return {
         "schema": SCHEMA,
+        "encoding": ENCODING,
         "scene": Path(job.scene).name,
         "seed": job.seed,
         "formats": list(job.formats),
@@ -315,6 +322,14 @@ def generate(
             raise PerceptionError(
                 f"'{out}' already holds a dataset; pass --resume to continue it or choose "
                 "another folder"
+            )
+        written = json.loads((out / META).read_text())
+        if written.get("encoding") != ENCODING:
+            raise PerceptionError(
+                f"'{out}' was written by another version of simbridge (file encoding "
+                f"{written.get('encoding', 1)}, this version writes {ENCODING}: the same "
+                "frames as other bytes); it cannot be resumed: render it again into a new "
+                "folder"
             )
         maker = _frame_maker(job)
         if (out / META).read_bytes() != json_bytes(_meta(job, maker)):
