@@ -76,6 +76,15 @@ def test_datagen_refuses_to_resume_a_dataset_another_version_encoded(
     error = capsys.readouterr().err
     assert f"another version of simbridge (file encoding 1, this version writes {ENCODING}" in error
     assert "render it again into a new folder" in error
+    # A dataset.json that is not datagen's JSON is named, with what is wrong with it.
+    meta.write_text('{"schema": "simbridge-perception/1",')
+    assert datagen(scene, tmp_path / "out", 2, "--resume") == 2
+    error = capsys.readouterr().err
+    assert f"'{meta}': Expecting property name" in error
+    assert "line 1 column" in error
+    meta.write_text("[]")
+    assert datagen(scene, tmp_path / "out", 2, "--resume") == 2
+    assert "holds a JSON list, not the object datagen writes" in capsys.readouterr().err
 
 
 def test_datagen_refuses_to_overwrite_or_resume_another_dataset(

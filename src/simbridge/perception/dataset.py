@@ -323,7 +323,18 @@ def generate(
                 f"'{out}' already holds a dataset; pass --resume to continue it or choose "
                 "another folder"
             )
-        written = json.loads((out / META).read_text())
+        data = (out / META).read_bytes()
+        try:
+            written = json.loads(data)
+        except ValueError as exc:  # not JSON, or not UTF-8
+            raise PerceptionError(
+                f"'{out / META}': {exc}: not the JSON datagen writes; it cannot be resumed"
+            ) from exc
+        if not isinstance(written, dict):
+            raise PerceptionError(
+                f"'{out / META}' holds a JSON {type(written).__name__}, not the object "
+                "datagen writes; it cannot be resumed"
+            )
         if written.get("encoding") != ENCODING:
             raise PerceptionError(
                 f"'{out}' was written by another version of simbridge (file encoding "
@@ -332,7 +343,7 @@ def generate(
                 "folder"
             )
         maker = _frame_maker(job)
-        if (out / META).read_bytes() != json_bytes(_meta(job, maker)):
+        if data != json_bytes(_meta(job, maker)):
             raise PerceptionError(
                 f"'{out}' holds a dataset of another scene, seed, format, labeler set or "
                 f"render settings (its {META} differs from this job's); it cannot be resumed "
